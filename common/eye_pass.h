@@ -1,0 +1,39 @@
+// The eye pass: primary rays, specular chains, direct light and the caustic lookup per pixel.
+#pragma once
+
+#include <cstdint>
+#include <span>
+
+#include "common/embree_scene.h"
+#include "common/interleave.h"
+
+namespace rtpm {
+
+/// The two values a client streams per pixel (paper §4.2), linear radiance W/(m²·sr).
+struct PixelRadiance {
+    Vec3 direct{0.0f};   ///< everything except caustics (direct light, emitters seen, through specular chains)
+    Vec3 caustic{0.0f};  ///< caustic radiance at the first diffuse hit, times the chain's throughput
+};
+
+/// Caustic radiance at a diffuse hit from the photon map of interleaving set `set`.
+/// `normal` is the shading normal facing the viewer; `albedo` the diffuse reflectance there.
+/// Must be thread-safe (called from many TBB threads at once).
+class CausticEstimator {
+public:
+    virtual ~CausticEstimator() = default;
+    virtual Vec3 radiance(uint32_t set, const SurfaceHit& hit, Vec3 normal, Vec3 albedo) const = 0;
+};
+
+struct EyeSettings {
+    int maxDepth = 16;          ///< specular bounces before a path is ended
+    int areaLightSamples = 4;   ///< shadow rays per emissive triangle sample set (stratified)
+};
+
+/// Traces every pixel of interleaving set `set` (row-major within the set) into `out`
+/// (size `pattern.pixelCount(set)`). `caustics` may be null (caustic layer zero).
+/// Deterministic: the result does not depend on the thread count. Parallel over rows (TBB).
+void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings& settings,
+               const Interleave& pattern, int set, const CausticEstimator* caustics,
+               std::span<PixelRadiance> out);
+
+}  // namespace rtpm
