@@ -57,6 +57,8 @@ public:
     /// Replaces mesh `index`'s vertices/indices; recommits that geometry and the top level.
     void setMesh(uint32_t index, const Mesh& mesh);
     /// Material edits need no rebuild: the scene reference is re-read on the next query.
+    /// Call this after changing a material's emission so emissiveTriangles() follows. O(vertices).
+    void refreshEmissive();
 
     /// Point just off the surface at `p` on the side of `towards` (a direction), offset scaled to
     /// |p| and the scene size so it works from millimetre to 100 km scenes.
@@ -69,6 +71,9 @@ public:
     float epsilon() const { return epsilon_; }
 
 private:
+    /// Recomputes bounds_, epsilon_ and emissive_ from the current meshes and transforms.
+    void refreshDerived();
+
     struct Impl;
     std::unique_ptr<Impl> impl_;
     const Scene* scene_;
