@@ -1,0 +1,76 @@
+// Caustic radiance from a photon map by k-nearest-neighbour density estimation (paper §3.1).
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <numbers>
+
+#include "common/kd_tree.h"
+#include "common/knn.h"
+#include "common/photon.h"
+
+namespace rtpm {
+
+/// Smallest estimation radius, relative to the photon index's bounds diagonal: k photons that
+/// coincide with x would otherwise give r → 0 and infinite radiance. 1e-5 of a 5 m scene is
+/// 0.05 mm, far below any pixel footprint, so it only ever acts on degenerate clusters.
+inline constexpr float kMinDensityRadiusRelative = 1e-5f;
+
+/// Result-set policy for density estimation: a kNN heap that ignores photons arriving from
+/// behind the surface (dot(incoming, normal) > 0: the photon travelled away from the front
+/// side). Back photons are skipped *during* the search, so they never take one of the k slots.
+/// The direction is decoded only for photons that would enter the heap.
+class FrontFacingKnn {
+public:
+    FrontFacingKnn(KnnHeap& heap, const Photon* photons, Vec3 normal)
+        : heap_(heap), photons_(photons), normal_(normal) {}
+    float worstDist2() const { return heap_.worstDist2(); }
+    void add(float dist2, uint32_t index) {
+        if (!(dist2 < heap_.worstDist2())) return;
+        const Vec3 dir = photons_[index].incomingDir();
+        if (dir.x * normal_.x + dir.y * normal_.y + dir.z * normal_.z > 0.0f) return;
+        heap_.add(dist2, index);
+    }
+
+private:
+    KnnHeap& heap_;
+    const Photon* photons_;
+    Vec3 normal_;
+};
+
+/// Caustic radiance (W/(m²·sr)) leaving a Lambertian point x with albedo ρ toward any direction:
+///   L = ρ/π · Σ_p Φ_p·powerScale / (π r²)
+/// over the k nearest photons within rMax (m) that arrive from the front of `normal`
+/// (photons with dot(incomingDir, normal) > 0 are ignored). r is the distance to the k-th such
+/// photon; when fewer than k are found within rMax, r = rMax (the search disc is the area the
+/// found photons are spread over: an under-estimate at the caustic's edge, never a spike).
+/// r is clamped below by kMinDensityRadiusRelative × bounds diagonal. Returns 0 for an empty
+/// map, k = 0, rMax ≤ 0 or no photon found; never NaN/Inf for finite inputs.
+/// `Index` is KdTree, MedianKdTree or PhotonGrid (anything with size(), photons(), bounds(),
+/// search()). Thread-safe if each thread has its own heap; no allocation once the heap saw k.
+template <class Index>
+Vec3 causticRadiance(const Index& index, Vec3 x, Vec3 normal, Vec3 albedo, uint32_t k,
+                     float rMax, float powerScale, KnnHeap& heap) {
+    if (index.size() == 0 || k == 0 || !(rMax > 0.0f)) return Vec3(0.0f);
+    const float maxDist2 = rMax * rMax;
+    heap.reset(k, maxDist2);
+    FrontFacingKnn policy(heap, index.photons().data(), normal);
+    index.search(x, policy);
+    if (heap.empty()) return Vec3(0.0f);
+
+    Vec3 flux(0.0f);
+    const Photon* photons = index.photons().data();
+    for (const KnnEntry& e : heap.entries()) flux += photons[e.index].powerRgb();
+
+    const float rMin = kMinDensityRadiusRelative * index.bounds().diagonal();
+    const float r2 = heap.full() ? std::max(heap.farthestDist2(), rMin * rMin) : maxDist2;
+    if (!(r2 > 0.0f)) return Vec3(0.0f);
+    constexpr float kInvPi = std::numbers::inv_pi_v<float>;
+    return albedo * kInvPi * flux * (powerScale / (std::numbers::pi_v<float> * r2));
+}
+
+/// The kd-tree estimate the renderer uses (non-template entry point; see the template above).
+Vec3 causticRadiance(const KdTree& tree, Vec3 x, Vec3 normal, Vec3 albedo, uint32_t k, float rMax,
+                     float powerScale, KnnHeap& heap);
+
+}  // namespace rtpm
