@@ -1,0 +1,132 @@
+// Per-interleaving-set caustic photon maps: batch shooting (plain or SPT), accumulation, lookup.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "common/eye_pass.h"
+#include "common/kd_tree.h"
+#include "common/photon_tracer.h"
+
+namespace rtpm {
+
+/// Photon shooting and density-estimation settings (DESIGN §5, paper §5.1/§5.4).
+struct PhotonSettings {
+    /// P: light paths traced per interleaving set per batch (pilots + refinements with SPT).
+    uint32_t photonsPerBatch = 20000;
+    /// Selective Photon Tracing (DESIGN §5.1) instead of plain QMC shooting.
+    bool selective = true;
+    /// Diffuse bounces a photon may take before or between specular chains (0 → only L S+ D).
+    uint32_t diffuseBounces = 1;
+    /// Maximum ray segments per photon path.
+    uint32_t maxDepth = 16;
+    /// Photons per density estimate.
+    uint32_t k = 64;
+    /// Maximum gather radius in metres; 0 → 2 % of the scene's bounding-box diagonal, a size at
+    /// which a k-photon estimate in a caustic is local but empty regions stop the search early.
+    float rMax = 0.0f;
+    /// Stored caustic photons per set at which that set stops shooting (walkthrough). A set also
+    /// stops once it has traced kCapPathsPerPhoton × capPhotons paths, so scenes without caustic
+    /// paths reach walkthrough too. 0 → no cap.
+    uint64_t capPhotons = 2'000'000;
+    /// Seed of every Halton rotation and hashed random number (same seed → same photons).
+    uint64_t seed = 0x72'74'70'6d;
+    /// SPT: target number of cells N_g per light and batch; 0 → a quarter of that light's share
+    /// of photonsPerBatch. The real N_g is the largest product Π b_d^{k_d} not above the target.
+    uint32_t sptCells = 0;
+    /// SPT: refinements R per refined cell; 0 → chosen per batch from the pilots so that
+    /// pilots + R · (refined cells) ≈ the light's share, capped at kMaxSptRefinements.
+    uint32_t sptRefinements = 0;
+    /// SPT: also refine the face neighbours (in Halton box space) of productive cells, so cells
+    /// that are only partly productive are refined even when their own pilot missed — this is
+    /// what keeps the caustic's borders (and its total power) unbiased, see photon_map.cpp.
+    bool sptDilate = true;
+};
+
+/// A set stops shooting after this many traced paths per capped photon (see capPhotons).
+inline constexpr uint64_t kCapPathsPerPhoton = 64;
+/// Upper bound on SPT refinements per cell and batch (bounds structured noise from few pilots).
+inline constexpr uint32_t kMaxSptRefinements = 64;
+
+/// Figures of one interleaving set's photon map since the last reset.
+struct PhotonSetStats {
+    uint32_t batches = 0;          ///< batches shot (the accumulation count)
+    uint64_t pathsTraced = 0;      ///< light paths traced, pilots and refinements included
+    uint64_t productivePaths = 0;  ///< paths that stored ≥ 1 caustic photon
+    uint64_t photonsStored = 0;    ///< photons in the kd-tree
+    uint64_t raysCast = 0;         ///< closest-hit queries issued while shooting
+    uint64_t anomalies = 0;        ///< paths dropped for a non-finite power or direction
+    uint64_t sptCells = 0;         ///< Σ over lights of N_g in the last batch (0 without SPT)
+    uint64_t sptRefinedCells = 0;  ///< cells refined in the last batch
+    uint32_t sptRefinements = 0;   ///< R of the last batch (largest over lights)
+    /// Seconds, summed over batches. `trace*` split the tracing time as in paper Table 3
+    /// (light sampling / ray casting / surface interaction); estimated from timed sample paths
+    /// (1 in kTimedPathStride) scaled to the measured tracing wall time.
+    double traceSeconds = 0.0;
+    double samplingSeconds = 0.0;
+    double rayCastSeconds = 0.0;
+    double interactionSeconds = 0.0;
+    double insertSeconds = 0.0;    ///< kd-tree insertion
+    /// Caustic yield: productive paths / traced paths (paper Table 4).
+    double yield() const {
+        return pathsTraced ? static_cast<double>(productivePaths) / static_cast<double>(pathsTraced)
+                           : 0.0;
+    }
+};
+
+/// One caustic photon map (kd-tree) per owned interleaving set, grown batch by batch.
+/// Photon powers are stored relative to one batch; `radiance` divides by the batch count
+/// (paper-notes §5.7), so the estimate is consistent at every accumulation stage.
+/// Thread safety: `radiance` may be called concurrently; `shootBatch`, `reset` must not overlap
+/// any other call. `shootBatch` itself runs in parallel (TBB) and its result does not depend on
+/// the thread count.
+class PhotonMaps : public CausticEstimator {
+public:
+    /// `ownedSets`: interleaving set ids this process renders (distinct).
+    PhotonMaps(const PhotonSettings& settings, std::vector<uint32_t> ownedSets);
+    ~PhotonMaps() override;
+
+    /// Shoots the next batch of `set` (batch number = batches shot so far since the reset) into
+    /// its map. The first batch after a reset takes the lights and bounds from `scene`; the scene
+    /// must not change between batches without a reset. No-op when the set reached its cap.
+    /// Cost: O(photonsPerBatch · maxDepth) ray casts + O(stored · log) insertion.
+    void shootBatch(const EmbreeScene& scene, uint32_t set);
+    /// Forgets every photon and restarts every set's sequence (scene edit: geometry, light,
+    /// material). Settings changes other than k also need a reset.
+    void reset();
+    /// True when every owned set reached its cap: no more shooting, only queries.
+    bool walkthrough() const;
+    /// True when `set` reached its cap.
+    bool capped(uint32_t set) const;
+
+    /// Caustic radiance L_c = ρ/π · Σ Φ_p/(π r_k²) / batches at `hit` from `set`'s map
+    /// (density.h causticRadiance; photons from behind `normal` are ignored). Zero for a set that
+    /// is not owned or has no batch yet. Thread-safe; a thread_local heap avoids allocation.
+    Vec3 radiance(uint32_t set, const SurfaceHit& hit, Vec3 normal, Vec3 albedo) const override;
+
+    const PhotonSettings& settings() const { return settings_; }
+    /// Changes k (no reset needed: the stored photons do not depend on k).
+    void setK(uint32_t k) { settings_.k = k; }
+    const std::vector<uint32_t>& ownedSets() const { return ownedSets_; }
+    /// Stats of an owned set. Precondition: `set` is owned.
+    const PhotonSetStats& stats(uint32_t set) const;
+    /// The kd-tree of an owned set, or null before its first batch. Precondition: `set` is owned.
+    const KdTree* tree(uint32_t set) const;
+    /// Gather radius in use (metres): settings.rMax or the automatic one of the last scene.
+    float gatherRadius() const { return rMax_; }
+
+private:
+    struct SetState;
+    SetState* find(uint32_t set);
+    const SetState* find(uint32_t set) const;
+
+    PhotonSettings settings_;
+    std::vector<uint32_t> ownedSets_;
+    std::vector<std::unique_ptr<SetState>> sets_;
+    std::vector<Emitter> emitters_;  ///< built at the first batch after a reset
+    bool emittersReady_ = false;
+    float rMax_ = 0.0f;
+};
+
+}  // namespace rtpm
