@@ -1,0 +1,495 @@
+// Message encoding, field-by-field validated decoding and the stream splitter (PROTOCOL.md §5).
+#include "proto/messages.h"
+
+#include <bitset>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <type_traits>
+
+namespace rtpm::proto {
+namespace {
+
+// Settings limits that only the decoder uses (PROTOCOL.md §5.5).
+constexpr uint32_t kMaxPhotonsPerSetPerFrame = 1u << 26;
+constexpr uint32_t kMaxCapPhotonsPerSet = 1u << 30;
+constexpr uint32_t kMaxCores = 1u << 16;
+
+// ---- encoding -----------------------------------------------------------------------------
+
+void putVec3(Writer& w, const Vec3f& v) {
+    w.f32(v.x);
+    w.f32(v.y);
+    w.f32(v.z);
+}
+
+void putCamera(Writer& w, const CameraState& c) {
+    putVec3(w, c.position);
+    putVec3(w, c.forward);
+    putVec3(w, c.up);
+    w.f32(c.yfov);
+}
+
+void putSets(Writer& w, const std::vector<uint32_t>& sets) {
+    w.u32(static_cast<uint32_t>(sets.size()));
+    for (uint32_t s : sets) w.u32(s);
+}
+
+void putEdit(Writer& w, const SceneEdit& e) {
+    if (auto* c = std::get_if<CameraEdit>(&e)) {
+        w.u8(static_cast<uint8_t>(EditKind::Camera));
+        putCamera(w, c->camera);
+    } else if (auto* l = std::get_if<LightEdit>(&e)) {
+        w.u8(static_cast<uint8_t>(EditKind::Light));
+        w.u32(l->index);
+        putVec3(w, l->position);
+        putVec3(w, l->direction);
+        putVec3(w, l->intensity);
+    } else if (auto* m = std::get_if<MaterialEdit>(&e)) {
+        w.u8(static_cast<uint8_t>(EditKind::Material));
+        w.u32(m->index);
+        w.u8(static_cast<uint8_t>(m->kind));
+        putVec3(w, m->baseColor);
+        w.f32(m->ior);
+        putVec3(w, m->absorption);
+        putVec3(w, m->emission);
+    } else if (auto* t = std::get_if<TransformEdit>(&e)) {
+        w.u8(static_cast<uint8_t>(EditKind::Transform));
+        w.u32(t->instance);
+        for (float v : t->matrix) w.f32(v);
+    }
+}
+
+void putPayload(Writer& w, const Hello& m) {
+    w.u16(m.protocolVersion);
+    w.str(m.authToken);
+    w.u32(m.cores);
+    w.str(m.clientName);
+}
+void putPayload(Writer& w, const Welcome& m) {
+    w.u32(m.clientId);
+    putSets(w, m.sets);
+}
+void putPayload(Writer& w, const Reject& m) {
+    w.u16(static_cast<uint16_t>(m.reason));
+    w.str(m.text);
+}
+void putPayload(Writer& w, const Scene& m) {
+    w.u32(m.sceneVersion);
+    w.u8(static_cast<uint8_t>(m.source));
+    w.str(m.builtinName);
+    w.bytes(m.gltf);
+    w.u32(static_cast<uint32_t>(m.edits.size()));
+    for (const SceneEdit& e : m.edits) putEdit(w, e);
+}
+void putPayload(Writer& w, const Settings& m) {
+    w.u32(m.width);
+    w.u32(m.height);
+    w.u32(m.m);
+    w.u32(m.f);
+    w.u32(m.photonsPerSetPerFrame);
+    w.u32(m.k);
+    w.f32(m.rMax);
+    w.u32(m.maxDepth);
+    w.u32(m.diffuseBounces);
+    w.u32(m.capPhotonsPerSet);
+    w.u8(m.spt ? 1 : 0);
+    w.u8(static_cast<uint8_t>(m.tree));
+    w.u8(static_cast<uint8_t>(m.encoding));
+}
+void putPayload(Writer& w, const FrameBegin& m) {
+    w.u64(m.frame);
+    w.u32(m.epoch);
+    w.u32(m.sceneVersion);
+    putCamera(w, m.camera);
+    w.u8(static_cast<uint8_t>(m.mode));
+    putSets(w, m.sets);
+}
+void putPayload(Writer& w, const FrameData& m) {
+    w.u64(m.frame);
+    w.u32(m.set);
+    w.u8(static_cast<uint8_t>(m.encoding));
+    w.u32(m.pixelCount);
+    w.bytes(m.pixels);
+}
+void putPayload(Writer& w, const Edit& m) {
+    w.u32(m.sceneVersion);
+    putEdit(w, m.edit);
+}
+void putPayload(Writer& w, const Stats& m) {
+    w.u64(m.frame);
+    w.f32(m.photonMs);
+    w.f32(m.renderMs);
+    w.f32(m.encodeMs);
+    w.f32(m.frameMs);
+    w.u64(m.photonsShot);
+    w.u64(m.photonsStored);
+    w.u64(m.memoryBytes);
+    w.u32(m.threads);
+}
+void putPayload(Writer& w, const Bye& m) {
+    w.u16(static_cast<uint16_t>(m.reason));
+    w.str(m.text);
+}
+
+// ---- decoding -----------------------------------------------------------------------------
+
+bool getVec3(Reader& r, Vec3f& v, const char* field) {
+    return r.f32Finite(v.x, field) && r.f32Finite(v.y, field) && r.f32Finite(v.z, field);
+}
+
+bool nonNegative(Reader& r, const Vec3f& v, const char* field) {
+    if (!r.ok()) return false;
+    if (v.x < 0.0f || v.y < 0.0f || v.z < 0.0f)
+        return r.fail(ErrorCode::BadValue, std::string(field) + " is negative");
+    return true;
+}
+
+bool nonZero(Reader& r, const Vec3f& v, const char* field) {
+    if (!r.ok()) return false;
+    if (v.x == 0.0f && v.y == 0.0f && v.z == 0.0f)
+        return r.fail(ErrorCode::BadValue, std::string(field) + " is the zero vector");
+    return true;
+}
+
+bool getCamera(Reader& r, CameraState& c) {
+    getVec3(r, c.position, "camera.position");
+    getVec3(r, c.forward, "camera.forward");
+    getVec3(r, c.up, "camera.up");
+    r.f32Finite(c.yfov, "camera.yfov");
+    nonZero(r, c.forward, "camera.forward");
+    nonZero(r, c.up, "camera.up");
+    // yfov must leave a finite tan(yfov/2): strictly inside (0, π).
+    if (r.ok() && !(c.yfov > 0.0f && c.yfov < 3.14159f))
+        r.fail(ErrorCode::BadValue, "camera.yfov " + std::to_string(c.yfov) + " not in (0, pi)");
+    return r.ok();
+}
+
+bool getSets(Reader& r, std::vector<uint32_t>& sets, const char* field) {
+    sets.clear();
+    uint32_t n = 0;
+    if (!r.count(n, kMaxSets, 4, field)) return false;
+    sets.resize(n);
+    std::bitset<kMaxSets> seen;
+    for (uint32_t& s : sets) {
+        if (!r.u32(s)) return false;
+        if (s >= kMaxSets)
+            return r.fail(ErrorCode::BadValue, std::string(field) + ": set " + std::to_string(s) +
+                                                   " not below " + std::to_string(kMaxSets));
+        if (seen.test(s))
+            return r.fail(ErrorCode::BadValue,
+                          std::string(field) + ": set " + std::to_string(s) + " listed twice");
+        seen.set(s);
+    }
+    return true;
+}
+
+template <class E>
+bool getEnum8(Reader& r, E& out, uint8_t maxValue, const char* field) {
+    uint8_t v = 0;
+    if (!r.u8(v)) return false;
+    if (v > maxValue)
+        return r.fail(ErrorCode::BadEnum, std::string(field) + ": value " + std::to_string(v) +
+                                              " above " + std::to_string(maxValue));
+    out = static_cast<E>(v);
+    return true;
+}
+
+bool getBool(Reader& r, bool& out, const char* field) {
+    uint8_t v = 0;
+    if (!r.u8(v)) return false;
+    if (v > 1) return r.fail(ErrorCode::BadEnum, std::string(field) + ": flag " + std::to_string(v));
+    out = v == 1;
+    return true;
+}
+
+bool inRange(Reader& r, uint64_t v, uint64_t lo, uint64_t hi, const char* field) {
+    if (!r.ok()) return false;
+    if (v < lo || v > hi)
+        return r.fail(ErrorCode::BadValue, std::string(field) + " = " + std::to_string(v) +
+                                               " not in [" + std::to_string(lo) + ", " +
+                                               std::to_string(hi) + "]");
+    return true;
+}
+
+bool getEdit(Reader& r, SceneEdit& out) {
+    EditKind kind{};
+    if (!getEnum8(r, kind, 3, "edit.kind")) return false;
+    switch (kind) {
+        case EditKind::Camera: {
+            CameraEdit e;
+            getCamera(r, e.camera);
+            out = e;
+            break;
+        }
+        case EditKind::Light: {
+            LightEdit e;
+            r.u32(e.index);
+            getVec3(r, e.position, "light.position");
+            getVec3(r, e.direction, "light.direction");
+            getVec3(r, e.intensity, "light.intensity");
+            nonZero(r, e.direction, "light.direction");
+            nonNegative(r, e.intensity, "light.intensity");
+            out = e;
+            break;
+        }
+        case EditKind::Material: {
+            MaterialEdit e;
+            r.u32(e.index);
+            getEnum8(r, e.kind, kMaxMaterialKind, "material.kind");
+            getVec3(r, e.baseColor, "material.baseColor");
+            r.f32Finite(e.ior, "material.ior");
+            getVec3(r, e.absorption, "material.absorption");
+            getVec3(r, e.emission, "material.emission");
+            nonNegative(r, e.baseColor, "material.baseColor");
+            if (r.ok() && (e.baseColor.x > 1.0f || e.baseColor.y > 1.0f || e.baseColor.z > 1.0f))
+                r.fail(ErrorCode::BadValue, "material.baseColor above 1 (not energy conserving)");
+            if (r.ok() && !(e.ior > 0.0f)) r.fail(ErrorCode::BadValue, "material.ior not > 0");
+            nonNegative(r, e.absorption, "material.absorption");
+            nonNegative(r, e.emission, "material.emission");
+            out = e;
+            break;
+        }
+        case EditKind::Transform: {
+            TransformEdit e;
+            r.u32(e.instance);
+            for (float& v : e.matrix) r.f32Finite(v, "transform.matrix");
+            out = e;
+            break;
+        }
+    }
+    return r.ok();
+}
+
+void get(Reader& r, Hello& m) {
+    r.u16(m.protocolVersion);
+    r.str(m.authToken, kMaxTokenBytes, "hello.authToken");
+    r.u32(m.cores);
+    r.str(m.clientName, kMaxNameBytes, "hello.clientName");
+    inRange(r, m.cores, 1, kMaxCores, "hello.cores");
+}
+void get(Reader& r, Welcome& m) {
+    r.u32(m.clientId);
+    getSets(r, m.sets, "welcome.sets");
+}
+void get(Reader& r, Reject& m) {
+    uint16_t reason = 0;
+    r.u16(reason);
+    if (r.ok() && (reason == 0 || reason > kMaxRejectReason))
+        r.fail(ErrorCode::BadEnum, "reject.reason " + std::to_string(reason));
+    m.reason = static_cast<RejectReason>(reason);
+    r.str(m.text, kMaxTextBytes, "reject.text");
+}
+void get(Reader& r, Scene& m) {
+    r.u32(m.sceneVersion);
+    getEnum8(r, m.source, 1, "scene.source");
+    r.str(m.builtinName, kMaxNameBytes, "scene.builtinName");
+    r.bytes(m.gltf, payloadLimit(MessageType::Scene), "scene.gltf");
+    if (r.ok() && m.source == Scene::Source::Builtin && (m.builtinName.empty() || !m.gltf.empty()))
+        r.fail(ErrorCode::BadValue, "scene: a built-in scene needs a name and no glTF bytes");
+    if (r.ok() && m.source == Scene::Source::Gltf && (!m.builtinName.empty() || m.gltf.empty()))
+        r.fail(ErrorCode::BadValue, "scene: a glTF scene needs bytes and no built-in name");
+    uint32_t n = 0;
+    // The smallest edit (a transform is larger) is a camera edit: 1 + 40 bytes.
+    if (r.count(n, kMaxEditsPerScene, 41, "scene.edits")) {
+        m.edits.resize(n);
+        for (SceneEdit& e : m.edits)
+            if (!getEdit(r, e)) break;
+    }
+}
+void get(Reader& r, Settings& m) {
+    r.u32(m.width);
+    r.u32(m.height);
+    r.u32(m.m);
+    r.u32(m.f);
+    r.u32(m.photonsPerSetPerFrame);
+    r.u32(m.k);
+    r.f32Finite(m.rMax, "settings.rMax");
+    r.u32(m.maxDepth);
+    r.u32(m.diffuseBounces);
+    r.u32(m.capPhotonsPerSet);
+    getBool(r, m.spt, "settings.spt");
+    getEnum8(r, m.tree, kMaxTreeVariant, "settings.tree");
+    getEnum8(r, m.encoding, kMaxPixelEncoding, "settings.encoding");
+    inRange(r, m.width, 1, kMaxImageSide, "settings.width");
+    inRange(r, m.height, 1, kMaxImageSide, "settings.height");
+    inRange(r, m.m, 1, kMaxInterleave, "settings.m");
+    inRange(r, m.f, 1, kMaxFilterWidth, "settings.f");
+    inRange(r, m.photonsPerSetPerFrame, 0, kMaxPhotonsPerSetPerFrame, "settings.photonsPerSetPerFrame");
+    inRange(r, m.k, 1, kMaxK, "settings.k");
+    inRange(r, m.maxDepth, 0, kMaxDepthLimit, "settings.maxDepth");
+    inRange(r, m.diffuseBounces, 0, kMaxDiffuseBounces, "settings.diffuseBounces");
+    inRange(r, m.capPhotonsPerSet, 0, kMaxCapPhotonsPerSet, "settings.capPhotonsPerSet");
+    if (r.ok() && !(m.rMax > 0.0f)) r.fail(ErrorCode::BadValue, "settings.rMax not > 0");
+}
+void get(Reader& r, FrameBegin& m) {
+    r.u64(m.frame);
+    r.u32(m.epoch);
+    r.u32(m.sceneVersion);
+    getCamera(r, m.camera);
+    getEnum8(r, m.mode, kMaxFrameMode, "frameBegin.mode");
+    getSets(r, m.sets, "frameBegin.sets");
+}
+void get(Reader& r, FrameData& m) {
+    r.u64(m.frame);
+    r.u32(m.set);
+    getEnum8(r, m.encoding, kMaxPixelEncoding, "frameData.encoding");
+    r.u32(m.pixelCount);
+    inRange(r, m.set, 0, kMaxSets - 1, "frameData.set");
+    // Check the announced length against the pixel count before copying anything.
+    uint32_t len = 0;
+    if (!r.count(len, payloadLimit(MessageType::FrameData), 1, "frameData.pixels")) return;
+    Status sized = checkPixelPayloadSize(m.encoding, m.pixelCount, len);
+    if (!sized) {
+        r.fail(sized.error().code, "frameData: " + sized.error().message);
+        return;
+    }
+    std::span<const uint8_t> v;
+    if (r.view(v, len, "frameData.pixels")) m.pixels.assign(v.begin(), v.end());
+}
+void get(Reader& r, Edit& m) {
+    r.u32(m.sceneVersion);
+    getEdit(r, m.edit);
+}
+void get(Reader& r, Stats& m) {
+    r.u64(m.frame);
+    r.f32Finite(m.photonMs, "stats.photonMs");
+    r.f32Finite(m.renderMs, "stats.renderMs");
+    r.f32Finite(m.encodeMs, "stats.encodeMs");
+    r.f32Finite(m.frameMs, "stats.frameMs");
+    r.u64(m.photonsShot);
+    r.u64(m.photonsStored);
+    r.u64(m.memoryBytes);
+    r.u32(m.threads);
+    if (r.ok() && (m.photonMs < 0 || m.renderMs < 0 || m.encodeMs < 0 || m.frameMs < 0))
+        r.fail(ErrorCode::BadValue, "stats: negative time");
+}
+void get(Reader& r, Bye& m) {
+    uint16_t reason = 0;
+    r.u16(reason);
+    if (r.ok() && reason > kMaxByeReason)
+        r.fail(ErrorCode::BadEnum, "bye.reason " + std::to_string(reason));
+    m.reason = static_cast<ByeReason>(reason);
+    r.str(m.text, kMaxTextBytes, "bye.text");
+}
+
+template <class M>
+Result<Message> decodeAs(std::span<const uint8_t> payload, const char* name) {
+    Reader r(payload);
+    M m;
+    get(r, m);
+    Status s = r.finish(name);
+    if (!s) return s.error();
+    return Message(std::move(m));
+}
+
+}  // namespace
+
+MessageType typeOf(const Message& m) {
+    // Variant alternatives are listed in MessageType order, ids 1..10.
+    static_assert(std::variant_size_v<Message> == kMaxMessageType);
+    return static_cast<MessageType>(m.index() + 1);
+}
+
+Result<std::vector<uint8_t>> tryEncode(const Message& m) {
+    Writer w;
+    Header h;
+    h.type = typeOf(m);
+    encodeHeader(h, w);  // payloadBytes patched below
+    std::visit([&w](const auto& msg) { putPayload(w, msg); }, m);
+    size_t payload = w.size() - kHeaderBytes;
+    if (payload > payloadLimit(h.type)) {
+        return Error{ErrorCode::PayloadTooLarge,
+                     "encode: type " + std::to_string(static_cast<int>(h.type)) + " payload of " +
+                         std::to_string(payload) + " bytes above the limit of " +
+                         std::to_string(payloadLimit(h.type))};
+    }
+    w.patchU32(12, static_cast<uint32_t>(payload));
+    return w.take();
+}
+
+std::vector<uint8_t> encode(const Message& m) {
+    Result<std::vector<uint8_t>> r = tryEncode(m);
+    if (!r) {
+        std::fprintf(stderr, "rtpm::proto::encode: %s\n", r.error().message.c_str());
+        std::abort();
+    }
+    return std::move(r).value();
+}
+
+Result<Message> decodePayload(MessageType type, std::span<const uint8_t> payload) {
+    if (payload.size() > payloadLimit(type)) {
+        return Error{ErrorCode::PayloadTooLarge, "payload of " + std::to_string(payload.size()) +
+                                                     " bytes above the limit for type " +
+                                                     std::to_string(static_cast<int>(type))};
+    }
+    switch (type) {
+        case MessageType::Hello: return decodeAs<Hello>(payload, "hello");
+        case MessageType::Welcome: return decodeAs<Welcome>(payload, "welcome");
+        case MessageType::Reject: return decodeAs<Reject>(payload, "reject");
+        case MessageType::Scene: return decodeAs<Scene>(payload, "scene");
+        case MessageType::Settings: return decodeAs<Settings>(payload, "settings");
+        case MessageType::FrameBegin: return decodeAs<FrameBegin>(payload, "frameBegin");
+        case MessageType::FrameData: return decodeAs<FrameData>(payload, "frameData");
+        case MessageType::Edit: return decodeAs<Edit>(payload, "edit");
+        case MessageType::Stats: return decodeAs<Stats>(payload, "stats");
+        case MessageType::Bye: return decodeAs<Bye>(payload, "bye");
+    }
+    return Error{ErrorCode::UnknownType,
+                 "unknown message type " + std::to_string(static_cast<int>(type))};
+}
+
+Result<Message> decodeMessage(std::span<const uint8_t> bytes) {
+    Result<Header> h = decodeHeader(bytes);
+    if (!h) return h.error();
+    size_t rest = bytes.size() - kHeaderBytes;
+    if (rest < h->payloadBytes) {
+        return Error{ErrorCode::Truncated, "message: header announces " +
+                                               std::to_string(h->payloadBytes) +
+                                               " payload bytes, " + std::to_string(rest) + " present"};
+    }
+    if (rest > h->payloadBytes) {
+        return Error{ErrorCode::TrailingBytes,
+                     "message: " + std::to_string(rest - h->payloadBytes) + " bytes after the payload"};
+    }
+    return decodePayload(h->type, bytes.subspan(kHeaderBytes));
+}
+
+// ---- FrameSplitter ------------------------------------------------------------------------
+
+void FrameSplitter::feed(std::span<const uint8_t> bytes) {
+    if (error_) return;  // a failed stream is dead; do not buffer more of it
+    // Drop consumed bytes once they dominate the buffer, so memory stays bounded by one message.
+    if (pos_ > 0 && pos_ >= buf_.size() / 2) {
+        buf_.erase(buf_.begin(), buf_.begin() + static_cast<std::ptrdiff_t>(pos_));
+        pos_ = 0;
+    }
+    buf_.insert(buf_.end(), bytes.begin(), bytes.end());
+}
+
+Result<std::optional<Message>> FrameSplitter::next() {
+    if (error_) return *error_;
+    std::span<const uint8_t> avail(buf_.data() + pos_, buf_.size() - pos_);
+    if (!header_) {
+        if (avail.size() < kHeaderBytes) return std::optional<Message>();
+        Result<Header> h = decodeHeader(avail);
+        if (!h) {
+            error_ = h.error();
+            return *error_;
+        }
+        header_ = *h;
+        pos_ += kHeaderBytes;
+        avail = avail.subspan(kHeaderBytes);
+    }
+    if (avail.size() < header_->payloadBytes) return std::optional<Message>();
+    Result<Message> m = decodePayload(header_->type, avail.first(header_->payloadBytes));
+    pos_ += header_->payloadBytes;
+    header_.reset();
+    if (!m) {
+        error_ = m.error();
+        return *error_;
+    }
+    return std::optional<Message>(std::move(m).value());
+}
+
+}  // namespace rtpm::proto

@@ -1,0 +1,249 @@
+// The protocol's messages, their encoding and validated decoding, and a TCP stream splitter.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "proto/pixel_codec.h"
+#include "proto/wire.h"
+
+namespace rtpm::proto {
+
+// Field limits (PROTOCOL.md §4). Decoders reject anything above them.
+inline constexpr size_t kMaxTokenBytes = 256;        ///< Hello.authToken
+inline constexpr size_t kMaxNameBytes = 256;         ///< Hello.clientName, Scene.builtinName
+inline constexpr size_t kMaxTextBytes = 1024;        ///< Reject.text, Bye.text
+inline constexpr uint32_t kMaxInterleave = 64;       ///< Settings.m: at most 64×64 sets
+inline constexpr uint32_t kMaxSets = kMaxInterleave * kMaxInterleave;  ///< set ids are < this
+inline constexpr uint32_t kMaxImageSide = 16384;     ///< Settings.width/height
+inline constexpr uint32_t kMaxFilterWidth = 64;      ///< Settings.f
+inline constexpr uint32_t kMaxK = 4096;              ///< Settings.k
+inline constexpr uint32_t kMaxDepthLimit = 1024;     ///< Settings.maxDepth
+inline constexpr uint32_t kMaxDiffuseBounces = 16;   ///< Settings.diffuseBounces
+inline constexpr uint32_t kMaxEditsPerScene = 65536; ///< Scene.edits
+
+/// Three floats; the protocol's own vector type (proto/ does not depend on GLM).
+struct Vec3f {
+    float x = 0.0f, y = 0.0f, z = 0.0f;
+    bool operator==(const Vec3f&) const = default;
+};
+
+/// Pinhole camera, glTF convention (DESIGN §6): world position, unit forward and up, yfov rad.
+struct CameraState {
+    Vec3f position;
+    Vec3f forward{0.0f, 0.0f, -1.0f};
+    Vec3f up{0.0f, 1.0f, 0.0f};
+    float yfov = 0.8f;
+    bool operator==(const CameraState&) const = default;
+};
+
+/// Client → server, first message on a connection.
+struct Hello {
+    uint16_t protocolVersion = kProtocolVersion;
+    std::string authToken;   ///< shared secret; ≤ kMaxTokenBytes
+    uint32_t cores = 1;      ///< hardware threads the client will use, ≥ 1
+    std::string clientName;  ///< for logs; ≤ kMaxNameBytes
+    bool operator==(const Hello&) const = default;
+};
+
+/// Server → client: accepted. `sets` are the interleaving sets this client renders (distinct,
+/// each < kMaxSets; may be empty for a spare client). The order is the server's choice.
+struct Welcome {
+    uint32_t clientId = 0;
+    std::vector<uint32_t> sets;
+    bool operator==(const Welcome&) const = default;
+};
+
+/// Why a handshake was refused. Append-only ids.
+enum class RejectReason : uint16_t {
+    VersionMismatch = 1,  ///< Hello.protocolVersion or header version differs
+    BadToken = 2,         ///< authToken does not match the server's
+    ServerFull = 3,       ///< no interleaving set left to assign
+    ProtocolError = 4,    ///< first message was not a valid Hello
+};
+inline constexpr uint16_t kMaxRejectReason = 4;
+
+/// Server → client: refused; the server closes the connection after sending it.
+struct Reject {
+    RejectReason reason = RejectReason::ProtocolError;
+    std::string text;  ///< for people; ≤ kMaxTextBytes
+    bool operator==(const Reject&) const = default;
+};
+
+/// The scene edits (DESIGN §2). Indices refer to the loaded scene's arrays; the receiver checks
+/// them against its scene (the decoder cannot).
+struct CameraEdit {
+    CameraState camera;
+    bool operator==(const CameraEdit&) const = default;
+};
+struct LightEdit {
+    uint32_t index = 0;  ///< into Scene::lights (punctual lights)
+    Vec3f position;      ///< world, metres
+    Vec3f direction;     ///< unit; direction the light travels (spot, directional)
+    Vec3f intensity;     ///< W/sr (point, spot) or W/m² (directional), colour included, ≥ 0
+    bool operator==(const LightEdit&) const = default;
+};
+/// Material model of an edit (mirrors rtpm::MaterialType). Append-only ids.
+enum class MaterialKind : uint8_t { Diffuse = 0, Mirror = 1, Dielectric = 2 };
+inline constexpr uint8_t kMaxMaterialKind = 2;
+struct MaterialEdit {
+    uint32_t index = 0;  ///< into Scene::materials
+    MaterialKind kind = MaterialKind::Diffuse;
+    Vec3f baseColor;     ///< albedo or reflectance, each in [0, 1]
+    float ior = 1.5f;    ///< > 0
+    Vec3f absorption;    ///< Beer–Lambert σ_a per metre, ≥ 0
+    Vec3f emission;      ///< W/(m²·sr), ≥ 0
+    bool operator==(const MaterialEdit&) const = default;
+};
+struct TransformEdit {
+    uint32_t instance = 0;           ///< into Scene::instances
+    std::array<float, 16> matrix{};  ///< object → world, column-major (as glm::mat4 / glTF)
+    bool operator==(const TransformEdit&) const = default;
+};
+using SceneEdit = std::variant<CameraEdit, LightEdit, MaterialEdit, TransformEdit>;
+/// Wire ids of the SceneEdit alternatives (u8). Append-only.
+enum class EditKind : uint8_t { Camera = 0, Light = 1, Material = 2, Transform = 3 };
+
+/// Server → client: the scene to load, then `edits` applied in order. Replaces any previous scene.
+struct Scene {
+    enum class Source : uint8_t { Builtin = 0, Gltf = 1 };
+    uint32_t sceneVersion = 0;
+    Source source = Source::Builtin;
+    std::string builtinName;    ///< Source::Builtin: e.g. "ring"; ≤ kMaxNameBytes; else empty
+    std::vector<uint8_t> gltf;  ///< Source::Gltf: a .glb, or a .gltf with embedded buffers
+    std::vector<SceneEdit> edits;  ///< ≤ kMaxEditsPerScene
+    bool operator==(const Scene&) const = default;
+};
+
+/// Photon-map structure a client uses. Append-only ids.
+enum class TreeVariant : uint8_t { MiddleSplitKdTree = 0, BalancedKdTree = 1, UniformGrid = 2 };
+inline constexpr uint8_t kMaxTreeVariant = 2;
+
+/// Server → client: render settings. Takes effect at the next FrameBegin; a change resets photon
+/// maps unless only width/height/f changed (PROTOCOL.md §5.5).
+struct Settings {
+    uint32_t width = 640, height = 480;  ///< image, pixels, each in [1, kMaxImageSide]
+    uint32_t m = 4;               ///< interleaving: M×M sets, in [1, kMaxInterleave]
+    uint32_t f = 4;               ///< server's box filter width, in [1, kMaxFilterWidth]
+    uint32_t photonsPerSetPerFrame = 1000;  ///< P
+    uint32_t k = 50;              ///< photons per density estimate, in [1, kMaxK]
+    float rMax = 0.1f;            ///< max search radius, metres, finite > 0
+    uint32_t maxDepth = 16;       ///< specular bounces, ≤ kMaxDepthLimit
+    uint32_t diffuseBounces = 1;  ///< photon diffuse bounces before storing, ≤ kMaxDiffuseBounces
+    uint32_t capPhotonsPerSet = 100000;  ///< stop shooting when a set's map holds this many
+    bool spt = true;              ///< Selective Photon Tracing on
+    TreeVariant tree = TreeVariant::MiddleSplitKdTree;
+    PixelEncoding encoding = PixelEncoding::Rgb9e5Zstd;  ///< what clients send FrameData in
+    bool operator==(const Settings&) const = default;
+};
+
+/// Frame mode (DESIGN §2). Append-only ids.
+enum class FrameMode : uint8_t { Interaction = 0, Accumulate = 1, Walkthrough = 2 };
+inline constexpr uint8_t kMaxFrameMode = 2;
+
+/// Server → client: render `frame`. A client resets its photon maps when `epoch` changes.
+/// `sets` lists the sets to render this frame (a subset of, or equal to, the Welcome sets).
+struct FrameBegin {
+    uint64_t frame = 0;
+    uint32_t epoch = 0;
+    uint32_t sceneVersion = 0;
+    CameraState camera;
+    FrameMode mode = FrameMode::Interaction;
+    std::vector<uint32_t> sets;  ///< distinct, each < kMaxSets
+    bool operator==(const FrameBegin&) const = default;
+};
+
+/// Client → server: every pixel of one set for one frame, row-major within the set
+/// (common/interleave.h). `pixels` is the pixel codec payload; its size is validated against
+/// `pixelCount` and `encoding` by the decoder, its content by decodePixels().
+struct FrameData {
+    uint64_t frame = 0;
+    uint32_t set = 0;  ///< < kMaxSets
+    PixelEncoding encoding = PixelEncoding::Rgb9e5;
+    uint32_t pixelCount = 0;
+    std::vector<uint8_t> pixels;
+    bool operator==(const FrameData&) const = default;
+};
+
+/// Server → client: one live edit; `sceneVersion` is the version after applying it.
+struct Edit {
+    uint32_t sceneVersion = 0;
+    SceneEdit edit;
+    bool operator==(const Edit&) const = default;
+};
+
+/// Client → server after each frame: where its time went. Times in milliseconds, finite, ≥ 0.
+struct Stats {
+    uint64_t frame = 0;
+    float photonMs = 0.0f;   ///< shooting + kd-tree insertion
+    float renderMs = 0.0f;   ///< eye pass of all owned sets
+    float encodeMs = 0.0f;   ///< pixel encoding
+    float frameMs = 0.0f;    ///< FrameBegin received → last FrameData sent
+    uint64_t photonsShot = 0;     ///< this frame, all sets
+    uint64_t photonsStored = 0;   ///< in all maps after this frame
+    uint64_t memoryBytes = 0;     ///< photon maps + scene, approximate
+    uint32_t threads = 0;
+    bool operator==(const Stats&) const = default;
+};
+
+/// Why a peer leaves. Append-only ids.
+enum class ByeReason : uint16_t { Normal = 0, Shutdown = 1, ProtocolError = 2, Timeout = 3 };
+inline constexpr uint16_t kMaxByeReason = 3;
+
+/// Either way: the sender closes after it. `text` ≤ kMaxTextBytes.
+struct Bye {
+    ByeReason reason = ByeReason::Normal;
+    std::string text;
+    bool operator==(const Bye&) const = default;
+};
+
+/// Any message. The alternative order matches nothing on the wire; use typeOf().
+using Message = std::variant<Hello, Welcome, Reject, Scene, Settings, FrameBegin, FrameData, Edit,
+                             Stats, Bye>;
+
+/// The header type of a message.
+MessageType typeOf(const Message& m);
+
+/// Header + payload, ready to write to a socket. Precondition (a bug otherwise, aborts): the
+/// payload fits payloadLimit(typeOf(m)); use tryEncode() for sizes that come from users (glTF).
+/// Encodes what it is given: the receiver validates. Cost: O(size); one allocation.
+std::vector<uint8_t> encode(const Message& m);
+/// As encode(), but returns PayloadTooLarge instead of aborting.
+Result<std::vector<uint8_t>> tryEncode(const Message& m);
+
+/// Decodes and validates the payload of a message of type `type` (header already checked):
+/// counts against the bytes left, enum ranges, finite floats, string and array limits, value
+/// ranges, no trailing bytes. Never throws or asserts. Cost: O(payload).
+Result<Message> decodePayload(MessageType type, std::span<const uint8_t> payload);
+
+/// decodeHeader() then decodePayload() of exactly one whole message (header + payload).
+Result<Message> decodeMessage(std::span<const uint8_t> bytes);
+
+/// Splits a TCP byte stream into messages. Feed bytes as they arrive, in chunks of any size;
+/// next() yields each complete message in order. The header is validated as soon as its 16 bytes
+/// are in, so an oversize or garbage stream fails before its payload is buffered. After the
+/// first error the splitter stays failed (close the peer). Not thread-safe.
+/// Memory: at most one header + one payload (≤ its type's limit) beyond what was consumed.
+class FrameSplitter {
+public:
+    /// Appends received bytes. Cost: O(bytes) amortised.
+    void feed(std::span<const uint8_t> bytes);
+    /// A message, std::nullopt when more bytes are needed, or the (sticky) fatal error.
+    Result<std::optional<Message>> next();
+    /// Bytes fed but not yet returned as messages.
+    size_t buffered() const { return buf_.size() - pos_; }
+    bool failed() const { return error_.has_value(); }
+
+private:
+    std::vector<uint8_t> buf_;
+    size_t pos_ = 0;  ///< start of the first unconsumed byte in buf_
+    std::optional<Header> header_;  ///< decoded header of the message being received
+    std::optional<Error> error_;
+};
+
+}  // namespace rtpm::proto

@@ -1,0 +1,240 @@
+// Pixel codec: float32, 8-bit and RGB9E5 (optionally zstd caustic plane) payloads of FrameData.
+#include "proto/pixel_codec.h"
+
+#include <zstd.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <string>
+
+namespace rtpm::proto {
+namespace {
+
+// RGB9E5 constants (EXT_texture_shared_exponent): 9 mantissa bits, exponent bias 15, max 31.
+constexpr int kMantissaBits = 9;
+constexpr int kExpBias = 15;
+constexpr int kMaxExp = 31;
+
+// Non-finite and negative radiance are not representable (and are bugs upstream): encode 0.
+inline float sanitize(float v) { return (v > 0.0f && v <= 3.0e38f) ? v : 0.0f; }
+
+// 2^k as a float for k in the normal range, built from its bits (exact, no libm call).
+inline float pow2(int k) { return std::bit_cast<float>(static_cast<uint32_t>(k + 127) << 23); }
+
+inline void putU32(uint8_t* p, uint32_t v) {
+    p[0] = static_cast<uint8_t>(v);
+    p[1] = static_cast<uint8_t>(v >> 8);
+    p[2] = static_cast<uint8_t>(v >> 16);
+    p[3] = static_cast<uint8_t>(v >> 24);
+}
+inline uint32_t getU32(const uint8_t* p) {
+    return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 |
+           static_cast<uint32_t>(p[2]) << 16 | static_cast<uint32_t>(p[3]) << 24;
+}
+
+struct CCtxDeleter {
+    void operator()(ZSTD_CCtx* c) const { ZSTD_freeCCtx(c); }
+};
+struct DCtxDeleter {
+    void operator()(ZSTD_DCtx* c) const { ZSTD_freeDCtx(c); }
+};
+
+ZSTD_CCtx* threadCCtx() {
+    thread_local std::unique_ptr<ZSTD_CCtx, CCtxDeleter> ctx(ZSTD_createCCtx());
+    return ctx.get();
+}
+ZSTD_DCtx* threadDCtx() {
+    thread_local std::unique_ptr<ZSTD_DCtx, DCtxDeleter> ctx(ZSTD_createDCtx());
+    return ctx.get();
+}
+
+// Zstd on the caustic plane pays off only when the plane is sparse; a quarter of zero words is
+// where level 1 starts to save more than its own cost on typical caustic images.
+constexpr double kZstdMinZeroFraction = 0.25;
+constexpr int kZstdLevel = 1;
+// Smallest possible zstd frame: 4 magic + 2 frame header + 3 block header.
+constexpr size_t kMinZstdFrame = 9;
+
+uint8_t toByte(float v) {
+    float c = std::min(sanitize(v), 1.0f);
+    return static_cast<uint8_t>(c * 255.0f + 0.5f);
+}
+
+}  // namespace
+
+uint32_t packRgb9e5(float r, float g, float b) {
+    const float rc = std::min(sanitize(r), kRgb9e5Max);
+    const float gc = std::min(sanitize(g), kRgb9e5Max);
+    const float bc = std::min(sanitize(b), kRgb9e5Max);
+    const float maxc = std::max(rc, std::max(gc, bc));
+    // floor(log2(maxc)) from the float's exponent field; anything below 2^-16 (denormals and 0
+    // included) uses the smallest shared exponent.
+    int floorLog2 = static_cast<int>((std::bit_cast<uint32_t>(maxc) >> 23) & 0xff) - 127;
+    floorLog2 = std::max(floorLog2, -kExpBias - 1);
+    int e = floorLog2 + 1 + kExpBias;  // in [0, 31] since maxc ≤ 65408 < 2^16
+    // Scale so the largest channel's mantissa lands in [256, 512); rounding may reach 512, then
+    // the exponent goes up by one (always possible: maxc ≤ kRgb9e5Max keeps e ≤ 31).
+    float inv = pow2(kExpBias + kMantissaBits - e);
+    uint32_t maxm = static_cast<uint32_t>(maxc * inv + 0.5f);
+    if (maxm == (1u << kMantissaBits)) {
+        ++e;
+        inv *= 0.5f;
+    }
+    e = std::min(e, kMaxExp);
+    const uint32_t rm = std::min(static_cast<uint32_t>(rc * inv + 0.5f), 511u);
+    const uint32_t gm = std::min(static_cast<uint32_t>(gc * inv + 0.5f), 511u);
+    const uint32_t bm = std::min(static_cast<uint32_t>(bc * inv + 0.5f), 511u);
+    return rm | gm << 9 | bm << 18 | static_cast<uint32_t>(e) << 27;
+}
+
+void unpackRgb9e5(uint32_t word, float rgb[3]) {
+    const int e = static_cast<int>(word >> 27);
+    const float scale = pow2(e - kExpBias - kMantissaBits);  // 2^(e-24) ∈ [2^-24, 2^7]
+    rgb[0] = static_cast<float>(word & 511u) * scale;
+    rgb[1] = static_cast<float>((word >> 9) & 511u) * scale;
+    rgb[2] = static_cast<float>((word >> 18) & 511u) * scale;
+}
+
+size_t bytesPerPixel(PixelEncoding encoding) {
+    switch (encoding) {
+        case PixelEncoding::Float32: return 24;
+        case PixelEncoding::Rgb8: return 6;
+        case PixelEncoding::Rgb9e5: return 8;
+        case PixelEncoding::Rgb9e5Zstd: return 8;
+    }
+    return 0;
+}
+
+EncodedPixels encodePixels(std::span<const PixelPair> pixels, PixelEncoding requested) {
+    const size_t n = pixels.size();
+    EncodedPixels out;
+    out.encoding = requested;
+    switch (requested) {
+        case PixelEncoding::Float32: {
+            out.bytes.resize(n * 24);
+            uint8_t* p = out.bytes.data();
+            for (const PixelPair& px : pixels) {
+                for (float v : px.direct) putU32(p, std::bit_cast<uint32_t>(sanitize(v))), p += 4;
+                for (float v : px.caustic) putU32(p, std::bit_cast<uint32_t>(sanitize(v))), p += 4;
+            }
+            return out;
+        }
+        case PixelEncoding::Rgb8: {
+            out.bytes.resize(n * 6);
+            uint8_t* p = out.bytes.data();
+            for (const PixelPair& px : pixels) {
+                for (float v : px.direct) *p++ = toByte(v);
+                for (float v : px.caustic) *p++ = toByte(v);
+            }
+            return out;
+        }
+        case PixelEncoding::Rgb9e5:
+        case PixelEncoding::Rgb9e5Zstd: break;
+    }
+    // Planar: the direct plane, then the caustic plane, so the (often zero) caustic words are
+    // contiguous for zstd.
+    out.encoding = PixelEncoding::Rgb9e5;
+    out.bytes.resize(n * 8);
+    uint8_t* direct = out.bytes.data();
+    uint8_t* caustic = direct + n * 4;
+    size_t zeros = 0;
+    for (size_t i = 0; i < n; ++i) {
+        const PixelPair& px = pixels[i];
+        putU32(direct + 4 * i, packRgb9e5(px.direct[0], px.direct[1], px.direct[2]));
+        uint32_t c = packRgb9e5(px.caustic[0], px.caustic[1], px.caustic[2]);
+        zeros += (c & 0x07FFFFFFu) == 0;
+        // Canonical zero (exponent 0 too) so every zero word is identical for the compressor.
+        putU32(caustic + 4 * i, (c & 0x07FFFFFFu) ? c : 0u);
+    }
+    if (requested != PixelEncoding::Rgb9e5Zstd || n == 0 ||
+        static_cast<double>(zeros) < kZstdMinZeroFraction * static_cast<double>(n)) {
+        return out;
+    }
+    std::vector<uint8_t> packed(n * 4 + ZSTD_compressBound(n * 4));
+    std::memcpy(packed.data(), direct, n * 4);
+    size_t z = ZSTD_compressCCtx(threadCCtx(), packed.data() + n * 4, packed.size() - n * 4,
+                                 caustic, n * 4, kZstdLevel);
+    if (ZSTD_isError(z) || z >= n * 4) return out;  // incompressible after all: stay plain
+    packed.resize(n * 4 + z);
+    out.encoding = PixelEncoding::Rgb9e5Zstd;
+    out.bytes = std::move(packed);
+    return out;
+}
+
+Status checkPixelPayloadSize(PixelEncoding encoding, uint64_t pixelCount, size_t payloadBytes) {
+    if (static_cast<uint8_t>(encoding) > kMaxPixelEncoding) {
+        return Error{ErrorCode::BadEnum,
+                     "pixel encoding " + std::to_string(static_cast<int>(encoding))};
+    }
+    if (encoding == PixelEncoding::Rgb9e5Zstd) {
+        const uint64_t minBytes = pixelCount * 4 + (pixelCount ? kMinZstdFrame : 0);
+        if (payloadBytes < minBytes)
+            return Error{ErrorCode::LengthTooLarge,
+                         std::to_string(pixelCount) + " pixels need at least " +
+                             std::to_string(minBytes) + " bytes in RGB9E5+zstd, payload has " +
+                             std::to_string(payloadBytes)};
+        return okStatus();
+    }
+    const uint64_t want = pixelCount * bytesPerPixel(encoding);
+    if (payloadBytes != want)
+        return Error{ErrorCode::LengthTooLarge, std::to_string(pixelCount) + " pixels need " +
+                                                    std::to_string(want) + " bytes, payload has " +
+                                                    std::to_string(payloadBytes)};
+    return okStatus();
+}
+
+Status decodePixels(PixelEncoding encoding, std::span<const uint8_t> payload,
+                    std::span<PixelPair> out) {
+    const size_t n = out.size();
+    if (Status s = checkPixelPayloadSize(encoding, n, payload.size()); !s) return s;
+    const uint8_t* p = payload.data();
+    switch (encoding) {
+        case PixelEncoding::Float32:
+            for (PixelPair& px : out) {
+                for (float& v : px.direct) v = sanitize(std::bit_cast<float>(getU32(p))), p += 4;
+                for (float& v : px.caustic) v = sanitize(std::bit_cast<float>(getU32(p))), p += 4;
+            }
+            return okStatus();
+        case PixelEncoding::Rgb8:
+            for (PixelPair& px : out) {
+                for (float& v : px.direct) v = static_cast<float>(*p++) * (1.0f / 255.0f);
+                for (float& v : px.caustic) v = static_cast<float>(*p++) * (1.0f / 255.0f);
+            }
+            return okStatus();
+        case PixelEncoding::Rgb9e5:
+            for (size_t i = 0; i < n; ++i) {
+                unpackRgb9e5(getU32(p + 4 * i), out[i].direct);
+                unpackRgb9e5(getU32(p + 4 * (n + i)), out[i].caustic);
+            }
+            return okStatus();
+        case PixelEncoding::Rgb9e5Zstd: break;
+    }
+    for (size_t i = 0; i < n; ++i) unpackRgb9e5(getU32(p + 4 * i), out[i].direct);
+    if (n == 0) return okStatus();
+    std::span<const uint8_t> frame = payload.subspan(n * 4);
+    // The frame must announce exactly the caustic plane and fill the rest of the payload: a
+    // frame that decompresses to more would be cut, one that is followed by junk is malformed.
+    const unsigned long long content = ZSTD_getFrameContentSize(frame.data(), frame.size());
+    if (content != n * 4)
+        return Error{ErrorCode::Corrupt, "zstd caustic plane: frame announces " +
+                                             std::to_string(static_cast<long long>(content)) +
+                                             " bytes, expected " + std::to_string(n * 4)};
+    const size_t frameBytes = ZSTD_findFrameCompressedSize(frame.data(), frame.size());
+    if (ZSTD_isError(frameBytes) || frameBytes != frame.size())
+        return Error{ErrorCode::Corrupt, "zstd caustic plane: frame size does not match payload"};
+    // Decompress into the caustic floats' storage as scratch would need a copy; use a buffer.
+    std::vector<uint8_t> plane(n * 4);
+    const size_t got =
+        ZSTD_decompressDCtx(threadDCtx(), plane.data(), plane.size(), frame.data(), frame.size());
+    if (ZSTD_isError(got) || got != n * 4)
+        return Error{ErrorCode::Corrupt,
+                     std::string("zstd caustic plane: ") +
+                         (ZSTD_isError(got) ? ZSTD_getErrorName(got) : "short output")};
+    for (size_t i = 0; i < n; ++i) unpackRgb9e5(getU32(plane.data() + 4 * i), out[i].caustic);
+    return okStatus();
+}
+
+}  // namespace rtpm::proto
