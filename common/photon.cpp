@@ -8,14 +8,17 @@ namespace rtpm {
 
 namespace {
 
-// RGB9E5 as in EXT_texture_shared_exponent: 9-bit mantissas, 5-bit exponent with bias 15.
-// Representable range: 2^-24 (≈ 6e-8) … 65408. The photon-map code keeps per-photon powers in
-// this range by carrying the per-batch factor separately (`powerScale` in the density estimate).
+// RGB9E5 layout of EXT_texture_shared_exponent (9-bit mantissas, 5-bit exponent), but with the
+// exponent bias 20 instead of 15: photon powers are small (Φ_light / photons per batch, e.g.
+// 1 W / 1e6 = 1e-6 W), and bias 15 would leave them in the subnormal range below 2^-15 where
+// relative precision collapses. With bias 20 the relative error stays ≤ 2^-9 for a largest
+// channel in [2^-20 ≈ 9.5e-7, 2044] W; below that the absolute step is 2^-29 ≈ 1.9e-9 W, and
+// anything above 2044 W is clamped (no light in our scenes comes close per photon).
 constexpr int kMantissaBits = 9;
-constexpr int kExpBias = 15;
+constexpr int kExpBias = 20;
 constexpr int kMaxBiasedExp = 31;
-constexpr float kMaxRgb9e5 =
-    static_cast<float>((1 << kMantissaBits) - 1) / (1 << kMantissaBits) * 65536.0f;  // 65408
+constexpr float kMaxRgb9e5 = static_cast<float>((1 << kMantissaBits) - 1) /
+                             (1 << kMantissaBits) * (1 << (kMaxBiasedExp - kExpBias));  // 2044
 
 float sanitize(float c) {
     // NaN and negatives → 0 (a photon never carries negative flux); +Inf and huge → max.
@@ -25,12 +28,13 @@ float sanitize(float c) {
 
 float signNotZero(float v) { return v < 0.0f ? -1.0f : 1.0f; }
 
-uint32_t quantizeUnit16(float v) {  // [-1, 1] → [0, 65535], round to nearest
+uint32_t quantizeUnit16(float v) {  // [-1, 1] → [0, 65534], round to nearest
+    // 65534 steps (not 65535) so that 0 is a code (32767): the axes and the fold round-trip exactly.
     const float t = std::clamp(v, -1.0f, 1.0f) * 0.5f + 0.5f;
-    return static_cast<uint32_t>(std::lround(t * 65535.0f));
+    return static_cast<uint32_t>(std::lround(t * 65534.0f));
 }
 
-float dequantizeUnit16(uint32_t q) { return static_cast<float>(q) * (2.0f / 65535.0f) - 1.0f; }
+float dequantizeUnit16(uint32_t q) { return static_cast<float>(q) * (2.0f / 65534.0f) - 1.0f; }
 
 }  // namespace
 
