@@ -23,18 +23,23 @@ double radicalInverse(int dim, uint64_t index) {
     RTPM_DCHECK(dim >= 0 && dim < kHaltonMaxDims);
     if (dim == 0) return radicalInverseBase2(index);
     const uint64_t base = kHaltonPrimes[static_cast<size_t>(dim)];
-    const double invBase = 1.0 / static_cast<double>(base);
-    // Accumulate the mirrored digits as an integer (exact) and divide once at the end, so the
-    // result equals the exact rational rounded once; stop before the integer would overflow.
+    // Accumulate the mirrored digits as an integer (exact) and divide once by b^n, so that for
+    // b^n < 2^53 the result is the exact rational rounded once; stop before `reversed` could
+    // overflow 53 bits (further digits are below double precision anyway).
     uint64_t reversed = 0;
-    double invBaseN = 1.0;
+    uint64_t denominator = 1;  // b^n while exact in a double
+    double scale = 1.0;        // 1 / (b^n / denominator) for the digits beyond that
     while (index > 0 && reversed < (uint64_t{1} << 52) / base) {
         const uint64_t next = index / base;
         reversed = reversed * base + (index - next * base);
-        invBaseN *= invBase;
+        if (denominator <= (uint64_t{1} << 53) / base) {
+            denominator *= base;
+        } else {
+            scale /= static_cast<double>(base);
+        }
         index = next;
     }
-    const double r = static_cast<double>(reversed) * invBaseN;
+    const double r = static_cast<double>(reversed) / static_cast<double>(denominator) * scale;
     return r < 1.0 ? r : 0x1.fffffffffffffp-1;
 }
 
