@@ -35,6 +35,11 @@ inline uint32_t getU32(const uint8_t* p) {
            static_cast<uint32_t>(p[2]) << 16 | static_cast<uint32_t>(p[3]) << 24;
 }
 
+// Zstd on the caustic plane pays off only when the plane is sparse; a quarter of zero words is
+// where level 1 starts to save more than its own cost on typical caustic images.
+constexpr double kZstdMinZeroFraction = 0.25;
+constexpr int kZstdLevel = 1;
+
 struct CCtxDeleter {
     void operator()(ZSTD_CCtx* c) const { ZSTD_freeCCtx(c); }
 };
@@ -42,8 +47,15 @@ struct DCtxDeleter {
     void operator()(ZSTD_DCtx* c) const { ZSTD_freeDCtx(c); }
 };
 
+// Level 1 with a content checksum: the decoder then detects any corrupted frame, not only the
+// ones that break zstd's structure (xxhash64 costs little next to the compression itself).
 ZSTD_CCtx* threadCCtx() {
-    thread_local std::unique_ptr<ZSTD_CCtx, CCtxDeleter> ctx(ZSTD_createCCtx());
+    thread_local std::unique_ptr<ZSTD_CCtx, CCtxDeleter> ctx = [] {
+        std::unique_ptr<ZSTD_CCtx, CCtxDeleter> c(ZSTD_createCCtx());
+        ZSTD_CCtx_setParameter(c.get(), ZSTD_c_compressionLevel, kZstdLevel);
+        ZSTD_CCtx_setParameter(c.get(), ZSTD_c_checksumFlag, 1);
+        return c;
+    }();
     return ctx.get();
 }
 ZSTD_DCtx* threadDCtx() {
@@ -51,10 +63,6 @@ ZSTD_DCtx* threadDCtx() {
     return ctx.get();
 }
 
-// Zstd on the caustic plane pays off only when the plane is sparse; a quarter of zero words is
-// where level 1 starts to save more than its own cost on typical caustic images.
-constexpr double kZstdMinZeroFraction = 0.25;
-constexpr int kZstdLevel = 1;
 // Smallest possible zstd frame: 4 magic + 2 frame header + 3 block header.
 constexpr size_t kMinZstdFrame = 9;
 
@@ -155,8 +163,8 @@ EncodedPixels encodePixels(std::span<const PixelPair> pixels, PixelEncoding requ
     }
     std::vector<uint8_t> packed(n * 4 + ZSTD_compressBound(n * 4));
     std::memcpy(packed.data(), direct, n * 4);
-    size_t z = ZSTD_compressCCtx(threadCCtx(), packed.data() + n * 4, packed.size() - n * 4,
-                                 caustic, n * 4, kZstdLevel);
+    size_t z = ZSTD_compress2(threadCCtx(), packed.data() + n * 4, packed.size() - n * 4, caustic,
+                              n * 4);
     if (ZSTD_isError(z) || z >= n * 4) return out;  // incompressible after all: stay plain
     packed.resize(n * 4 + z);
     out.encoding = PixelEncoding::Rgb9e5Zstd;

@@ -1,0 +1,233 @@
+// Messages: round trips, truncation at every byte, golden bytes, hostile counts, stream splitting.
+#include "proto/messages.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <limits>
+#include <random>
+
+#include "tests/fuzz/decode_check.h"
+
+namespace rtpm::proto {
+namespace {
+
+std::string hex(std::span<const uint8_t> b) {
+    std::string s;
+    char buf[4];
+    for (uint8_t v : b) {
+        std::snprintf(buf, sizeof buf, "%02x", v);
+        s += buf;
+    }
+    return s;
+}
+
+TEST(Messages, EveryTypeRoundTrips) {
+    std::vector<bool> seen(kMaxMessageType + 1, false);
+    for (const Message& m : testing::sampleMessages()) {
+        auto bytes = encode(m);
+        auto back = decodeMessage(bytes);
+        ASSERT_TRUE(back.ok()) << "type " << static_cast<int>(typeOf(m)) << ": "
+                               << back.error().message;
+        EXPECT_EQ(*back, m) << "type " << static_cast<int>(typeOf(m));
+        seen[static_cast<size_t>(typeOf(m))] = true;
+    }
+    for (uint16_t t = 1; t <= kMaxMessageType; ++t) EXPECT_TRUE(seen[t]) << "no sample of type " << t;
+}
+
+TEST(Messages, TruncationAtEveryByteIsAnErrorNotACrash) {
+    for (const Message& m : testing::sampleMessages()) {
+        auto bytes = encode(m);
+        const auto payload = std::span<const uint8_t>(bytes).subspan(kHeaderBytes);
+        for (size_t n = 0; n < bytes.size(); ++n) {
+            auto r = decodeMessage(std::span<const uint8_t>(bytes).first(n));
+            ASSERT_FALSE(r.ok()) << "type " << static_cast<int>(typeOf(m)) << " cut at " << n;
+            EXPECT_EQ(r.error().code, ErrorCode::Truncated);
+        }
+        // The payload alone, cut short, against its own type: never accepted.
+        for (size_t n = 0; n < payload.size(); ++n)
+            ASSERT_FALSE(decodePayload(typeOf(m), payload.first(n)).ok())
+                << "type " << static_cast<int>(typeOf(m)) << " payload cut at " << n;
+    }
+}
+
+TEST(Messages, HelloGoldenBytes) {
+    auto bytes = encode(Hello{1, "tok", 8, "c1"});
+    EXPECT_EQ(hex(bytes),
+              "5254504d"   // magic 'RTPM'
+              "0100"       // version 1
+              "0100"       // type Hello
+              "00000000"   // flags
+              "13000000"   // payload 19 bytes
+              "0100"       // protocolVersion 1
+              "03000000746f6b"  // "tok"
+              "08000000"   // cores 8
+              "020000006331");  // "c1"
+}
+
+TEST(Messages, FrameBeginGoldenBytes) {
+    FrameBegin fb{5, 2, 3, {{1, 2, 3}, {0, 0, -1}, {0, 1, 0}, 0.5f}, FrameMode::Accumulate, {0, 7}};
+    EXPECT_EQ(hex(encode(fb)),
+              "5254504d01000600" "00000000" "45000000"  // header, type 6, payload 69 bytes
+              "0500000000000000"                        // frame 5
+              "02000000" "03000000"                     // epoch 2, sceneVersion 3
+              "0000803f" "00000040" "00004040"          // position (1, 2, 3)
+              "00000000" "00000000" "000080bf"          // forward (0, 0, -1)
+              "00000000" "0000803f" "00000000"          // up (0, 1, 0)
+              "0000003f"                                // yfov 0.5
+              "01"                                      // mode Accumulate
+              "02000000" "00000000" "07000000");        // sets [0, 7]
+}
+
+TEST(Messages, FrameDataClaimingTwoBillionPixelsInTenBytesIsRejected) {
+    Writer w;
+    w.u64(1);        // frame
+    w.u32(0);        // set
+    w.u8(static_cast<uint8_t>(PixelEncoding::Rgb9e5));
+    w.u32(1u << 31); // pixel count
+    w.u32(10);       // payload bytes
+    for (int i = 0; i < 10; ++i) w.u8(0);
+    auto r = decodePayload(MessageType::FrameData, w.data());
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::LengthTooLarge);
+
+    // The byte array's own length may not exceed what is there either.
+    Writer v;
+    v.u64(1);
+    v.u32(0);
+    v.u8(static_cast<uint8_t>(PixelEncoding::Float32));
+    v.u32(1);
+    v.u32(0x7FFFFFFFu);
+    for (int i = 0; i < 24; ++i) v.u8(0);
+    EXPECT_EQ(decodePayload(MessageType::FrameData, v.data()).error().code, ErrorCode::LengthTooLarge);
+}
+
+TEST(Messages, HostileSetCountIsRejectedBeforeAllocating) {
+    Writer w;
+    w.u32(1);           // client id
+    w.u32(0xFFFFFFFFu); // sets
+    EXPECT_EQ(decodePayload(MessageType::Welcome, w.data()).error().code, ErrorCode::LengthTooLarge);
+    Writer e;
+    e.u32(1);
+    e.u8(0);
+    e.str("ring");
+    e.u32(0);
+    e.u32(60000);  // edits: 60000 claimed, none present
+    EXPECT_EQ(decodePayload(MessageType::Scene, e.data()).error().code, ErrorCode::LengthTooLarge);
+}
+
+TEST(Messages, FieldValidationRejectsBadValues) {
+    auto reject = [](const Message& m, ErrorCode code) {
+        auto r = decodeMessage(encode(m));
+        ASSERT_FALSE(r.ok()) << "type " << static_cast<int>(typeOf(m));
+        EXPECT_EQ(r.error().code, code) << r.error().message;
+    };
+    CameraState nanCam;
+    nanCam.position.x = std::numeric_limits<float>::quiet_NaN();
+    reject(FrameBegin{1, 0, 0, nanCam, FrameMode::Interaction, {}}, ErrorCode::NonFinite);
+    CameraState wideCam;
+    wideCam.yfov = 3.5f;
+    reject(FrameBegin{1, 0, 0, wideCam, FrameMode::Interaction, {}}, ErrorCode::BadValue);
+    reject(FrameBegin{1, 0, 0, {}, static_cast<FrameMode>(3), {}}, ErrorCode::BadEnum);
+    reject(Welcome{1, {4, 4}}, ErrorCode::BadValue);
+    reject(Welcome{1, {kMaxSets}}, ErrorCode::BadValue);
+    reject(Hello{1, std::string(kMaxTokenBytes + 1, 'x'), 1, ""}, ErrorCode::LengthTooLarge);
+    reject(Hello{1, "t", 0, ""}, ErrorCode::BadValue);
+    reject(Reject{static_cast<RejectReason>(0), ""}, ErrorCode::BadEnum);
+    reject(Bye{static_cast<ByeReason>(99), ""}, ErrorCode::BadEnum);
+    Settings s;
+    s.m = 0;
+    reject(s, ErrorCode::BadValue);
+    s = Settings{};
+    s.rMax = -1.0f;
+    reject(s, ErrorCode::BadValue);
+    s = Settings{};
+    s.encoding = static_cast<PixelEncoding>(9);
+    reject(s, ErrorCode::BadEnum);
+    reject(Scene{1, Scene::Source::Builtin, "", {}, {}}, ErrorCode::BadValue);
+    reject(Scene{1, Scene::Source::Gltf, "ring", {1}, {}}, ErrorCode::BadValue);
+    reject(Edit{1, MaterialEdit{0, MaterialKind::Diffuse, {2, 0, 0}, 1.5f, {}, {}}}, ErrorCode::BadValue);
+    reject(Edit{1, LightEdit{0, {}, {0, 0, 0}, {1, 1, 1}}}, ErrorCode::BadValue);
+    reject(Stats{1, -1.0f, 0, 0, 0, 0, 0, 0, 1}, ErrorCode::BadValue);
+    reject(FrameData{1, 0, PixelEncoding::Float32, 2, std::vector<uint8_t>(47)}, ErrorCode::LengthTooLarge);
+    reject(FrameData{1, kMaxSets, PixelEncoding::Rgb8, 0, {}}, ErrorCode::BadValue);
+}
+
+TEST(Messages, TrailingPayloadBytesAreRejected) {
+    auto bytes = encode(Bye{ByeReason::Normal, "x"});
+    bytes.push_back(0);
+    // Fix the header's length so only the payload is too long for its message.
+    bytes[12] = static_cast<uint8_t>(bytes.size() - kHeaderBytes);
+    EXPECT_EQ(decodeMessage(bytes).error().code, ErrorCode::TrailingBytes);
+}
+
+TEST(Messages, TryEncodeRefusesOversizePayloads) {
+    // A 5000-byte token is over Hello's 4 KiB payload limit (and its own 256-byte field limit).
+    auto r = tryEncode(Hello{1, std::string(5000, 't'), 1, "c"});
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::PayloadTooLarge);
+}
+
+TEST(FrameSplitter, YieldsEveryMessageUnderArbitraryChunking) {
+    const auto samples = testing::sampleMessages();
+    std::vector<uint8_t> stream;
+    for (const Message& m : samples) {
+        auto b = encode(m);
+        stream.insert(stream.end(), b.begin(), b.end());
+    }
+    std::mt19937 rng(5);
+    for (int trial = 0; trial < 50; ++trial) {
+        FrameSplitter splitter;
+        std::vector<Message> got;
+        size_t pos = 0;
+        while (pos < stream.size()) {
+            size_t n = std::min<size_t>(stream.size() - pos, 1 + rng() % (trial < 10 ? 3 : 200));
+            splitter.feed(std::span<const uint8_t>(stream).subspan(pos, n));
+            pos += n;
+            for (;;) {
+                auto r = splitter.next();
+                ASSERT_TRUE(r.ok()) << r.error().message;
+                if (!r->has_value()) break;
+                got.push_back(std::move(**r));
+            }
+        }
+        ASSERT_EQ(got, samples);
+        EXPECT_EQ(splitter.buffered(), 0u);
+    }
+}
+
+TEST(FrameSplitter, FailsOnAnOversizeHeaderWithoutWaitingForThePayload) {
+    Writer w;
+    encodeHeader(Header{kMagic, kProtocolVersion, MessageType::Hello, 0, 1u << 30}, w);
+    FrameSplitter splitter;
+    splitter.feed(w.data());
+    auto r = splitter.next();
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::PayloadTooLarge);
+    // Sticky: valid bytes afterwards do not revive the stream.
+    auto hello = encode(Hello{});
+    splitter.feed(hello);
+    EXPECT_FALSE(splitter.next().ok());
+    EXPECT_TRUE(splitter.failed());
+}
+
+TEST(FrameSplitter, GarbageStreamFailsWithBadMagic) {
+    FrameSplitter splitter;
+    const std::vector<uint8_t> junk = {'G', 'E', 'T', ' ', '/', ' ', 'H', 'T', 'T', 'P',
+                                       '/', '1', '.', '1', '\r', '\n'};
+    splitter.feed(junk);
+    EXPECT_EQ(splitter.next().error().code, ErrorCode::BadMagic);
+}
+
+TEST(FrameSplitter, InvalidPayloadIsFatal) {
+    auto bytes = encode(Welcome{1, {3}});
+    bytes.back() = 0xFF;  // set 0xFF000003 is out of range
+    FrameSplitter splitter;
+    splitter.feed(bytes);
+    auto r = splitter.next();
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::BadValue);
+}
+
+}  // namespace
+}  // namespace rtpm::proto
