@@ -45,3 +45,20 @@ std::vector<std::string> builtinSceneNames();
 Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides = {});
 
 }  // namespace rtpm
+
+namespace rtpm {
+
+/// Area-weighted smooth vertex normals: every triangle adds its unnormalised geometric normal
+/// (so its area) to its three vertices; vertices touched by no non-degenerate triangle get +Z.
+/// Used by every loader and builder. Cost O(vertices + indices). Precondition: indices valid.
+std::vector<Vec3> smoothVertexNormals(const std::vector<Vec3>& positions,
+                                      const std::vector<uint32_t>& indices);
+
+/// Decodes an encoded image (PNG, JPEG, … any format OpenImageIO reads) holding sRGB colour to
+/// a linear RGB Texture (grey replicated, alpha dropped). `formatHint` is a file name or
+/// extension that picks the reader when the bytes have no recognised signature.
+/// Throws SceneError{file, element, …} for undecodable or absurdly large (> 2^26 texels) images.
+Texture decodeSrgbTexture(const std::vector<uint8_t>& encoded, const std::string& formatHint,
+                          const std::string& file, const std::string& element);
+
+}  // namespace rtpm
