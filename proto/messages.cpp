@@ -320,7 +320,8 @@ void get(Reader& r, Settings& m) {
     inRange(r, m.maxDepth, 0, kMaxDepthLimit, "settings.maxDepth");
     inRange(r, m.diffuseBounces, 0, kMaxDiffuseBounces, "settings.diffuseBounces");
     inRange(r, m.capPhotonsPerSet, 0, kMaxCapPhotonsPerSet, "settings.capPhotonsPerSet");
-    if (r.ok() && !(m.rMax > 0.0f)) r.fail(ErrorCode::BadValue, "settings.rMax not > 0");
+    // 0 means "automatic" (PhotonSettings::rMax = 0: a fraction of the scene diagonal).
+    if (r.ok() && !(m.rMax >= 0.0f)) r.fail(ErrorCode::BadValue, "settings.rMax not >= 0");
 }
 void get(Reader& r, FrameBegin& m) {
     r.u64(m.frame);

@@ -132,7 +132,7 @@ struct Settings {
     uint32_t f = 4;               ///< server's box filter width, in [1, kMaxFilterWidth]
     uint32_t photonsPerSetPerFrame = 1000;  ///< P
     uint32_t k = 50;              ///< photons per density estimate, in [1, kMaxK]
-    float rMax = 0.1f;            ///< max search radius, metres, finite > 0
+    float rMax = 0.1f;            ///< max search radius, metres, finite ≥ 0 (0 = automatic)
     uint32_t maxDepth = 16;       ///< specular bounces, ≤ kMaxDepthLimit
     uint32_t diffuseBounces = 1;  ///< photon diffuse bounces before storing, ≤ kMaxDiffuseBounces
     uint32_t capPhotonsPerSet = 100000;  ///< stop shooting when a set's map holds this many
