@@ -35,12 +35,13 @@ struct PhotonSettings {
     /// SPT: target number of cells N_g per light and batch; 0 → a quarter of that light's share
     /// of photonsPerBatch. The real N_g is the largest product Π b_d^{k_d} not above the target.
     uint32_t sptCells = 0;
-    /// SPT: refinements R per refined cell; 0 → chosen per batch from the pilots so that
-    /// pilots + R · (refined cells) ≈ the light's share, capped at kMaxSptRefinements.
+    /// SPT: refinements R per box of the refine set; 0 → chosen per batch so that
+    /// pilots + R · (boxes refined) ≈ the light's share, capped at kMaxSptRefinements.
     uint32_t sptRefinements = 0;
-    /// SPT: also refine the face neighbours (in Halton box space) of productive cells, so cells
-    /// that are only partly productive are refined even when their own pilot missed — this is
-    /// what keeps the caustic's borders (and its total power) unbiased, see photon_map.cpp.
+    /// SPT: the refine set also holds the face neighbours (in Halton box space) of boxes that
+    /// were productive in the previous batch, so a caustic's extent is found in a few batches.
+    /// Correctness does not depend on it (photon_map.cpp: the estimate is unbiased for any
+    /// refine set chosen before the batch); it trades yield for faster discovery.
     bool sptDilate = true;
 };
 
@@ -52,13 +53,13 @@ inline constexpr uint32_t kMaxSptRefinements = 64;
 /// Figures of one interleaving set's photon map since the last reset.
 struct PhotonSetStats {
     uint32_t batches = 0;          ///< batches shot (the accumulation count)
-    uint64_t pathsTraced = 0;      ///< light paths traced, pilots and refinements included
+    uint64_t pathsTraced = 0;      ///< light paths traced: pilots, refinements, classification
     uint64_t productivePaths = 0;  ///< paths that stored ≥ 1 caustic photon
     uint64_t photonsStored = 0;    ///< photons in the kd-tree
     uint64_t raysCast = 0;         ///< closest-hit queries issued while shooting
     uint64_t anomalies = 0;        ///< paths dropped for a non-finite power or direction
     uint64_t sptCells = 0;         ///< Σ over lights of N_g in the last batch (0 without SPT)
-    uint64_t sptRefinedCells = 0;  ///< cells refined in the last batch
+    uint64_t sptRefinedCells = 0;  ///< boxes refined in the last batch (Σ over lights)
     uint32_t sptRefinements = 0;   ///< R of the last batch (largest over lights)
     /// Seconds, summed over batches. `trace*` split the tracing time as in paper Table 3
     /// (light sampling / ray casting / surface interaction); estimated from timed sample paths

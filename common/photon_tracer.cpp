@@ -459,7 +459,7 @@ void tracePhotons(const EmbreeScene& scene, const PhotonSource& source, const Tr
     const size_t chunks = (n + kChunk - 1) / kChunk;
     struct ChunkResult {
         std::vector<TracedPhoton> photons;
-        std::vector<uint8_t> productive;
+        std::vector<uint32_t> storedPerPath;
         TraceStats stats;          // counters of every path
         TraceStats timedStats;     // phase times of the timed sample paths
         double timedTotal = 0.0;   // their total time
@@ -471,7 +471,7 @@ void tracePhotons(const EmbreeScene& scene, const PhotonSource& source, const Tr
             ChunkResult& res = results[c];
             const size_t lo = c * kChunk;
             const size_t hi = std::min(n, lo + kChunk);
-            res.productive.resize(hi - lo);
+            res.storedPerPath.resize(hi - lo);
             for (size_t j = lo; j < hi; ++j) {
                 const uint64_t index = indices[j];
                 const bool timed = index % kTimedPathStride == 0;
@@ -488,7 +488,7 @@ void tracePhotons(const EmbreeScene& scene, const PhotonSource& source, const Tr
                 } else {
                     stored = tracePhotonPath(scene, source, ts, index, res.photons, res.stats, false);
                 }
-                res.productive[j - lo] = stored > 0 ? 1 : 0;
+                res.storedPerPath[j - lo] = stored > 0 ? static_cast<uint32_t>(stored) : 0;
             }
         }
     });
@@ -500,10 +500,10 @@ void tracePhotons(const EmbreeScene& scene, const PhotonSource& source, const Tr
     size_t photonCount = out.photons.size();
     for (const ChunkResult& res : results) photonCount += res.photons.size();
     out.photons.reserve(photonCount);
-    out.productive.reserve(out.productive.size() + n);
+    out.storedPerPath.reserve(out.storedPerPath.size() + n);
     for (ChunkResult& res : results) {
         out.photons.insert(out.photons.end(), res.photons.begin(), res.photons.end());
-        out.productive.insert(out.productive.end(), res.productive.begin(), res.productive.end());
+        out.storedPerPath.insert(out.storedPerPath.end(), res.storedPerPath.begin(), res.storedPerPath.end());
         total.add(res.stats);
         timed.add(res.timedStats);
         timedTotal += res.timedTotal;

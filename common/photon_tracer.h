@@ -125,11 +125,11 @@ struct PhotonSource {
     DimLayout dims;
 };
 
-/// Output of tracePhotons: photons in index order (path by path), and for each traced index
-/// whether its path stored at least one photon.
+/// Output of tracePhotons: photons in index order (path by path), and for each traced index the
+/// number of photons its path stored (so path j's photons follow those of paths 0 … j−1).
 struct TraceOutput {
     std::vector<TracedPhoton> photons;
-    std::vector<uint8_t> productive;
+    std::vector<uint32_t> storedPerPath;
     TraceStats stats;
 };
 

@@ -348,7 +348,7 @@ TEST(PhotonTracer, ResultDoesNotDependOnThreadCount) {
         EXPECT_EQ(many.out.photons[i].position, one.out.photons[i].position);
         EXPECT_EQ(many.out.photons[i].power, one.out.photons[i].power);
     }
-    EXPECT_EQ(many.out.productive, one.out.productive);
+    EXPECT_EQ(many.out.storedPerPath, one.out.storedPerPath);
 }
 
 TEST(PhotonTracer, SplitBudgetIsProportionalAndExact) {
