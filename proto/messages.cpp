@@ -96,6 +96,9 @@ void putPayload(Writer& w, const Settings& m) {
     w.u8(m.spt ? 1 : 0);
     w.u8(static_cast<uint8_t>(m.tree));
     w.u8(static_cast<uint8_t>(m.encoding));
+    w.u64(m.seed);
+    w.u32(m.photonMaxDepth);
+    w.u32(m.areaLightSamples);
 }
 void putPayload(Writer& w, const FrameBegin& m) {
     w.u64(m.frame);
@@ -311,6 +314,11 @@ void get(Reader& r, Settings& m) {
     getBool(r, m.spt, "settings.spt");
     getEnum8(r, m.tree, kMaxTreeVariant, "settings.tree");
     getEnum8(r, m.encoding, kMaxPixelEncoding, "settings.encoding");
+    r.u64(m.seed);
+    r.u32(m.photonMaxDepth);
+    r.u32(m.areaLightSamples);
+    inRange(r, m.photonMaxDepth, 0, kMaxDepthLimit, "settings.photonMaxDepth");
+    inRange(r, m.areaLightSamples, 1, kMaxAreaLightSamples, "settings.areaLightSamples");
     inRange(r, m.width, 1, kMaxImageSide, "settings.width");
     inRange(r, m.height, 1, kMaxImageSide, "settings.height");
     inRange(r, m.m, 1, kMaxInterleave, "settings.m");

@@ -26,6 +26,7 @@ inline constexpr uint32_t kMaxK = 4096;              ///< Settings.k
 inline constexpr uint32_t kMaxDepthLimit = 1024;     ///< Settings.maxDepth
 inline constexpr uint32_t kMaxDiffuseBounces = 16;   ///< Settings.diffuseBounces
 inline constexpr uint32_t kMaxEditsPerScene = 65536; ///< Scene.edits
+inline constexpr uint32_t kMaxAreaLightSamples = 1024; ///< Settings.areaLightSamples
 
 /// Three floats; the protocol's own vector type (proto/ does not depend on GLM).
 struct Vec3f {
@@ -139,6 +140,10 @@ struct Settings {
     bool spt = true;              ///< Selective Photon Tracing on
     TreeVariant tree = TreeVariant::MiddleSplitKdTree;
     PixelEncoding encoding = PixelEncoding::Rgb9e5Zstd;  ///< what clients send FrameData in
+    // Appended so a cluster reproduces rtpm-render's --seed / --photon-depth / --area-samples.
+    uint64_t seed = 0x72'74'70'6d;   ///< PhotonSettings::seed (Halton rotations, hashed randoms)
+    uint32_t photonMaxDepth = 16;    ///< PhotonSettings::maxDepth: ray segments per photon path, ≤ kMaxDepthLimit
+    uint32_t areaLightSamples = 4;   ///< EyeSettings::areaLightSamples, in [1, kMaxAreaLightSamples]
     bool operator==(const Settings&) const = default;
 };
 

@@ -178,6 +178,9 @@ Status checkPixelPayloadSize(PixelEncoding encoding, uint64_t pixelCount, size_t
                      "pixel encoding " + std::to_string(static_cast<int>(encoding))};
     }
     if (encoding == PixelEncoding::Rgb9e5Zstd) {
+        // No pixels, no frame: an empty payload is the only canonical form.
+        if (pixelCount == 0 && payloadBytes != 0)
+            return Error{ErrorCode::LengthTooLarge, "0 pixels with a non-empty zstd payload"};
         const uint64_t minBytes = pixelCount * 4 + (pixelCount ? kMinZstdFrame : 0);
         if (payloadBytes < minBytes)
             return Error{ErrorCode::LengthTooLarge,

@@ -153,6 +153,16 @@ TEST(Messages, FieldValidationRejectsBadValues) {
     reject(FrameData{1, kMaxSets, PixelEncoding::Rgb8, 0, {}}, ErrorCode::BadValue);
 }
 
+TEST(Messages, FixedSizePayloadsHaveTheDocumentedSizes) {
+    // PROTOCOL.md §5.5 and §5.9 state these sizes.
+    EXPECT_EQ(encode(Settings{}).size(), kHeaderBytes + 59);
+    EXPECT_EQ(encode(Stats{}).size(), kHeaderBytes + 52);
+    EXPECT_EQ(encode(Edit{1, CameraEdit{}}).size(), kHeaderBytes + 4 + 41);
+    EXPECT_EQ(encode(Edit{1, LightEdit{}}).size(), kHeaderBytes + 4 + 41);
+    EXPECT_EQ(encode(Edit{1, MaterialEdit{}}).size(), kHeaderBytes + 4 + 46);
+    EXPECT_EQ(encode(Edit{1, TransformEdit{}}).size(), kHeaderBytes + 4 + 69);
+}
+
 TEST(Messages, TrailingPayloadBytesAreRejected) {
     auto bytes = encode(Bye{ByeReason::Normal, "x"});
     bytes.push_back(0);

@@ -145,6 +145,8 @@ TEST(PixelCodec, SizeMismatchesAndCorruptFramesAreErrors) {
     EXPECT_FALSE(decodePixels(z.encoding, flipped, back).ok());  // the frame carries a checksum
     EXPECT_FALSE(checkPixelPayloadSize(PixelEncoding::Rgb9e5Zstd, 1u << 31, 10).ok());
     EXPECT_FALSE(checkPixelPayloadSize(static_cast<PixelEncoding>(7), 0, 0).ok());
+    EXPECT_FALSE(checkPixelPayloadSize(PixelEncoding::Rgb9e5Zstd, 0, 5).ok());
+    EXPECT_TRUE(checkPixelPayloadSize(PixelEncoding::Rgb9e5Zstd, 0, 0).ok());
 }
 
 }  // namespace
