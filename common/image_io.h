@@ -1,0 +1,67 @@
+// Image output and input: multi-layer linear EXR (DESIGN §6 channel names) and tone-mapped PNG.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace rtpm {
+
+class FrameImage;
+
+/// One RGB layer to write: `name` "" gives channels R G B, otherwise name.R name.G name.B.
+/// `rgb` holds width·height·3 linear floats, row-major from the top-left pixel.
+struct ImageLayer {
+    std::string name;
+    std::span<const float> rgb;
+};
+
+/// Writes a multi-layer OpenEXR file (zip compression, float32 or half). Non-finite values are
+/// written as 0. Throws std::runtime_error naming the file on any I/O error, or
+/// std::invalid_argument if a layer's size is not width·height·3 or two layers share a name.
+void writeExr(const std::string& path, int width, int height, std::span<const ImageLayer> layers,
+              bool half = false);
+
+/// Writes a frame with the DESIGN §6 channels: R G B (final), direct.*, caustic.*,
+/// caustic_filtered.* (the buffers of `frame`, which must have been composed).
+void writeExr(const std::string& path, const FrameImage& frame, bool half = false);
+
+/// A decoded image: every channel as its own plane of width·height floats, keyed by name.
+struct ExrImage {
+    int width = 0;
+    int height = 0;
+    std::vector<std::string> channelNames;  ///< in the file's order
+    std::map<std::string, std::vector<float>> channels;
+
+    /// Interleaved RGB of layer `name` ("" = R G B). Throws std::out_of_range if a channel is missing.
+    std::vector<float> layerRgb(const std::string& name) const;
+};
+
+/// Reads any image OpenImageIO understands (EXR, PNG, HDR, …) as float channels.
+/// Throws std::runtime_error naming the file if it cannot be opened or decoded.
+ExrImage readExr(const std::string& path);
+
+/// Tone mapping for PNG output. The operator: scale every channel by 2^exposureStops (or, when
+/// unset, by 1 / (99th-percentile luminance of the image), so the brightest 1% of pixels clip and
+/// a lone hot pixel cannot darken the frame), clamp to [0, 1], apply the sRGB transfer curve
+/// (IEC 61966-2-1) and quantise to 8 bits with rounding. Non-finite values become black.
+struct ToneMap {
+    std::optional<float> exposureStops;
+};
+
+/// Writes an 8-bit sRGB PNG of linear RGB `rgb` (width·height·3, row-major from the top).
+/// Returns the linear scale factor that was applied (useful to keep a sequence's exposure fixed).
+/// Throws std::runtime_error naming the file on I/O errors, std::invalid_argument on a bad size.
+float writePng(const std::string& path, int width, int height, std::span<const float> rgb,
+               const ToneMap& toneMap = {});
+
+/// The scale writePng's automatic exposure picks: 1 / (99th-percentile Rec.709 luminance), or 1
+/// when that percentile is zero or not finite. Cost O(W·H) (nth_element).
+float autoExposureScale(std::span<const float> rgb);
+
+/// sRGB transfer curve (linear [0, 1] → encoded [0, 1]).
+float linearToSrgb(float v);
+
+}  // namespace rtpm
