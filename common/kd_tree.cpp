@@ -162,16 +162,26 @@ void KdTree::insert(std::span<const Photon> photons) {
 
     // 3. Split the leaves that overflowed (same rule as a bulk build).
     if (overfull) splitOverfullLeaves();
+    // The routing scratch is batch-sized; freeing it keeps memoryBytes() at the stored map.
+    batchScratch_ = {};
+    leafOfScratch_ = {};
+    leafCountScratch_ = {};
 }
 
 void KdTree::splitOverfullLeaves() {
     // Re-emit the node array depth first, splitting overfull leaves in place; photon ranges of
     // untouched leaves stay where they are. O(nodes) plus the partitions of the split leaves.
     nodeScratch_.clear();
-    nodeScratch_.reserve(nodes_.size() + nodes_.size() / 4 + 16);
+    // A split leaf of c photons adds about 4c/B nodes (empty siblings included).
+    nodeScratch_.reserve(nodes_.size() + 4 * photons_.size() / leafSize_ / 8 + 16);
     std::swap(nodes_, nodeScratch_);  // nodes_ is the output now, nodeScratch_ the old tree
     relink(0, root_, 0);
     RTPM_CHECK(nodes_.size() <= KdNode::kMaxPayload);
+    // Nodes are a few bytes per photon: return the old array and the growth slack rather than
+    // hold them between batches (re-allocating ~3 B/photon per batch costs far less than a copy
+    // of the photons).
+    nodeScratch_ = {};
+    if (nodes_.capacity() > nodes_.size() + nodes_.size() / 8) nodes_.shrink_to_fit();
 }
 
 void KdTree::relink(uint32_t oldNode, Bounds cell, uint32_t depth) {

@@ -163,7 +163,7 @@ public:
     size_t nodeCount() const { return nodes_.size(); }
     /// Deepest leaf (0 for a single leaf). O(nodes).
     uint32_t depth() const;
-    /// Heap bytes held (photon and node arrays plus insertion scratch, by capacity).
+    /// Heap bytes held (photon and node arrays by capacity; no scratch survives a build/insert).
     size_t memoryBytes() const;
 
     /// The k nearest photons strictly closer than sqrt(maxDist2) (m², may be +inf) into `heap`
@@ -198,7 +198,7 @@ private:
     uint64_t rejected_ = 0;
     std::vector<detail::KdNode> nodes_;
     std::vector<Photon> photons_;
-    // Insertion scratch, kept to avoid per-batch allocation.
+    // Insertion scratch, released after each batch (see kd_tree.cpp).
     std::vector<detail::KdNode> nodeScratch_;
     std::vector<Photon> batchScratch_;
     std::vector<uint32_t> leafOfScratch_;

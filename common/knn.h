@@ -56,9 +56,13 @@ public:
     void add(float dist2, uint32_t index) {
         if (!(dist2 < worst_)) return;
         if (entries_.size() < k_) {
+            // Filling: append unordered; order the heap once when the k-th hit arrives. Until
+            // then the bound stays maxDist2, so no hit is compared against the heap top.
             entries_.push_back({dist2, index});
-            std::push_heap(entries_.begin(), entries_.end(), farther);
-            if (entries_.size() == k_) worst_ = entries_.front().dist2;
+            if (entries_.size() == k_) {
+                std::make_heap(entries_.begin(), entries_.end(), farther);
+                worst_ = entries_.front().dist2;
+            }
             return;
         }
         // Full: the new hit replaces the farthest (the root) and sifts down; one pass, no swap.
@@ -82,10 +86,17 @@ public:
     bool full() const { return entries_.size() == k_; }
     uint32_t k() const { return k_; }
     float maxDist2() const { return maxDist2_; }
-    /// Largest dist2 held (the k-th nearest when full); 0 when empty.
-    float farthestDist2() const { return entries_.empty() ? 0.0f : entries_.front().dist2; }
+    /// Largest dist2 held (the k-th nearest when full); 0 when empty. O(1) when full, O(size)
+    /// while filling (the entries are only heap-ordered once k arrived).
+    float farthestDist2() const {
+        if (entries_.empty()) return 0.0f;
+        if (full()) return entries_.front().dist2;
+        float m = 0.0f;
+        for (const KnnEntry& e : entries_) m = std::max(m, e.dist2);
+        return m;
+    }
 
-    /// The hits in heap order (unsorted). Valid until the next reset/add.
+    /// The hits, unsorted. Valid until the next reset/add.
     std::span<const KnnEntry> entries() const { return entries_; }
     /// Sorts the hits nearest first (destroys the heap property; call reset before reuse).
     void sortNearestFirst() {

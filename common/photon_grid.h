@@ -17,7 +17,8 @@ namespace rtpm {
 /// Uniform grid of cubic cells over the photons' bounding box. Photons are sorted into cell order
 /// (x-major, z fastest) and the grid is a table of 4-byte first-photon indices (cell c holds
 /// photons [first[c], first[c+1])), as in the paper. A query visits the cells overlapping the
-/// search sphere, row by row, skipping rows and cells farther than the current k-th distance.
+/// search sphere, x and y centre-out, skipping rows and cells farther than the current k-th
+/// distance (the paper visits every cell within the maximum radius).
 /// Unlike the paper's grid, nothing stops it from being used with maxDist2 = +inf (it then
 /// visits every non-pruned cell). Same query API as KdTree; for benchmarks and tests.
 /// Thread safety: const members may run concurrently; build/clear need exclusive access.
@@ -70,11 +71,27 @@ public:
             const float d = std::max({0.0f, c0 - q[a], q[a] - (c0 + cellSize_)});
             return d * d;
         };
+        // Visit rows centre-out (the cell of q first, then alternating ±1, ±2, …) so the heap
+        // fills with near photons early and the k-th distance prunes the outer cells.
+        const auto centre = [&](int a) {
+            const float rel = (q[a] - bounds_.lo[a]) * invCell_;
+            return rel <= static_cast<float>(lo[a]) ? lo[a]
+                   : rel >= static_cast<float>(hi[a]) ? hi[a] : static_cast<int>(rel);
+        };
+        const auto nth = [](int c, int l, int h, int step) {  // step-th index of a centre-out walk
+            int below = c - l, above = h - c;
+            const int both = std::min(below, above);
+            if (step <= 2 * both) return (step & 1) ? c + (step + 1) / 2 : c - step / 2;
+            return above > below ? c + (step - both) : c - (step - both);
+        };
+        const int cx = centre(0), cy = centre(1);
         const Photon* photons = photons_.data();
-        for (int ix = lo[0]; ix <= hi[0]; ++ix) {
+        for (int sx = 0; sx <= hi[0] - lo[0]; ++sx) {
+            const int ix = nth(cx, lo[0], hi[0], sx);
             const float dx2 = axisDist2(0, ix);
             if (!(dx2 < result.worstDist2())) continue;
-            for (int iy = lo[1]; iy <= hi[1]; ++iy) {
+            for (int sy = 0; sy <= hi[1] - lo[1]; ++sy) {
+                const int iy = nth(cy, lo[1], hi[1], sy);
                 const float dxy2 = dx2 + axisDist2(1, iy);
                 float worst = result.worstDist2();
                 if (!(dxy2 < worst)) continue;
