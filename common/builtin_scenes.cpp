@@ -63,7 +63,8 @@ void addLatheBand(Mesh& mesh, const std::vector<Vec2>& pts, int segments) {
 // Points along a straight profile segment from a to b (inclusive), n intervals.
 std::vector<Vec2> line(Vec2 a, Vec2 b, int n) {
     std::vector<Vec2> p;
-    for (int i = 0; i <= n; ++i) p.push_back(glm::mix(a, b, float(i) / float(n)));
+    for (int i = 0; i < n; ++i) p.push_back(glm::mix(a, b, float(i) / float(n)));
+    p.push_back(b);  // exactly b: neighbouring bands must share their end points bit for bit
     return p;
 }
 
@@ -240,15 +241,19 @@ Scene buildGlassScene() {
     const float yc = 0.115f, R = 0.05f, Ri = 0.048f, yTop = 0.15f, rStem = 0.004f;
     const float aStem = -std::acos(rStem / R);
     const float aTopOut = std::asin((yTop - yc) / R), aTopIn = std::asin((yTop - yc) / Ri);
-    const Vec2 stemTop(rStem, yc + R * std::sin(aStem));
+    // Bands share their end points exactly (taken from the neighbouring band), so the
+    // surface stays watertight despite rounding in the trigonometry.
+    const std::vector<Vec2> outside = arc({0.0f, yc}, R, aStem, aTopOut, 40);
+    std::vector<Vec2> inside = arc({0.0f, yc}, Ri, aTopIn, -0.5f * kPi, 48);
+    inside.front().y = outside.back().y;  // flat lip
     Mesh glass;
     addLatheBand(glass, line({0.0f, 0.0f}, {0.04f, 0.0f}, 4), seg);
     addLatheBand(glass, line({0.04f, 0.0f}, {0.04f, 0.004f}, 1), seg);
     addLatheBand(glass, line({0.04f, 0.004f}, {rStem, 0.007f}, 6), seg);
-    addLatheBand(glass, line({rStem, 0.007f}, stemTop, 6), seg);
-    addLatheBand(glass, arc({0.0f, yc}, R, aStem, aTopOut, 40), seg);
-    addLatheBand(glass, line({R * std::cos(aTopOut), yTop}, {Ri * std::cos(aTopIn), yTop}, 1), seg);
-    addLatheBand(glass, arc({0.0f, yc}, Ri, aTopIn, -0.5f * kPi, 48), seg);
+    addLatheBand(glass, line({rStem, 0.007f}, outside.front(), 6), seg);
+    addLatheBand(glass, outside, seg);
+    addLatheBand(glass, line(outside.back(), inside.front(), 1), seg);
+    addLatheBand(glass, inside, seg);
     addMesh(s, std::move(glass), "cognac glass", glassMat);
 
     // Liquid up to y = 10 cm, 0.2 mm inside the bowl's inner wall: coincident glass/liquid
@@ -256,8 +261,9 @@ Scene buildGlassScene() {
     const float Rl = Ri - 0.0002f, yLevel = 0.10f;
     const float aLevel = std::asin((yLevel - yc) / Rl);
     Mesh liquid;
-    addLatheBand(liquid, arc({0.0f, yc}, Rl, -0.5f * kPi, aLevel, 24), seg);
-    addLatheBand(liquid, line({Rl * std::cos(aLevel), yLevel}, {0.0f, yLevel}, 6), seg);
+    const std::vector<Vec2> wetted = arc({0.0f, yc}, Rl, -0.5f * kPi, aLevel, 24);
+    addLatheBand(liquid, wetted, seg);
+    addLatheBand(liquid, line(wetted.back(), {0.0f, wetted.back().y}, 6), seg);
     addMesh(s, std::move(liquid), "cognac", cognac);
 
     Light l;
@@ -352,6 +358,7 @@ Scene buildHeadlightScene() {
     }
     Mesh cover;
     addLatheBand(cover, back, 256);
+    front.front().x = back.back().x;
     addLatheBand(cover, line(back.back(), front.front(), 1), 256);
     addLatheBand(cover, front, 256);
     transformMesh(cover, toZ);
