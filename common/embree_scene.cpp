@@ -243,6 +243,8 @@ void EmbreeScene::refreshDerived() {
 
 void EmbreeScene::refreshEmissive() { refreshDerived(); }
 
+RTCScene EmbreeScene::rtcScene() const { return impl_->top; }
+
 bool EmbreeScene::intersect(const Ray& ray, SurfaceHit& hit) const {
     const Impl& s = *impl_;
     RTCIntersectContext ctx;

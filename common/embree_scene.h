@@ -7,6 +7,9 @@
 
 #include "common/scene.h"
 
+// Embree's opaque scene handle (same declaration as embree3/rtcore_scene.h), for rtcScene().
+typedef struct RTCSceneTy* RTCScene;
+
 namespace rtpm {
 
 /// A ray in world space (metres). `dir` need not be unit; t is measured in units of |dir|.
@@ -69,6 +72,9 @@ public:
     const std::vector<EmissiveTriangle>& emissiveTriangles() const { return emissive_; }
     /// Scene-size epsilon used for offsets (metres).
     float epsilon() const { return epsilon_; }
+    /// The committed top-level Embree scene, for code that calls Embree directly (benchmarks
+    /// comparing against raw rtcIntersect1, packet tracing). Valid until the next edit.
+    RTCScene rtcScene() const;
 
 private:
     /// Recomputes bounds_, epsilon_ and emissive_ from the current meshes and transforms.
