@@ -163,9 +163,9 @@ void KdTree::insert(std::span<const Photon> photons) {
     // 3. Split the leaves that overflowed (same rule as a bulk build).
     if (overfull) splitOverfullLeaves();
     // The routing scratch is batch-sized; freeing it keeps memoryBytes() at the stored map.
-    batchScratch_ = {};
-    leafOfScratch_ = {};
-    leafCountScratch_ = {};
+    std::vector<Photon>().swap(batchScratch_);
+    std::vector<uint32_t>().swap(leafOfScratch_);
+    std::vector<uint32_t>().swap(leafCountScratch_);
 }
 
 void KdTree::splitOverfullLeaves() {
@@ -180,7 +180,7 @@ void KdTree::splitOverfullLeaves() {
     // Nodes are a few bytes per photon: return the old array and the growth slack rather than
     // hold them between batches (re-allocating ~3 B/photon per batch costs far less than a copy
     // of the photons).
-    nodeScratch_ = {};
+    std::vector<KdNode>().swap(nodeScratch_);  // (`= {}` would keep the capacity)
     if (nodes_.capacity() > nodes_.size() + nodes_.size() / 8) nodes_.shrink_to_fit();
 }
 
