@@ -1,8 +1,63 @@
-// rtpm-client entry point: parses flags and runs the client.
+// rtpm-client entry point: parses flags and runs one Worker session against the server.
+#include <CLI/CLI.hpp>
+
 #include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <unistd.h>
+
+#include "client/worker.h"
+#include "proto/messages.h"
 
 int main(int argc, char** argv) {
-    (void)argv;
-    std::printf("usage: rtpm-client [options]\n");
-    return argc > 1 ? 2 : 0;
+    using namespace rtpm::client;
+    WorkerOptions o;
+    std::string server;
+    char hostName[256] = {};
+    if (gethostname(hostName, sizeof hostName - 1) == 0) o.name = hostName;
+    o.name += "/" + std::to_string(getpid());
+
+    CLI::App app{"rtpm-client: render worker of the rtpm cluster. Connects to rtpm-server, renders the "
+                 "interleaving sets it is given on every core and streams their pixels back.\n"
+                 "Exit codes: 0 server said bye, 1 startup/connect failure, 2 refused by the server, "
+                 "3 server closed the connection, 4 protocol error."};
+    auto* serverOpt = app.add_option("--server", server, "server address host:port ([v6]:port for IPv6)");
+    auto* portFileOpt = app.add_option("--port-file", o.portFile,
+                                       "read the port from this file (rtpm-server --port-file); host from --host");
+    app.add_option("--host", o.host, "server host when --port-file gives the port")->capture_default_str();
+    app.add_option("--token", o.token, "shared secret (default: environment variable RTPM_TOKEN)");
+    app.add_option("--name", o.name, "client name shown in the server's logs")->capture_default_str();
+    app.add_option("--threads", o.threads, "render threads (0 = all cores)")->capture_default_str()->check(
+        CLI::NonNegativeNumber);
+    app.add_option("--connect-timeout", o.connectTimeoutSeconds,
+                   "seconds to keep retrying the connection (backoff 100 ms to 2 s)")
+        ->capture_default_str()
+        ->check(CLI::NonNegativeNumber);
+    app.add_flag("--verbose,-v", o.verbose, "print one line per rendered frame");
+    serverOpt->excludes(portFileOpt);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    }
+    if (serverOpt->count() == 0 && portFileOpt->count() == 0) {
+        std::fprintf(stderr, "rtpm-client: give --server host:port or --port-file FILE\n");
+        return kExitStartup;
+    }
+    if (serverOpt->count() && !parseHostPort(server, o.host, o.port)) {
+        std::fprintf(stderr, "rtpm-client: --server \"%s\" is not host:port with a port in 1..65535\n",
+                     server.c_str());
+        return kExitStartup;
+    }
+    if (o.token.empty())
+        if (const char* env = std::getenv("RTPM_TOKEN")) o.token = env;
+    if (o.token.empty())
+        std::fprintf(stderr, "rtpm-client: warning: no token (--token or RTPM_TOKEN); only a server started "
+                             "with --insecure-no-token accepts this client\n");
+    if (o.token.size() > rtpm::proto::kMaxTokenBytes) {
+        std::fprintf(stderr, "rtpm-client: the token is longer than %zu bytes\n", rtpm::proto::kMaxTokenBytes);
+        return kExitStartup;
+    }
+    if (o.name.size() > rtpm::proto::kMaxNameBytes) o.name.resize(rtpm::proto::kMaxNameBytes);
+    return Worker(o).run();
 }

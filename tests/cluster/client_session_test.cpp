@@ -1,0 +1,443 @@
+// rtpm-client as a real process against a scripted fake server: handshake, pipelined frames
+// equal to a local RenderJob, edits at epochs, validation of bad server data, exit codes.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <numeric>
+
+#include "client/frame_renderer.h"
+#include "client/worker.h"
+#include "cluster_util.h"
+#include "common/render_job.h"
+#include "common/scene_loader.h"
+
+namespace rtpm::test {
+namespace {
+
+using namespace std::chrono_literals;
+using client::kExitOk;
+using client::kExitProtocolError;
+using client::kExitRejected;
+using client::kExitServerGone;
+using client::kExitStartup;
+
+proto::Settings smallSettings() {
+    proto::Settings s;
+    s.width = 40;
+    s.height = 30;
+    s.m = 2;
+    s.f = 2;
+    s.photonsPerSetPerFrame = 400;
+    s.k = 20;
+    s.rMax = 0.0f;
+    s.maxDepth = 16;
+    s.diffuseBounces = 1;
+    s.capPhotonsPerSet = 2'000'000;
+    s.encoding = proto::PixelEncoding::Float32;
+    return s;
+}
+
+proto::CameraState ringCamera() {
+    const Camera c = *loadScene("RING").camera;
+    proto::CameraState w;
+    w.position = {c.position.x, c.position.y, c.position.z};
+    w.forward = {c.forward.x, c.forward.y, c.forward.z};
+    w.up = {c.up.x, c.up.y, c.up.z};
+    w.yfov = c.yfov;
+    return w;
+}
+
+proto::Scene ringScene() {
+    proto::Scene s;
+    s.sceneVersion = 1;
+    s.builtinName = "ring";
+    return s;
+}
+
+proto::FrameBegin frameBegin(uint64_t frame, uint32_t epoch, uint32_t version, std::vector<uint32_t> sets,
+                             proto::FrameMode mode) {
+    proto::FrameBegin fb;
+    fb.frame = frame;
+    fb.epoch = epoch;
+    fb.sceneVersion = version;
+    fb.camera = ringCamera();
+    fb.mode = mode;
+    fb.sets = std::move(sets);
+    return fb;
+}
+
+/// A fake master: listens, starts rtpm-client against itself, accepts its connection.
+struct FakeServer {
+    TempDir dir;
+    Listener listener;
+    std::unique_ptr<Child> client;
+    Socket peer;
+
+    void start(const std::string& token = "s3cret") {
+        client = std::make_unique<Child>(
+            std::vector<std::string>{binaryPath("client/rtpm-client"), "--server",
+                                     "127.0.0.1:" + std::to_string(listener.port()), "--token", token, "--threads",
+                                     "2", "--connect-timeout", "20", "--name", "fake-test"},
+            dir.file("client"));
+        peer = listener.accept(20s);
+        ASSERT_TRUE(peer.valid()) << client->logs();
+    }
+
+    template <class T>
+    T expect(std::chrono::milliseconds timeout = 30s) {
+        proto::Message m;
+        Socket::Got g = peer.receive(m, timeout);
+        if (g != Socket::Got::Message) {
+            ADD_FAILURE() << "expected a message, got " << int(g) << "\n" << client->logs();
+            return T{};
+        }
+        if (!std::holds_alternative<T>(m)) {
+            ADD_FAILURE() << "unexpected message type " << int(proto::typeOf(m)) << "\n" << client->logs();
+            return T{};
+        }
+        return std::get<T>(std::move(m));
+    }
+
+    /// Hello checked, Welcome sent.
+    void handshake(std::vector<uint32_t> sets) {
+        proto::Hello hello = expect<proto::Hello>();
+        EXPECT_EQ(hello.protocolVersion, proto::kProtocolVersion);
+        EXPECT_EQ(hello.authToken, "s3cret");
+        EXPECT_EQ(hello.cores, 2u);
+        EXPECT_EQ(hello.clientName, "fake-test");
+        ASSERT_TRUE(peer.send(proto::Welcome{3, std::move(sets)}));
+    }
+
+    ExitStatus exitStatus(std::chrono::milliseconds timeout = 20s) {
+        auto st = client->wait(timeout);
+        if (!st) {
+            ADD_FAILURE() << "client still running\n" << client->logs();
+            return {};
+        }
+        return *st;
+    }
+};
+
+std::vector<proto::PixelPair> decode(const proto::FrameData& d) {
+    std::vector<proto::PixelPair> px(d.pixelCount);
+    EXPECT_TRUE(proto::decodePixels(d.encoding, d.pixels, px).ok());
+    return px;
+}
+
+/// Bitwise equality of a FrameData payload with a RenderJob's pixels of that set.
+void expectSamePixels(const proto::FrameData& d, const std::vector<SetPixels>& ref) {
+    const SetPixels* sp = nullptr;
+    for (const SetPixels& s : ref)
+        if (uint32_t(s.set) == d.set) sp = &s;
+    ASSERT_NE(sp, nullptr);
+    std::vector<proto::PixelPair> px = decode(d);
+    ASSERT_EQ(px.size(), sp->pixels.size());
+    size_t differing = 0;
+    for (size_t i = 0; i < px.size(); ++i) {
+        const PixelRadiance& r = sp->pixels[i];
+        const float want[6] = {r.direct.x, r.direct.y, r.direct.z, r.caustic.x, r.caustic.y, r.caustic.z};
+        if (std::memcmp(want, px[i].direct, sizeof want) != 0) ++differing;
+    }
+    EXPECT_EQ(differing, 0u) << "set " << d.set << " frame " << d.frame;
+}
+
+TEST(ClientSession, PipelinedFramesAreBitIdenticalToRenderJobAndByeExitsZero) {
+    FakeServer fs;
+    fs.start();
+    fs.handshake({0, 1, 2, 3});
+    const proto::Settings settings = smallSettings();
+    ASSERT_TRUE(fs.peer.send(settings));
+    ASSERT_TRUE(fs.peer.send(ringScene()));
+    // Both frames go out before any reply: the client must queue the second while rendering.
+    ASSERT_TRUE(fs.peer.send(frameBegin(0, 0, 1, {3, 0, 2, 1}, proto::FrameMode::Interaction)));
+    ASSERT_TRUE(fs.peer.send(frameBegin(1, 0, 1, {3, 0, 2, 1}, proto::FrameMode::Accumulate)));
+
+    RenderJob ref(loadScene("RING"), client::toRenderSettings(settings), {0, 1, 2, 3});
+    std::vector<SetPixels> refPixels;
+    const Camera cam = client::toCamera(ringCamera());
+    for (uint64_t f = 0; f < 2; ++f) {
+        ref.renderFrame(cam, true, refPixels);
+        for (uint32_t set : {3u, 0u, 2u, 1u}) {
+            proto::FrameData d = fs.expect<proto::FrameData>();
+            EXPECT_EQ(d.frame, f);
+            EXPECT_EQ(d.set, set);
+            expectSamePixels(d, refPixels);
+        }
+        proto::Stats st = fs.expect<proto::Stats>();
+        EXPECT_EQ(st.frame, f);
+        EXPECT_GT(st.photonsShot, 0u);
+        EXPECT_EQ(st.threads, 2u);
+    }
+    ASSERT_TRUE(fs.peer.send(proto::Bye{proto::ByeReason::Normal, "done"}));
+    ExitStatus st = fs.exitStatus();
+    EXPECT_TRUE(st.exited);
+    EXPECT_EQ(st.code, kExitOk) << fs.client->logs();
+}
+
+TEST(ClientSession, EditBeforeNewEpochIsAppliedAndResetsPhotons) {
+    FakeServer fs;
+    fs.start();
+    fs.handshake({0, 1, 2, 3});
+    const proto::Settings settings = smallSettings();
+    ASSERT_TRUE(fs.peer.send(settings));
+    ASSERT_TRUE(fs.peer.send(ringScene()));
+    Scene scene = loadScene("RING");
+    ASSERT_FALSE(scene.lights.empty());
+    proto::LightEdit le;
+    le.index = 0;
+    const Light& l0 = scene.lights[0];
+    le.position = {l0.position.x + 0.2f, l0.position.y, l0.position.z};
+    le.direction = {l0.direction.x, l0.direction.y, l0.direction.z};
+    le.intensity = {l0.intensity.x * 2.0f, l0.intensity.y * 2.0f, l0.intensity.z * 2.0f};
+    ASSERT_TRUE(fs.peer.send(frameBegin(0, 0, 1, {1, 2}, proto::FrameMode::Interaction)));
+    ASSERT_TRUE(fs.peer.send(frameBegin(1, 0, 1, {1, 2}, proto::FrameMode::Accumulate)));
+    ASSERT_TRUE(fs.peer.send(proto::Edit{2, le}));
+    ASSERT_TRUE(fs.peer.send(frameBegin(2, 1, 2, {1, 2}, proto::FrameMode::Interaction)));
+
+    RenderJob ref(std::move(scene), client::toRenderSettings(settings), {1, 2});
+    std::vector<SetPixels> refPixels;
+    const Camera cam = client::toCamera(ringCamera());
+    for (uint64_t f = 0; f < 3; ++f) {
+        if (f == 2) {
+            SceneEdit e;
+            e.kind = SceneEdit::Kind::Light;
+            e.index = 0;
+            e.light = ref.scene().lights[0];
+            e.light.position.x += 0.2f;
+            e.light.intensity *= 2.0f;
+            ref.applyEdit(e);
+        }
+        ref.renderFrame(cam, true, refPixels);
+        for (int i = 0; i < 2; ++i) expectSamePixels(fs.expect<proto::FrameData>(), refPixels);
+        fs.expect<proto::Stats>();
+    }
+    EXPECT_EQ(ref.photons().stats(1).batches, 1u);  // the reference restarted too
+    ASSERT_TRUE(fs.peer.send(proto::Bye{proto::ByeReason::Shutdown, ""}));
+    EXPECT_EQ(fs.exitStatus().code, kExitOk);
+}
+
+/// Runs a session that sends `bad` after the handshake and settings; expects Bye{ProtocolError}
+/// whose text contains `why`, then exit code 4.
+void expectProtocolError(const std::vector<proto::Message>& bad, const std::string& why,
+                         const proto::Settings& settings = smallSettings()) {
+    FakeServer fs;
+    fs.start();
+    fs.handshake({0, 1, 2, 3});
+    ASSERT_TRUE(fs.peer.send(settings));
+    for (const proto::Message& m : bad) ASSERT_TRUE(fs.peer.send(m));
+    proto::Message m;
+    // Frames rendered before the bad message may arrive first.
+    for (;;) {
+        ASSERT_EQ(fs.peer.receive(m, 30s), Socket::Got::Message) << fs.client->logs();
+        if (std::holds_alternative<proto::Bye>(m)) break;
+    }
+    const proto::Bye& bye = std::get<proto::Bye>(m);
+    EXPECT_EQ(bye.reason, proto::ByeReason::ProtocolError);
+    EXPECT_NE(bye.text.find(why), std::string::npos) << bye.text;
+    ExitStatus st = fs.exitStatus();
+    EXPECT_TRUE(st.exited);
+    EXPECT_EQ(st.code, kExitProtocolError) << fs.client->logs();
+    EXPECT_NE(fs.client->err().find(why), std::string::npos) << fs.client->logs();
+}
+
+TEST(ClientSession, SceneNameThatIsNotBuiltinIsRefusedNotOpened) {
+    proto::Scene s = ringScene();
+    s.builtinName = "/etc/passwd.obj";
+    expectProtocolError({s}, "not a built-in scene");
+}
+
+TEST(ClientSession, CorruptGlbIsRefusedWithTheLoadersReason) {
+    proto::Scene s;
+    s.sceneVersion = 1;
+    s.source = proto::Scene::Source::Gltf;
+    s.gltf = {'g', 'l', 'T', 'F', 2, 0, 0, 0, 200, 0, 0, 0, 1, 2, 3};
+    expectProtocolError({s}, "scene");
+}
+
+TEST(ClientSession, EditOfMissingLightIsRefused) {
+    proto::LightEdit le;
+    le.index = 99;
+    le.intensity = {1, 1, 1};
+    le.direction = {0, -1, 0};
+    expectProtocolError({ringScene(), proto::Edit{2, le}, frameBegin(0, 1, 2, {0}, proto::FrameMode::Interaction)},
+                        "light 99");
+}
+
+TEST(ClientSession, FrameBeginForUnknownSceneVersionIsRefused) {
+    expectProtocolError({ringScene(), frameBegin(0, 0, 5, {0}, proto::FrameMode::Interaction)}, "scene version 5");
+}
+
+TEST(ClientSession, SetOutsideTheInterleavingIsRefused) {
+    expectProtocolError({ringScene(), frameBegin(0, 0, 1, {4}, proto::FrameMode::Interaction)}, "set 4 out of range");
+}
+
+TEST(ClientSession, FrameBeforeSceneIsRefused) {
+    expectProtocolError({frameBegin(0, 0, 1, {0}, proto::FrameMode::Interaction)}, "before any Scene");
+}
+
+TEST(ClientSession, DegenerateCameraIsRefused) {
+    proto::FrameBegin fb = frameBegin(0, 0, 1, {0}, proto::FrameMode::Interaction);
+    fb.camera.up = fb.camera.forward;
+    expectProtocolError({ringScene(), fb}, "parallel");
+}
+
+TEST(ClientSession, SettingsTheRendererRefusesAreAProtocolError) {
+    proto::Settings s = smallSettings();
+    s.width = 3;
+    s.height = 3;
+    s.m = 8;  // more sets per row than pixels
+    expectProtocolError({}, "settings refused", s);
+}
+
+TEST(ClientSession, GarbageFromServerIsAnsweredWithByeAndExitFour) {
+    FakeServer fs;
+    fs.start();
+    fs.handshake({0});
+    std::vector<uint8_t> junk(64);
+    for (size_t i = 0; i < junk.size(); ++i) junk[i] = uint8_t(i * 37 + 11);
+    ASSERT_TRUE(fs.peer.sendAll(junk));
+    proto::Bye bye = fs.expect<proto::Bye>();
+    EXPECT_EQ(bye.reason, proto::ByeReason::ProtocolError);
+    EXPECT_EQ(fs.exitStatus().code, kExitProtocolError);
+}
+
+TEST(ClientSession, ClientOnlyMessageFromServerIsAProtocolError) {
+    FakeServer fs;
+    fs.start();
+    fs.handshake({0});
+    ASSERT_TRUE(fs.peer.send(proto::Hello{}));
+    proto::Bye bye = fs.expect<proto::Bye>();
+    EXPECT_EQ(bye.reason, proto::ByeReason::ProtocolError);
+    EXPECT_NE(bye.text.find("Hello"), std::string::npos) << bye.text;
+    EXPECT_EQ(fs.exitStatus().code, kExitProtocolError);
+}
+
+TEST(ClientSession, RejectExitsTwoNamingTheReason) {
+    FakeServer fs;
+    fs.start();
+    fs.expect<proto::Hello>();
+    ASSERT_TRUE(fs.peer.send(proto::Reject{proto::RejectReason::BadToken, "token mismatch"}));
+    ExitStatus st = fs.exitStatus();
+    EXPECT_EQ(st.code, kExitRejected);
+    EXPECT_NE(fs.client->err().find("bad token"), std::string::npos) << fs.client->logs();
+}
+
+TEST(ClientSession, ServerVanishingWhileRenderingExitsThreeWithClearMessage) {
+    FakeServer fs;
+    fs.start();
+    fs.handshake({0, 1, 2, 3});
+    ASSERT_TRUE(fs.peer.send(smallSettings()));
+    ASSERT_TRUE(fs.peer.send(ringScene()));
+    ASSERT_TRUE(fs.peer.send(frameBegin(0, 0, 1, {0, 1, 2, 3}, proto::FrameMode::Interaction)));
+    fs.peer.close();
+    ExitStatus st = fs.exitStatus();
+    EXPECT_TRUE(st.exited);
+    EXPECT_EQ(st.code, kExitServerGone) << fs.client->logs();
+    EXPECT_NE(fs.client->err().find("rtpm-client: server 127.0.0.1:" + std::to_string(fs.listener.port()) +
+                                    " closed the connection"),
+              std::string::npos)
+        << fs.client->logs();
+}
+
+TEST(ClientSession, RetriesUntilThePortFileAppears) {
+    TempDir dir;
+    const std::string portFile = dir.file("port");
+    Child client({binaryPath("client/rtpm-client"), "--port-file", portFile, "--token", "t", "--connect-timeout", "20"},
+                 dir.file("client"));
+    // Let the client fail a few attempts first: it must keep retrying, not exit.
+    EXPECT_FALSE(client.wait(400ms)) << client.logs();
+    Listener listener;
+    {
+        std::ofstream(portFile + ".tmp") << listener.port() << "\n";
+    }
+    std::filesystem::rename(portFile + ".tmp", portFile);
+    Socket peer = listener.accept(10s);
+    ASSERT_TRUE(peer.valid()) << client.logs();
+    proto::Message m;
+    ASSERT_EQ(peer.receive(m, 10s), Socket::Got::Message);
+    EXPECT_TRUE(std::holds_alternative<proto::Hello>(m));
+    peer.close();
+    auto st = client.wait(10s);
+    ASSERT_TRUE(st);
+    EXPECT_EQ(st->code, kExitServerGone);
+}
+
+TEST(ClientSession, GivesUpAfterTheConnectTimeout) {
+    TempDir dir;
+    Child client({binaryPath("client/rtpm-client"), "--port-file", dir.file("never"), "--token", "t",
+                  "--connect-timeout", "0.5"},
+                 dir.file("client"));
+    auto st = client.wait(15s);
+    ASSERT_TRUE(st);
+    EXPECT_EQ(st->code, kExitStartup);
+    EXPECT_NE(client.err().find("could not connect"), std::string::npos) << client.logs();
+}
+
+TEST(FrameRenderer, SetsThatStayKeepAccumulatingWhenOthersMove) {
+    client::FrameRenderer r(1);
+    r.setSettings(smallSettings());
+    r.setScene(ringScene());
+    const auto now = std::chrono::steady_clock::now();
+    r.render(frameBegin(0, 0, 1, {0, 1}, proto::FrameMode::Interaction), now);
+    r.render(frameBegin(1, 0, 1, {0, 1, 2}, proto::FrameMode::Accumulate), now);
+    EXPECT_EQ(r.batches(0), 2u);
+    EXPECT_EQ(r.batches(2), 1u);  // new here: starts from batch 0
+    client::RenderedFrame f = r.render(frameBegin(2, 0, 1, {2, 1}, proto::FrameMode::Accumulate), now);
+    ASSERT_EQ(f.data.size(), 2u);
+    EXPECT_EQ(f.data[0].set, 2u);
+    EXPECT_EQ(f.data[1].set, 1u);
+    EXPECT_EQ(r.batches(2), 2u);  // its group held only wanted sets: kept
+    EXPECT_EQ(r.batches(1), 1u);  // its group also held set 0, which left: restarted
+    EXPECT_EQ(r.batches(0), 0u);
+    // A new epoch resets every kept set.
+    r.render(frameBegin(3, 1, 1, {2, 1}, proto::FrameMode::Interaction), now);
+    EXPECT_EQ(r.batches(2), 1u);
+    EXPECT_EQ(r.batches(1), 1u);
+    // Walkthrough shoots nothing.
+    f = r.render(frameBegin(4, 1, 1, {2, 1}, proto::FrameMode::Walkthrough), now);
+    EXPECT_EQ(f.stats.photonsShot, 0u);
+    EXPECT_EQ(r.batches(2), 1u);
+}
+
+TEST(FrameRenderer, OnlyFilterOrEncodingChangesKeepPhotons) {
+    client::FrameRenderer r(1);
+    proto::Settings s = smallSettings();
+    r.setSettings(s);
+    r.setScene(ringScene());
+    const auto now = std::chrono::steady_clock::now();
+    r.render(frameBegin(0, 0, 1, {0}, proto::FrameMode::Interaction), now);
+    s.f = 5;
+    s.encoding = proto::PixelEncoding::Rgb9e5;
+    r.setSettings(s);
+    r.render(frameBegin(1, 0, 1, {0}, proto::FrameMode::Accumulate), now);
+    EXPECT_EQ(r.batches(0), 2u);
+    s.k = 30;
+    r.setSettings(s);
+    r.render(frameBegin(2, 0, 1, {0}, proto::FrameMode::Accumulate), now);
+    EXPECT_EQ(r.batches(0), 1u);
+}
+
+TEST(FrameRenderer, UnsupportedTreeVariantIsAProtocolViolation) {
+    proto::Settings s = smallSettings();
+    s.tree = proto::TreeVariant::UniformGrid;
+    EXPECT_THROW(client::toRenderSettings(s), client::ProtocolViolation);
+}
+
+TEST(ParseHostPort, AcceptsHostsAndBracketedV6RejectsBadPorts) {
+    std::string h;
+    uint16_t p = 0;
+    EXPECT_TRUE(client::parseHostPort("example.org:7000", h, p));
+    EXPECT_EQ(h, "example.org");
+    EXPECT_EQ(p, 7000);
+    EXPECT_TRUE(client::parseHostPort("[::1]:80", h, p));
+    EXPECT_EQ(h, "::1");
+    EXPECT_EQ(p, 80);
+    EXPECT_FALSE(client::parseHostPort("host", h, p));
+    EXPECT_FALSE(client::parseHostPort("host:0", h, p));
+    EXPECT_FALSE(client::parseHostPort("host:65536", h, p));
+    EXPECT_FALSE(client::parseHostPort("host:12ab", h, p));
+    EXPECT_FALSE(client::parseHostPort(":80", h, p));
+}
+
+}  // namespace
+}  // namespace rtpm::test
