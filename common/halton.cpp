@@ -2,6 +2,7 @@
 #include "common/halton.h"
 
 #include <cmath>
+#include <utility>
 
 #include "common/check.h"
 
@@ -19,28 +20,45 @@ double radicalInverseBase2(uint64_t index) {
     return static_cast<double>(v >> 11) * 0x1p-53;
 }
 
-double radicalInverse(int dim, uint64_t index) {
-    RTPM_DCHECK(dim >= 0 && dim < kHaltonMaxDims);
-    if (dim == 0) return radicalInverseBase2(index);
-    const uint64_t base = kHaltonPrimes[static_cast<size_t>(dim)];
+namespace {
+
+// The base is a template parameter so every division below is by a constant (a multiply and a
+// shift): Halton sampling is a third of photon-tracing time otherwise (paper Table 3).
+template <uint64_t kBase>
+double radicalInverseOf(uint64_t index) {
     // Accumulate the mirrored digits as an integer (exact) and divide once by b^n, so that for
     // b^n < 2^53 the result is the exact rational rounded once; stop before `reversed` could
     // overflow 53 bits (further digits are below double precision anyway).
     uint64_t reversed = 0;
     uint64_t denominator = 1;  // b^n while exact in a double
-    double scale = 1.0;        // 1 / (b^n / denominator) for the digits beyond that
-    while (index > 0 && reversed < (uint64_t{1} << 52) / base) {
-        const uint64_t next = index / base;
-        reversed = reversed * base + (index - next * base);
-        if (denominator <= (uint64_t{1} << 53) / base) {
-            denominator *= base;
+    double scale = 1.0;        // the remaining 1 / b^m beyond that
+    while (index > 0 && reversed < (uint64_t{1} << 52) / kBase) {
+        const uint64_t next = index / kBase;
+        reversed = reversed * kBase + (index - next * kBase);
+        if (denominator <= (uint64_t{1} << 53) / kBase) {
+            denominator *= kBase;
         } else {
-            scale /= static_cast<double>(base);
+            scale /= static_cast<double>(kBase);
         }
         index = next;
     }
     const double r = static_cast<double>(reversed) / static_cast<double>(denominator) * scale;
     return r < 1.0 ? r : 0x1.fffffffffffffp-1;
+}
+
+template <size_t... kDims>
+double dispatch(int dim, uint64_t index, std::index_sequence<kDims...>) {
+    using Fn = double (*)(uint64_t);
+    static constexpr Fn kTable[] = {&radicalInverseOf<kHaltonPrimes[kDims]>...};
+    return kTable[dim](index);
+}
+
+}  // namespace
+
+double radicalInverse(int dim, uint64_t index) {
+    RTPM_DCHECK(dim >= 0 && dim < kHaltonMaxDims);
+    if (dim == 0) return radicalInverseBase2(index);
+    return dispatch(dim, index, std::make_index_sequence<kHaltonPrimes.size()>{});
 }
 
 uint64_t mixBits(uint64_t v) {
