@@ -67,9 +67,10 @@ struct DimLayout {
 };
 DimLayout dimLayout(EmitterKind kind, uint32_t diffuseBounces);
 
-/// A photon leaving a light: origin, unit direction, surface normal at the origin (area lights,
-/// for the offset; zero otherwise) and the fraction of the emitter's per-path power it carries
-/// (1 for every kind: the sampling densities are exactly proportional to emission).
+/// A photon leaving a light: origin, unit direction and the surface normal at the origin (area
+/// lights, for the offset; zero otherwise). Every photon of an emitter carries the same power
+/// (flux / paths): each sampling density below is exactly proportional to the emission, which is
+/// what makes Σ emitted power = flux exact rather than true only on average.
 struct EmittedRay {
     Vec3 origin{0.0f};
     Vec3 dir{0.0f, 1.0f, 0.0f};
