@@ -1,0 +1,433 @@
+// Edit-script parsing, the server's live scene state, and the --animate presets.
+#include "server/edit_script.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+namespace rtpm::server {
+
+namespace {
+
+constexpr float kPi = 3.14159265358979f;
+
+proto::Vec3f toProto(Vec3 v) { return {v.x, v.y, v.z}; }
+
+// Tokenised line with positions for error messages.
+class LineParser {
+public:
+    LineParser(std::string_view line, const std::string& file, int lineNo) : file_(file), lineNo_(lineNo) {
+        std::string cur;
+        for (char c : line) {
+            if (c == '#') break;
+            if (std::isspace(static_cast<unsigned char>(c))) {
+                if (!cur.empty()) tokens_.push_back(std::move(cur));
+                cur.clear();
+            } else {
+                cur += c;
+            }
+        }
+        if (!cur.empty()) tokens_.push_back(std::move(cur));
+    }
+    bool empty() const { return tokens_.empty(); }
+    bool done() const { return pos_ >= tokens_.size(); }
+    [[noreturn]] void fail(const std::string& msg) const {
+        throw SceneError(file_, "line " + std::to_string(lineNo_), msg);
+    }
+    std::string word(const char* what) {
+        if (done()) fail(std::string("expected ") + what + " at end of line");
+        return tokens_[pos_++];
+    }
+    float number(const char* what) {
+        std::string t = word(what);
+        size_t used = 0;
+        float v = 0.0f;
+        try {
+            v = std::stof(t, &used);
+        } catch (const std::exception&) {
+            fail(std::string("expected a number for ") + what + ", got '" + t + "'");
+        }
+        if (used != t.size() || !std::isfinite(v))
+            fail(std::string("expected a finite number for ") + what + ", got '" + t + "'");
+        return v;
+    }
+    uint64_t integer(const char* what) {
+        std::string t = word(what);
+        if (t.empty() || t.size() > 18 || !std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; }))
+            fail(std::string("expected a non-negative integer for ") + what + ", got '" + t + "'");
+        return std::stoull(t);
+    }
+    Vec3 vec3(const char* what) {
+        float x = number(what), y = number(what), z = number(what);
+        return Vec3(x, y, z);
+    }
+
+private:
+    std::string file_;
+    int lineNo_;
+    std::vector<std::string> tokens_;
+    size_t pos_ = 0;
+};
+
+template <class T>
+void setOnce(LineParser& p, std::optional<T>& slot, T value, const std::string& key) {
+    if (slot) p.fail("'" + key + "' given twice");
+    slot = value;
+}
+
+[[noreturn]] void fail(const std::string& file, int line, const std::string& msg) {
+    throw SceneError(file, "line " + std::to_string(line), msg);
+}
+
+bool inUnit(Vec3 v) { return v.x >= 0 && v.y >= 0 && v.z >= 0 && v.x <= 1 && v.y <= 1 && v.z <= 1; }
+bool nonNegative(Vec3 v) { return v.x >= 0 && v.y >= 0 && v.z >= 0; }
+
+// Rotation by `degrees` about the vertical axis through `pivot`.
+Mat4 spinY(Vec3 pivot, float degrees) {
+    Mat4 m = glm::translate(Mat4(1.0f), pivot);
+    m = glm::rotate(m, glm::radians(degrees), Vec3(0, 1, 0));
+    return glm::translate(m, -pivot);
+}
+
+Bounds instanceBounds(const Scene& s, uint32_t instance) {
+    Bounds b;
+    const Instance& in = s.instances[instance];
+    for (const Vec3& p : s.meshes[in.mesh].positions) b.extend(Vec3(in.transform * glm::vec4(p, 1.0f)));
+    return b;
+}
+
+std::optional<uint32_t> firstInstanceWith(const Scene& s, bool (*pred)(const Material&)) {
+    for (uint32_t i = 0; i < s.instances.size(); ++i)
+        if (pred(s.materials[s.meshes[s.instances[i].mesh].material])) return i;
+    return std::nullopt;
+}
+
+bool isEmissive(const Material& m) { return m.isEmissive(); }
+bool isSpecular(const Material& m) { return m.isSpecular(); }
+
+std::optional<uint32_t> firstDielectric(const Scene& s) {
+    for (uint32_t i = 0; i < s.materials.size(); ++i)
+        if (s.materials[i].type == MaterialType::Dielectric) return i;
+    return std::nullopt;
+}
+
+uint64_t editKey(const proto::SceneEdit& e) {
+    if (auto* l = std::get_if<proto::LightEdit>(&e)) return (1ull << 32) | l->index;
+    if (auto* m = std::get_if<proto::MaterialEdit>(&e)) return (2ull << 32) | m->index;
+    if (auto* t = std::get_if<proto::TransformEdit>(&e)) return (3ull << 32) | t->instance;
+    return 0;
+}
+
+}  // namespace
+
+std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string& fileName) {
+    std::vector<ScriptEdit> edits;
+    int lineNo = 0;
+    size_t start = 0;
+    while (start <= text.size()) {
+        size_t end = text.find('\n', start);
+        if (end == std::string_view::npos) end = text.size();
+        std::string_view line = text.substr(start, end - start);
+        start = end + 1;
+        ++lineNo;
+        LineParser p(line, fileName, lineNo);
+        if (p.empty()) {
+            if (end == text.size()) break;
+            continue;
+        }
+        ScriptEdit e;
+        e.line = lineNo;
+        if (p.word("'frame'") != "frame") p.fail("a line must start with 'frame <n>'");
+        e.frame = p.integer("the frame number");
+        std::string kind = p.word("camera, light, material or transform");
+        if (kind == "camera") {
+            e.kind = ScriptEdit::Kind::Camera;
+        } else if (kind == "light") {
+            e.kind = ScriptEdit::Kind::Light;
+        } else if (kind == "material") {
+            e.kind = ScriptEdit::Kind::Material;
+        } else if (kind == "transform") {
+            e.kind = ScriptEdit::Kind::Transform;
+        } else {
+            p.fail("unknown edit '" + kind + "' (expected camera, light, material or transform)");
+        }
+        if (e.kind != ScriptEdit::Kind::Camera) {
+            uint64_t i = p.integer("the index");
+            if (i > 0xffffffffull) p.fail("index too large");
+            e.index = static_cast<uint32_t>(i);
+        }
+        bool any = false;
+        while (!p.done()) {
+            std::string key = p.word("a keyword");
+            any = true;
+            using K = ScriptEdit::Kind;
+            if (e.kind == K::Camera && key == "eye") setOnce(p, e.eye, p.vec3("eye"), key);
+            else if (e.kind == K::Camera && key == "target") setOnce(p, e.target, p.vec3("target"), key);
+            else if (e.kind == K::Camera && key == "yfov") setOnce(p, e.yfov, p.number("yfov"), key);
+            else if (e.kind == K::Light && key == "position") setOnce(p, e.position, p.vec3("position"), key);
+            else if (e.kind == K::Light && key == "direction") setOnce(p, e.direction, p.vec3("direction"), key);
+            else if (e.kind == K::Light && key == "intensity") setOnce(p, e.intensity, p.vec3("intensity"), key);
+            else if (e.kind == K::Material && key == "type") {
+                std::string t = p.word("diffuse, mirror or dielectric");
+                MaterialType mt = MaterialType::Diffuse;
+                if (t == "diffuse") mt = MaterialType::Diffuse;
+                else if (t == "mirror") mt = MaterialType::Mirror;
+                else if (t == "dielectric") mt = MaterialType::Dielectric;
+                else p.fail("unknown material type '" + t + "' (expected diffuse, mirror or dielectric)");
+                setOnce(p, e.type, mt, key);
+            } else if (e.kind == K::Material && key == "color") setOnce(p, e.color, p.vec3("color"), key);
+            else if (e.kind == K::Material && key == "ior") setOnce(p, e.ior, p.number("ior"), key);
+            else if (e.kind == K::Material && key == "absorption") setOnce(p, e.absorption, p.vec3("absorption"), key);
+            else if (e.kind == K::Material && key == "emission") setOnce(p, e.emission, p.vec3("emission"), key);
+            else if (e.kind == K::Transform && key == "translate") setOnce(p, e.translate, p.vec3("translate"), key);
+            else if (e.kind == K::Transform && key == "rotate") {
+                Vec3 axis = p.vec3("rotate axis");
+                float deg = p.number("rotate degrees");
+                setOnce(p, e.rotate, glm::vec4(axis, deg), key);
+            } else if (e.kind == K::Transform && key == "scale") setOnce(p, e.scale, p.number("scale"), key);
+            else if (e.kind == K::Transform && key == "matrix") {
+                Mat4 m(1.0f);
+                for (int c = 0; c < 4; ++c)
+                    for (int r = 0; r < 4; ++r) m[c][r] = p.number("matrix");
+                setOnce(p, e.matrix, m, key);
+            } else {
+                p.fail("unknown keyword '" + key + "' for a " + kind + " edit");
+            }
+        }
+        if (!any) p.fail("a " + kind + " edit needs at least one keyword");
+        if (e.matrix && (e.translate || e.rotate || e.scale))
+            p.fail("'matrix' cannot be combined with translate, rotate or scale");
+        if (e.rotate && glm::length(Vec3(*e.rotate)) == 0.0f) p.fail("rotate axis is zero");
+        if (e.scale && !(*e.scale > 0.0f)) p.fail("scale must be > 0");
+        if (e.yfov && !(*e.yfov > 0.0f && *e.yfov < kPi)) p.fail("yfov must be in (0, pi) radians");
+        edits.push_back(e);
+        if (end == text.size()) break;
+    }
+    std::stable_sort(edits.begin(), edits.end(),
+                     [](const ScriptEdit& a, const ScriptEdit& b) { return a.frame < b.frame; });
+    return edits;
+}
+
+std::vector<ScriptEdit> loadEditScript(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw SceneError(path, "file", "cannot open edit script");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return parseEditScript(ss.str(), path);
+}
+
+LiveScene::LiveScene(Scene loaded) : loaded_(std::move(loaded)), scene_(loaded_) {
+    if (!scene_.camera) throw std::invalid_argument("scene has no camera");
+    camera_ = *scene_.camera;
+}
+
+proto::LightEdit LiveScene::lightEdit(uint32_t index) const {
+    const Light& l = scene_.lights.at(index);
+    return proto::LightEdit{index, toProto(l.position), toProto(l.direction), toProto(l.intensity)};
+}
+
+proto::MaterialEdit LiveScene::materialEdit(uint32_t index) const {
+    const Material& m = scene_.materials.at(index);
+    proto::MaterialEdit e;
+    e.index = index;
+    e.kind = m.type == MaterialType::Mirror       ? proto::MaterialKind::Mirror
+             : m.type == MaterialType::Dielectric ? proto::MaterialKind::Dielectric
+                                                  : proto::MaterialKind::Diffuse;
+    e.baseColor = toProto(m.baseColor);
+    e.ior = m.ior;
+    e.absorption = toProto(m.absorption);
+    e.emission = toProto(m.emission);
+    return e;
+}
+
+proto::TransformEdit LiveScene::transformEdit(uint32_t instance) const {
+    const Mat4& m = scene_.instances.at(instance).transform;
+    proto::TransformEdit e;
+    e.instance = instance;
+    for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r) e.matrix[size_t(c * 4 + r)] = m[c][r];
+    return e;
+}
+
+void LiveScene::record(const proto::SceneEdit& e) {
+    uint64_t key = editKey(e);
+    for (proto::SceneEdit& old : compacted_)
+        if (editKey(old) == key) {
+            old = e;
+            return;
+        }
+    compacted_.push_back(e);
+}
+
+void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<proto::SceneEdit>& out) {
+    using K = ScriptEdit::Kind;
+    switch (e.kind) {
+        case K::Camera: {
+            Camera c = camera_;
+            if (e.eye) c.position = *e.eye;
+            if (e.target) {
+                if (glm::length(*e.target - c.position) < 1e-6f) fail(file, e.line, "camera target equals its eye");
+                c = Camera::lookAt(c.position, *e.target, Vec3(0, 1, 0), c.yfov);
+            }
+            if (e.yfov) c.yfov = *e.yfov;
+            camera_ = c;
+            return;
+        }
+        case K::Light: {
+            if (e.index >= scene_.lights.size())
+                fail(file, e.line, "light " + std::to_string(e.index) + " does not exist (scene has " +
+                                       std::to_string(scene_.lights.size()) + " punctual lights)");
+            Light l = scene_.lights[e.index];
+            if (e.position) l.position = *e.position;
+            if (e.direction) {
+                if (glm::length(*e.direction) == 0.0f) fail(file, e.line, "light direction is zero");
+                l.direction = glm::normalize(*e.direction);
+            }
+            if (e.intensity) {
+                if (!nonNegative(*e.intensity)) fail(file, e.line, "light intensity must be >= 0");
+                l.intensity = *e.intensity;
+            }
+            scene_.lights[e.index] = l;
+            out.emplace_back(lightEdit(e.index));
+            return;
+        }
+        case K::Material: {
+            if (e.index >= scene_.materials.size())
+                fail(file, e.line, "material " + std::to_string(e.index) + " does not exist (scene has " +
+                                       std::to_string(scene_.materials.size()) + ")");
+            Material m = scene_.materials[e.index];
+            if (e.type) m.type = *e.type;
+            if (e.color) {
+                if (!inUnit(*e.color)) fail(file, e.line, "material color must be in [0, 1]");
+                m.baseColor = *e.color;
+            }
+            if (e.ior) {
+                if (!(*e.ior > 0.0f)) fail(file, e.line, "ior must be > 0");
+                m.ior = *e.ior;
+            }
+            if (e.absorption) {
+                if (!nonNegative(*e.absorption)) fail(file, e.line, "absorption must be >= 0");
+                m.absorption = *e.absorption;
+            }
+            if (e.emission) {
+                if (!nonNegative(*e.emission)) fail(file, e.line, "emission must be >= 0");
+                m.emission = *e.emission;
+            }
+            scene_.materials[e.index] = m;
+            out.emplace_back(materialEdit(e.index));
+            return;
+        }
+        case K::Transform: {
+            if (e.index >= scene_.instances.size())
+                fail(file, e.line, "instance " + std::to_string(e.index) + " does not exist (scene has " +
+                                       std::to_string(scene_.instances.size()) + ")");
+            Mat4 m;
+            if (e.matrix) {
+                m = *e.matrix;
+            } else {
+                Mat4 t(1.0f);
+                if (e.translate) t = glm::translate(t, *e.translate);
+                if (e.rotate) t = glm::rotate(t, glm::radians(e.rotate->w), glm::normalize(Vec3(*e.rotate)));
+                if (e.scale) t = glm::scale(t, Vec3(*e.scale));
+                m = t * loaded_.instances[e.index].transform;
+            }
+            scene_.instances[e.index].transform = m;
+            out.emplace_back(transformEdit(e.index));
+            return;
+        }
+    }
+}
+
+std::optional<Animation> parseAnimation(std::string_view name) {
+    if (name.empty() || name == "none") return Animation::None;
+    if (name == "orbit") return Animation::Orbit;
+    if (name == "light") return Animation::Light;
+    if (name == "ior") return Animation::Ior;
+    if (name == "object") return Animation::Object;
+    return std::nullopt;
+}
+
+void checkAnimation(Animation a, const Scene& s) {
+    switch (a) {
+        case Animation::None:
+        case Animation::Orbit: return;
+        case Animation::Light:
+            if (s.lights.empty() && !firstInstanceWith(s, isEmissive))
+                throw std::invalid_argument("--animate light: the scene has no punctual light and no emissive object");
+            return;
+        case Animation::Ior:
+            if (!firstDielectric(s))
+                throw std::invalid_argument("--animate ior: the scene has no dielectric material");
+            return;
+        case Animation::Object:
+            if (!firstInstanceWith(s, isSpecular))
+                throw std::invalid_argument("--animate object: the scene has no mirror or dielectric object");
+            return;
+    }
+}
+
+void animate(Animation a, uint64_t frame, LiveScene& live, std::vector<proto::SceneEdit>& out) {
+    if (frame == 0 || a == Animation::None) return;
+    const Scene& loaded = live.loaded();
+    const Bounds bounds = loaded.bounds();
+    const float f = static_cast<float>(frame % 7200);  // all presets repeat within 7200 frames
+    switch (a) {
+        case Animation::None: return;
+        case Animation::Orbit: {
+            Mat4 r = spinY(bounds.centre(), 3.0f * f);
+            Camera c = *loaded.camera;
+            c.position = Vec3(r * glm::vec4(c.position, 1.0f));
+            c.forward = glm::normalize(Vec3(r * glm::vec4(c.forward, 0.0f)));
+            c.up = glm::normalize(Vec3(r * glm::vec4(c.up, 0.0f)));
+            live.setCamera(c);
+            return;
+        }
+        case Animation::Light: {
+            const float radius = 0.1f * bounds.diagonal();
+            const float theta = glm::radians(6.0f * f);
+            // Circle through the loaded position: offset (cos θ − 1, 0, sin θ)·radius.
+            const Vec3 offset = radius * Vec3(std::cos(theta) - 1.0f, 0.0f, std::sin(theta));
+            ScriptEdit e;
+            e.line = 0;
+            if (!loaded.lights.empty()) {
+                e.kind = ScriptEdit::Kind::Light;
+                e.index = 0;
+                e.position = loaded.lights[0].position + offset;
+            } else {
+                e.kind = ScriptEdit::Kind::Transform;
+                e.index = *firstInstanceWith(loaded, isEmissive);
+                e.translate = offset;
+            }
+            live.apply(e, "--animate light", out);
+            return;
+        }
+        case Animation::Ior: {
+            uint32_t m = *firstDielectric(loaded);
+            ScriptEdit e;
+            e.kind = ScriptEdit::Kind::Material;
+            e.index = m;
+            e.ior = std::max(1.01f, loaded.materials[m].ior + 0.2f * std::sin(2.0f * kPi * f / 60.0f));
+            live.apply(e, "--animate ior", out);
+            return;
+        }
+        case Animation::Object: {
+            uint32_t i = *firstInstanceWith(loaded, isSpecular);
+            ScriptEdit e;
+            e.kind = ScriptEdit::Kind::Transform;
+            e.index = i;
+            e.matrix = spinY(instanceBounds(loaded, i).centre(), 3.0f * f) * loaded.instances[i].transform;
+            live.apply(e, "--animate object", out);
+            return;
+        }
+    }
+}
+
+proto::CameraState toCameraState(const Camera& c) {
+    return proto::CameraState{toProto(c.position), toProto(c.forward), toProto(c.up), c.yfov};
+}
+
+}  // namespace rtpm::server

@@ -1,0 +1,121 @@
+// Live edits driven by the server: the --edit-script file format and the --animate presets.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/scene.h"
+#include "proto/messages.h"
+
+namespace rtpm::server {
+
+/// One line of an edit script. Grammar (one edit per line; `#` starts a comment; blank lines are
+/// ignored; numbers are decimal floats; every keyword below is optional, at least one is needed,
+/// and what a line does not mention keeps its current value):
+///
+///     frame <n> camera [eye x y z] [target x y z] [yfov radians]
+///     frame <n> light <i> [position x y z] [direction x y z] [intensity r g b]
+///     frame <n> material <i> [type diffuse|mirror|dielectric] [color r g b] [ior v]
+///                            [absorption r g b] [emission r g b]
+///     frame <n> transform <i> [translate x y z] [rotate ax ay az degrees] [scale s]
+///                             [matrix m0 … m15]
+///
+/// `transform` builds T·R·S from its keywords and applies it to the instance's transform as
+/// loaded (not to the current one), so a script can state absolute poses; `matrix` (16 floats,
+/// column-major object → world) replaces the loaded transform and excludes the other three.
+/// `camera eye` alone translates the camera (orientation kept); with `target` the camera looks at
+/// that point (up stays near +Y). Edits take effect at the start of frame n.
+struct ScriptEdit {
+    enum class Kind { Camera, Light, Material, Transform };
+    uint64_t frame = 0;
+    int line = 0;  ///< 1-based line in the file, for error messages
+    Kind kind = Kind::Camera;
+    uint32_t index = 0;  ///< light, material or instance index
+
+    std::optional<Vec3> eye, target;
+    std::optional<float> yfov;
+    std::optional<Vec3> position, direction, intensity;
+    std::optional<MaterialType> type;
+    std::optional<Vec3> color, absorption, emission;
+    std::optional<float> ior;
+    std::optional<Vec3> translate;
+    std::optional<glm::vec4> rotate;  ///< axis xyz, angle in degrees
+    std::optional<float> scale;
+    std::optional<Mat4> matrix;
+};
+
+/// Parses a whole script. Throws SceneError{fileName, "line N", what is wrong} on the first bad
+/// line (unknown keyword, missing or non-finite number, trailing words, negative frame…).
+/// Edits come back sorted by frame (stable: lines of one frame keep their order). Pure.
+std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string& fileName);
+
+/// Reads and parses a script file; SceneError{path, "file", …} if it cannot be read.
+std::vector<ScriptEdit> loadEditScript(const std::string& path);
+
+/// The server's authoritative view of the scene: the scene as loaded, its current state, and the
+/// camera. Edits are checked here (index ranges, value ranges the protocol enforces) before they
+/// are sent, so a client never receives an edit it must refuse. Not thread-safe.
+class LiveScene {
+public:
+    explicit LiveScene(Scene loaded);
+
+    /// Applies one script edit. Camera edits change camera() only; the others change scene() and
+    /// append the protocol edit to `out`. Throws SceneError{fileName, "line N", …} when the edit
+    /// does not fit the scene (index out of range, colour above 1, zero direction…); nothing
+    /// changes then.
+    void apply(const ScriptEdit& edit, const std::string& fileName, std::vector<proto::SceneEdit>& out);
+
+    const Scene& loaded() const { return loaded_; }
+    const Scene& scene() const { return scene_; }
+    const Camera& camera() const { return camera_; }
+    void setCamera(const Camera& c) { camera_ = c; }
+
+    /// Light / material / instance edits in protocol form, with their current values.
+    proto::LightEdit lightEdit(uint32_t index) const;
+    proto::MaterialEdit materialEdit(uint32_t index) const;
+    proto::TransformEdit transformEdit(uint32_t instance) const;
+
+    /// Records that `e` was sent (for the compacted list late joiners receive).
+    void record(const proto::SceneEdit& e);
+    /// Every scene edit so far, compacted to the latest one per light, material and instance, in
+    /// order of first change: what Scene.edits carries for a client joining now.
+    const std::vector<proto::SceneEdit>& compactedEdits() const { return compacted_; }
+
+private:
+    Scene loaded_;
+    Scene scene_;
+    Camera camera_;
+    std::vector<proto::SceneEdit> compacted_;
+};
+
+/// --animate presets. Each gives the state at frame `frame` as a function of the loaded scene
+/// (no drift over long runs):
+///  * Orbit: the camera turns 3° per frame about the vertical axis through the scene's centre;
+///    no scene edit (photons keep accumulating: camera moves never reset).
+///  * Light: the first punctual light circles 6° per frame on a horizontal circle of radius 10 %
+///    of the scene diagonal through its loaded position; without a punctual light the instance
+///    carrying the first emissive material moves on that circle instead.
+///  * Ior: the first dielectric material's index of refraction oscillates ±0.2 around its loaded
+///    value with a period of 60 frames.
+///  * Object: the first instance with a specular (mirror or dielectric) material spins 3° per
+///    frame about the vertical axis through its centre.
+/// Scene-changing presets edit every frame ≥ 1, so every frame is a new epoch (interaction mode).
+enum class Animation { None, Orbit, Light, Ior, Object };
+
+/// Parses "orbit", "light", "ior", "object" (or "" / "none"); std::nullopt otherwise.
+std::optional<Animation> parseAnimation(std::string_view name);
+
+/// Throws std::invalid_argument naming what is missing when `scene` cannot be animated so.
+void checkAnimation(Animation a, const Scene& scene);
+
+/// Applies preset `a` for `frame` to `live` (camera or scene) and appends scene edits to `out`.
+/// Frame 0 is the scene as loaded: nothing happens. Precondition: checkAnimation passed.
+void animate(Animation a, uint64_t frame, LiveScene& live, std::vector<proto::SceneEdit>& out);
+
+/// Bit-exact conversion of the camera (FrameBegin carries it; clients convert it back).
+proto::CameraState toCameraState(const Camera& c);
+
+}  // namespace rtpm::server
