@@ -182,16 +182,16 @@ TEST(ClientSession, EditBeforeNewEpochIsAppliedAndResetsPhotons) {
     ASSERT_TRUE(fs.peer.send(settings));
     ASSERT_TRUE(fs.peer.send(ringScene()));
     Scene scene = loadScene("RING");
-    ASSERT_FALSE(scene.lights.empty());
-    proto::LightEdit le;
-    le.index = 0;
-    const Light& l0 = scene.lights[0];
-    le.position = {l0.position.x + 0.2f, l0.position.y, l0.position.z};
-    le.direction = {l0.direction.x, l0.direction.y, l0.direction.z};
-    le.intensity = {l0.intensity.x * 2.0f, l0.intensity.y * 2.0f, l0.intensity.z * 2.0f};
+    ASSERT_FALSE(scene.instances.empty());
+    // Move instance 0 (RING's light is an emissive mesh, so move geometry) 5 cm along x.
+    Mat4 moved = scene.instances[0].transform;
+    moved[3][0] += 0.05f;
+    proto::TransformEdit te;
+    te.instance = 0;
+    std::memcpy(te.matrix.data(), &moved[0][0], sizeof(float) * 16);
     ASSERT_TRUE(fs.peer.send(frameBegin(0, 0, 1, {1, 2}, proto::FrameMode::Interaction)));
     ASSERT_TRUE(fs.peer.send(frameBegin(1, 0, 1, {1, 2}, proto::FrameMode::Accumulate)));
-    ASSERT_TRUE(fs.peer.send(proto::Edit{2, le}));
+    ASSERT_TRUE(fs.peer.send(proto::Edit{2, te}));
     ASSERT_TRUE(fs.peer.send(frameBegin(2, 1, 2, {1, 2}, proto::FrameMode::Interaction)));
 
     RenderJob ref(std::move(scene), client::toRenderSettings(settings), {1, 2});
@@ -200,11 +200,9 @@ TEST(ClientSession, EditBeforeNewEpochIsAppliedAndResetsPhotons) {
     for (uint64_t f = 0; f < 3; ++f) {
         if (f == 2) {
             SceneEdit e;
-            e.kind = SceneEdit::Kind::Light;
+            e.kind = SceneEdit::Kind::Transform;
             e.index = 0;
-            e.light = ref.scene().lights[0];
-            e.light.position.x += 0.2f;
-            e.light.intensity *= 2.0f;
+            e.transform = moved;
             ref.applyEdit(e);
         }
         ref.renderFrame(cam, true, refPixels);
