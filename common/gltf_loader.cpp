@@ -142,6 +142,30 @@ std::string elementFromTinygltfError(const std::string& err) {
     return "document";
 }
 
+// tinygltf converts `extras` and `extensions` recursively: a hostile file nesting arrays a
+// million deep would overflow the stack. Real glTF nests a handful of levels.
+constexpr int kMaxJsonDepth = 256;
+
+// Nesting depth of the JSON text in [p, p + n), ignoring brackets inside strings.
+int jsonDepth(const unsigned char* p, size_t n) {
+    int depth = 0, maxDepth = 0;
+    bool inString = false;
+    for (size_t i = 0; i < n; ++i) {
+        unsigned char c = p[i];
+        if (inString) {
+            if (c == '\\') ++i;
+            else if (c == '"') inString = false;
+        } else if (c == '"') {
+            inString = true;
+        } else if (c == '[' || c == '{') {
+            maxDepth = std::max(maxDepth, ++depth);
+        } else if (c == ']' || c == '}') {
+            --depth;
+        }
+    }
+    return maxDepth;
+}
+
 std::string trimmed(std::string s) {
     while (!s.empty() && (s.back() == '\n' || s.back() == ' ' || s.back() == '\r')) s.pop_back();
     return s;
@@ -799,6 +823,20 @@ Scene loadGltfFromMemory(const std::vector<uint8_t>& bytes, const std::string& f
     std::string err, warn;
     bool ok = false;
     const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    {
+        // The JSON text: the whole file, or a GLB's first chunk (bounds checked; tinygltf
+        // rejects a malformed header itself).
+        const unsigned char* json = bytes.data();
+        size_t jsonBytes = bytes.size();
+        if (binary) {
+            uint32_t chunkLength = 0;
+            if (bytes.size() >= 20) std::memcpy(&chunkLength, bytes.data() + 12, 4);
+            json = bytes.data() + std::min<size_t>(20, bytes.size());
+            jsonBytes = std::min<size_t>(chunkLength, bytes.size() - std::min<size_t>(20, bytes.size()));
+        }
+        if (jsonDepth(json, jsonBytes) > kMaxJsonDepth)
+            throw SceneError(fileName, "JSON", "nesting deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    }
     try {
         if (binary) {
             ok = loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(),

@@ -377,6 +377,20 @@ TEST(GltfLoader, GarbageBytesAreAnError) {
     }
 }
 
+TEST(GltfLoader, DeepJsonNestingAndNodeCyclesAreErrors) {
+    ScratchDir dir;
+    std::string text = readText(kDataDir + "/gltf/handmade.gltf");
+    std::string deep = text;
+    deep.insert(deep.find('{') + 1, "\"extras\":" + std::string(100000, '[') + std::string(100000, ']') + ",");
+    expectSceneError(dir.write("deep.gltf", deep), "JSON");
+    // Node 3 (child of 2) names node 2 as its child: a cycle.
+    std::string cyclic = text;
+    size_t at = cyclic.find("\"name\": \"glassChild\"");
+    ASSERT_NE(at, std::string::npos);
+    cyclic.insert(at, "\"children\": [2], ");
+    expectSceneError(dir.write("cycle.gltf", cyclic), "nodes[");
+}
+
 TEST(GltfLoader, MutatedFilesNeverCrash) {
     // Byte flips and cuts of a valid GLB and of the hand-written JSON: each either loads a
     // valid scene or throws SceneError — never anything else.
