@@ -19,22 +19,24 @@ inline constexpr float kMinDensityRadiusRelative = 1e-5f;
 /// Result-set policy for density estimation: a kNN heap that ignores photons arriving from
 /// behind the surface (dot(incoming, normal) > 0: the photon travelled away from the front
 /// side). Back photons are skipped *during* the search, so they never take one of the k slots.
-/// The direction is decoded only for photons that would enter the heap.
+/// The direction is decoded only for photons that would enter the heap. `Index` is any photon
+/// index with photonIncoming(i) (KdTree, MedianKdTree, PhotonGrid).
+template <class Index>
 class FrontFacingKnn {
 public:
-    FrontFacingKnn(KnnHeap& heap, const Photon* photons, Vec3 normal)
-        : heap_(heap), photons_(photons), normal_(normal) {}
+    FrontFacingKnn(KnnHeap& heap, const Index& index, Vec3 normal)
+        : heap_(heap), index_(index), normal_(normal) {}
     float worstDist2() const { return heap_.worstDist2(); }
     void add(float dist2, uint32_t index) {
         if (!(dist2 < heap_.worstDist2())) return;
-        const Vec3 dir = photons_[index].incomingDir();
+        const Vec3 dir = decodeOctahedral(index_.photonIncoming(index));
         if (dir.x * normal_.x + dir.y * normal_.y + dir.z * normal_.z > 0.0f) return;
         heap_.add(dist2, index);
     }
 
 private:
     KnnHeap& heap_;
-    const Photon* photons_;
+    const Index& index_;
     Vec3 normal_;
 };
 
@@ -46,21 +48,20 @@ private:
 /// found photons are spread over: an under-estimate at the caustic's edge, never a spike).
 /// r is clamped below by kMinDensityRadiusRelative × bounds diagonal. Returns 0 for an empty
 /// map, k = 0, rMax ≤ 0 or no photon found; never NaN/Inf for finite inputs.
-/// `Index` is KdTree, MedianKdTree or PhotonGrid (anything with size(), photons(), bounds(),
-/// search()). Thread-safe if each thread has its own heap; no allocation once the heap saw k.
+/// `Index` is KdTree, MedianKdTree or PhotonGrid (anything with size(), photonIncoming(),
+/// photonPower(), bounds(), search()). Thread-safe if each thread has its own heap; no allocation once the heap saw k.
 template <class Index>
 Vec3 causticRadiance(const Index& index, Vec3 x, Vec3 normal, Vec3 albedo, uint32_t k,
                      float rMax, float powerScale, KnnHeap& heap) {
     if (index.size() == 0 || k == 0 || !(rMax > 0.0f)) return Vec3(0.0f);
     const float maxDist2 = rMax * rMax;
     heap.reset(k, maxDist2);
-    FrontFacingKnn policy(heap, index.photons().data(), normal);
+    FrontFacingKnn<Index> policy(heap, index, normal);
     index.search(x, policy);
     if (heap.empty()) return Vec3(0.0f);
 
     Vec3 flux(0.0f);
-    const Photon* photons = index.photons().data();
-    for (const KnnEntry& e : heap.entries()) flux += photons[e.index].powerRgb();
+    for (const KnnEntry& e : heap.entries()) flux += decodeRgb9e5(index.photonPower(e.index));
 
     const float rMin = kMinDensityRadiusRelative * index.bounds().diagonal();
     const float r2 = heap.full() ? std::max(heap.farthestDist2(), rMin * rMin) : maxDist2;

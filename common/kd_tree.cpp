@@ -34,6 +34,48 @@ bool finite(Vec3 p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::is
 
 }  // namespace
 
+namespace detail {
+
+void PhotonColumns::resize(size_t n, size_t capacity) {
+    const size_t cap = std::max(capacity, n);
+    if (cap > payload_.capacity()) {
+        for (std::vector<float>* c : {&x_, &y_, &z_}) c->reserve(cap + kPad);
+        payload_.reserve(cap);
+    }
+    for (std::vector<float>* c : {&x_, &y_, &z_}) c->resize(n + kPad, 0.0f);
+    payload_.resize(n);
+    size_ = n;
+}
+
+void PhotonColumns::shrinkToFit() {
+    for (std::vector<float>* c : {&x_, &y_, &z_}) c->shrink_to_fit();
+    payload_.shrink_to_fit();
+}
+
+void PhotonColumns::move(size_t dst, size_t src, size_t count) {
+    if (dst == src || count == 0) return;
+    for (std::vector<float>* c : {&x_, &y_, &z_})
+        std::memmove(c->data() + dst, c->data() + src, count * sizeof(float));
+    std::memmove(payload_.data() + dst, payload_.data() + src, count * sizeof(PhotonPayload));
+}
+
+uint32_t PhotonColumns::partition(uint32_t first, uint32_t count, uint32_t axis, float split) {
+    // Hoare scheme on the split axis' column only; the swap moves all four columns.
+    const float* c = axisColumn(axis);
+    uint32_t i = first, j = first + count;
+    for (;;) {
+        while (i < j && c[i] < split) ++i;
+        while (i < j && !(c[j - 1] < split)) --j;
+        if (j - i < 2) break;
+        swap(i, j - 1);
+        ++i;
+        --j;
+    }
+    return i - first;
+}
+
+}  // namespace detail
+
 KdTree::KdTree(Bounds rootBox, uint32_t leafSize) : leafSize_(std::max(leafSize, 1u)) {
     if (!rootBox.empty()) {
         RTPM_CHECK(finite(rootBox.lo) && finite(rootBox.hi));
@@ -50,7 +92,7 @@ void KdTree::clear() {
     rejected_ = 0;
 }
 
-void KdTree::reserve(size_t photonCount) { photons_.reserve(photonCount); }
+void KdTree::reserve(size_t photonCount) { photons_.resize(photons_.size(), photonCount); }
 
 bool KdTree::accept(const Photon& p) const {
     const Vec3 x = p.position;
@@ -69,11 +111,13 @@ void KdTree::setRootFrom(std::span<const Photon> photons) {
 }
 
 void KdTree::growPhotons(size_t newSize) {
-    // Geometric growth by 1.25 rather than the library's 2: accumulation keeps growing the map,
-    // and capacity counts against the bytes-per-photon budget. Re-copying costs ~4 moves/photon.
-    if (newSize > photons_.capacity())
-        photons_.reserve(std::max(newSize, photons_.capacity() + photons_.capacity() / 4));
-    photons_.resize(newSize);
+    // Capacity is budgeted memory (bytes per photon), so grow to the new size plus 1/32 only,
+    // not geometrically: every insert already moves O(size) photons to open the leaf gaps, so a
+    // reallocation per batch adds one more copy of the same order, not a change in complexity.
+    // A batch smaller than the slack (late, small accumulation batches) fits without a copy.
+    const size_t capacity =
+        newSize > photons_.capacity() ? newSize + newSize / 32 : photons_.capacity();
+    photons_.resize(newSize, capacity);
 }
 
 void KdTree::build(std::span<const Photon> photons) {
@@ -83,13 +127,13 @@ void KdTree::build(std::span<const Photon> photons) {
         rejected_ += photons.size();
         return;
     }
-    photons_.reserve(photons.size());
-    for (const Photon& p : photons) {
-        if (accept(p))
-            photons_.push_back(p);
-        else
-            ++rejected_;
-    }
+    size_t accepted = 0;
+    for (const Photon& p : photons) accepted += accept(p) ? 1 : 0;
+    rejected_ += photons.size() - accepted;
+    photons_.resize(accepted, accepted);
+    size_t next = 0;
+    for (const Photon& p : photons)
+        if (accept(p)) photons_.set(next++, p);
     RTPM_CHECK(photons_.size() <= KdNode::kMaxPayload);
     nodes_[0] = KdNode::leaf(0, static_cast<uint32_t>(photons_.size()));
     splitOverfullLeaves();
@@ -138,7 +182,6 @@ void KdTree::insert(std::span<const Photon> photons) {
     //    before it. Leaves before the first receiving leaf do not move at all.
     const size_t oldSize = photons_.size();
     growPhotons(oldSize + acceptedCount);
-    Photon* store = photons_.data();
     size_t batchEnd = acceptedCount;
     bool overfull = false;
     for (size_t i = nodes_.size(); i-- > 0 && batchEnd > 0;) {
@@ -149,11 +192,9 @@ void KdTree::insert(std::span<const Photon> photons) {
         const uint32_t first = n.firstPhoton();
         const uint32_t count = n.count();
         const uint32_t newFirst = first + static_cast<uint32_t>(batchEnd - added);
-        if (newFirst != first && count > 0)
-            std::memmove(store + newFirst, store + first, count * sizeof(Photon));
-        if (added > 0)
-            std::memcpy(store + newFirst + count, batchScratch_.data() + batchStart,
-                        added * sizeof(Photon));
+        photons_.move(newFirst, first, count);
+        for (uint32_t j = 0; j < added; ++j)
+            photons_.set(newFirst + count + j, batchScratch_[batchStart + j]);
         n = KdNode::leaf(newFirst, count + added);
         overfull |= count + added > leafSize_;
         batchEnd -= added;
@@ -212,10 +253,7 @@ void KdTree::buildRange(uint32_t first, uint32_t count, Bounds cell, uint32_t de
         nodes_.push_back(KdNode::leaf(first, count));
         return;
     }
-    Photon* begin = photons_.data() + first;
-    Photon* mid = std::partition(begin, begin + count,
-                                 [&](const Photon& p) { return p.position[axis] < split; });
-    const uint32_t leftCount = static_cast<uint32_t>(mid - begin);
+    const uint32_t leftCount = photons_.partition(first, count, axis, split);
 
     const uint32_t self = static_cast<uint32_t>(nodes_.size());
     nodes_.push_back(KdNode::interior(axis, split, 0));
@@ -246,7 +284,7 @@ uint32_t KdTree::depth() const {
 }
 
 size_t KdTree::memoryBytes() const {
-    return photons_.capacity() * sizeof(Photon) + nodes_.capacity() * sizeof(KdNode) +
+    return photons_.memoryBytes() + nodes_.capacity() * sizeof(KdNode) +
            nodeScratch_.capacity() * sizeof(KdNode) + batchScratch_.capacity() * sizeof(Photon) +
            (leafOfScratch_.capacity() + leafCountScratch_.capacity()) * sizeof(uint32_t);
 }

@@ -27,6 +27,9 @@ public:
     bool empty() const { return photons_.empty(); }
     /// Photons in leaf order; indices in query results refer to this array.
     std::span<const Photon> photons() const { return photons_; }
+    Photon photon(uint32_t i) const { return photons_[i]; }
+    uint32_t photonIncoming(uint32_t i) const { return photons_[i].incoming; }
+    uint32_t photonPower(uint32_t i) const { return photons_[i].power; }
     /// Bounding box of the photons.
     const Bounds& bounds() const { return bounds_; }
     size_t nodeCount() const { return nodes_.size(); }
@@ -47,7 +50,9 @@ public:
     template <ResultSet R>
     void search(Vec3 q, R& result) const {
         if (photons_.empty()) return;
-        detail::searchKdNodes(nodes_.data(), photons_.data(), q, result);
+        detail::searchKdNodes(nodes_.data(), q, result, [&](uint32_t first, uint32_t end, float worst) {
+            return detail::scanPhotons(photons_.data(), first, end, q, result, worst);
+        });
     }
 
 private:

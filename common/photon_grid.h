@@ -37,6 +37,9 @@ public:
     size_t size() const { return photons_.size(); }
     bool empty() const { return photons_.empty(); }
     std::span<const Photon> photons() const { return photons_; }
+    Photon photon(uint32_t i) const { return photons_[i]; }
+    uint32_t photonIncoming(uint32_t i) const { return photons_[i].incoming; }
+    uint32_t photonPower(uint32_t i) const { return photons_[i].power; }
     const Bounds& bounds() const { return bounds_; }
     std::array<uint32_t, 3> dims() const { return dims_; }
     size_t memoryBytes() const {

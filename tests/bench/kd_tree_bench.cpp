@@ -1,95 +1,125 @@
-// Photon index benchmarks (paper Table 5): build and kNN of middle/median kd-trees, grid, nanoflann.
+// Photon index benchmarks (paper Table 5): build and kNN of middle/median kd-trees, grid, nanoflann
+// on the real caustic photon maps of the built-in RING and GLASS scenes.
 //
 // Run: build-*/tests/bench/kd_tree_bench --benchmark_counters_tabular=true
-// Every photon set comes from makePhotonSet(); to measure real RING/GLASS maps, replace its body
-// by a loader. Queries are a 640×480 raster over the lit region of the plane, in scan order
-// (as a frame queries them), single-threaded like the paper's Pentium-4 numbers.
+//
+// Photons: PhotonMaps (SPT, default settings) shoots batches into interleaving set 0 of the scene
+// until ≥ 320 000 caustic photons are stored; that pool is shuffled (fixed seed) and the 25k /
+// 100k / 320k sets are its first n photons, i.e. uniform subsamples of one real map (the same
+// distribution a map of n photons has). Queries: one per pixel of the scene camera's 640×480
+// image in scan order (as a frame issues them): the first diffuse hit of the primary ray, found
+// by following the specular chain (mirror: reflect; dielectric: refract, reflect on total internal
+// reflection — the transmitted branch is the one that looks at the caustic), at most 8 bounces;
+// pixels that miss or never reach a diffuse surface issue no query. rMax is the renderer's
+// automatic gather radius (2 % of the scene diagonal). Single-threaded, like the paper's numbers.
 #include <benchmark/benchmark.h>
 
-#include <cmath>
+#include <algorithm>
+#include <cstdio>
+#include <map>
 #include <memory>
-#include <numbers>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <nanoflann.hpp>
 
+#include "common/embree_scene.h"
 #include "common/kd_tree.h"
 #include "common/median_kd_tree.h"
+#include "common/optics.h"
 #include "common/photon_grid.h"
+#include "common/photon_map.h"
+#include "common/scene_loader.h"
 
 namespace rtpm {
 namespace {
 
-constexpr float kPi = std::numbers::pi_v<float>;
 constexpr uint32_t kLeafSize = KdTree::kDefaultLeafSize;
-constexpr float kMaxRadius = 0.1f;  // m: the density estimate's r_max for these scenes
 constexpr int kImageWidth = 640, kImageHeight = 480;
-// Scene bounds the photon map's root box is given (a 4 m floor, 1.5 m of room above it).
-const Bounds kSceneBounds{Vec3(-2.0f, -2.0f, 0.0f), Vec3(2.0f, 2.0f, 1.5f)};
+constexpr size_t kPoolSize = 320000;
+constexpr int kMaxSpecularBounces = 8;
 
-/// Synthetic caustic-like photon map on the floor z = 0: 65 % on a sharp nephroid (the caustic
-/// of a ring lit from the side, σ = 4 mm across the curve, denser near the cusps as a real
-/// caustic is), 25 % spread over its interior, 10 % sparse background over the whole floor.
-std::vector<Photon> makePhotonSet(size_t count, uint32_t seed = 1) {
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<float> u(0.0f, 1.0f);
-    std::normal_distribution<float> across(0.0f, 0.004f);
-    const float a = 0.2f;  // nephroid x = a(3cos t − cos 3t), y = a(3 sin t − sin 3t): ~1.6 m wide
-    std::vector<Photon> out;
-    out.reserve(count);
-    const Vec3 down(0.0f, 0.0f, -1.0f);
-    for (size_t i = 0; i < count; ++i) {
-        const float pick = u(rng);
-        Vec3 p;
-        if (pick < 0.65f) {
-            // Sample t with extra weight near the cusps (t = 0, π), where flux concentrates.
-            float t = u(rng) * 2.0f * kPi;
-            t += 0.35f * std::sin(2.0f * t);
-            p = Vec3(a * (3 * std::cos(t) - std::cos(3 * t)), a * (3 * std::sin(t) - std::sin(3 * t)), 0);
-            p.x += across(rng);
-            p.y += across(rng);
-        } else if (pick < 0.9f) {
-            const float r = 0.55f * std::sqrt(u(rng)), phi = 2.0f * kPi * u(rng);
-            p = Vec3(r * std::cos(phi) * 1.4f, r * std::sin(phi), 0.0f);
-        } else {
-            p = Vec3(-2.0f + 4.0f * u(rng), -2.0f + 4.0f * u(rng), 0.0f);
+/// One scene's photon pool and query points, built once per process.
+struct PhotonScene {
+    Scene scene;
+    std::unique_ptr<EmbreeScene> embree;
+    Bounds bounds;                ///< root box the photon maps get (scene bounds)
+    float rMax = 0.0f;            ///< m
+    std::vector<Photon> pool;     ///< ≥ kPoolSize photons of one map, shuffled
+    std::vector<Vec3> queries;    ///< diffuse hits in scan order
+    uint32_t batches = 0;
+};
+
+// First diffuse hit along the camera ray of pixel (x, y), following specular surfaces.
+bool diffuseHit(const EmbreeScene& es, const Camera& camera, int x, int y, Vec3& out) {
+    Ray ray{camera.position, camera.rayDirection(x, y, kImageWidth, kImageHeight)};
+    for (int bounce = 0; bounce <= kMaxSpecularBounces; ++bounce) {
+        SurfaceHit hit;
+        if (!es.intersect(ray, hit)) return false;
+        const Material& mat = es.scene().materials[hit.material];
+        if (mat.type == MaterialType::Diffuse) {
+            out = hit.position;
+            return true;
         }
-        out.push_back(Photon::make(p, Vec3(1e-3f), down));
+        const Vec3 dir = glm::normalize(ray.dir);
+        const Vec3 ng = glm::dot(dir, hit.geometricNormal) > 0.0f ? -hit.geometricNormal
+                                                                   : hit.geometricNormal;
+        Vec3 next = glm::normalize(reflect(dir, ng));
+        if (mat.type == MaterialType::Dielectric) {
+            const DielectricInterface side = dielectricInterface(dir, hit.geometricNormal, mat.ior);
+            Vec3 t;
+            if (refract(dir, side.normal, side.etaI / side.etaT, t)) next = t;
+        }
+        ray = Ray{es.offsetOrigin(hit.position, ng, next), next};
     }
-    return out;
+    return false;
 }
 
-std::vector<Vec3> makeQueries() {
-    // The image looks straight down at a 1.6 m × 1.2 m window around the caustic.
-    std::vector<Vec3> q;
-    q.reserve(size_t(kImageWidth) * kImageHeight);
+const PhotonScene& photonScene(const std::string& name) {
+    static std::map<std::string, std::unique_ptr<PhotonScene>> cache;
+    auto& slot = cache[name];
+    if (slot) return *slot;
+    slot = std::make_unique<PhotonScene>();
+    PhotonScene& s = *slot;
+    s.scene = loadScene(name);
+    s.embree = std::make_unique<EmbreeScene>(s.scene);
+    s.bounds = s.embree->bounds();
+    PhotonSettings settings;
+    settings.capPhotons = 0;
+    PhotonMaps maps(settings, {0});
+    while (maps.tree(0) == nullptr || maps.tree(0)->size() < kPoolSize) {
+        maps.shootBatch(*s.embree, 0);
+        if (++s.batches > 5000) {
+            std::fprintf(stderr, "%s: only %zu caustic photons after %u batches\n", name.c_str(),
+                         maps.tree(0)->size(), s.batches);
+            std::exit(1);
+        }
+    }
+    s.rMax = maps.gatherRadius();
+    for (const Photon& p : maps.tree(0)->photons()) s.pool.push_back(p);
+    std::shuffle(s.pool.begin(), s.pool.end(), std::mt19937(20040621));
+    const Camera camera = *s.scene.camera;
     for (int y = 0; y < kImageHeight; ++y)
-        for (int x = 0; x < kImageWidth; ++x)
-            q.push_back(Vec3(-0.8f + 1.6f * (x + 0.5f) / kImageWidth,
-                             0.6f - 1.2f * (y + 0.5f) / kImageHeight, 0.0f));
-    return q;
+        for (int x = 0; x < kImageWidth; ++x) {
+            Vec3 p;
+            if (diffuseHit(*s.embree, camera, x, y, p)) s.queries.push_back(p);
+        }
+    std::fprintf(stderr, "%s: %zu photons after %u batches, rMax %.4f m, %zu queries\n",
+                 name.c_str(), s.pool.size(), s.batches, double(s.rMax), s.queries.size());
+    return s;
 }
 
-const std::vector<Photon>& photonSet(size_t n) {
-    static std::vector<std::pair<size_t, std::unique_ptr<std::vector<Photon>>>> cache;
-    for (auto& [size, set] : cache)
-        if (size == n) return *set;
-    cache.emplace_back(n, std::make_unique<std::vector<Photon>>(makePhotonSet(n)));
-    return *cache.back().second;
-}
-
-const std::vector<Vec3>& queries() {
-    static const std::vector<Vec3> q = makeQueries();
-    return q;
+std::span<const Photon> photonSet(const PhotonScene& s, size_t n) {
+    return std::span<const Photon>(s.pool).first(std::min(n, s.pool.size()));
 }
 
 // ---- nanoflann over the same photons -------------------------------------------------------
 
 struct PhotonCloud {
-    const std::vector<Photon>* photons;
-    size_t kdtree_get_point_count() const { return photons->size(); }
-    float kdtree_get_pt(size_t i, size_t dim) const { return (*photons)[i].position[int(dim)]; }
+    std::span<const Photon> photons;
+    size_t kdtree_get_point_count() const { return photons.size(); }
+    float kdtree_get_pt(size_t i, size_t dim) const { return photons[i].position[int(dim)]; }
     template <class Box>
     bool kdtree_get_bbox(Box&) const { return false; }
 };
@@ -97,7 +127,8 @@ using NanoTree = nanoflann::KDTreeSingleIndexAdaptor<
     nanoflann::L2_Simple_Adaptor<float, PhotonCloud>, PhotonCloud, 3, uint32_t>;
 
 // Our bounded heap with r_max behind nanoflann's result-set interface, so both trees answer the
-// identical query (nanoflann 1.4's KNNResultSet has no radius bound).
+// identical query with the identical result set (nanoflann 1.4's KNNResultSet has no radius
+// bound): the ratio measures the trees, not the heaps.
 struct NanoHeapAdaptor {
     KnnHeap& heap;
     float worstDist() const { return heap.worstDist2(); }
@@ -115,9 +146,10 @@ void setPhotonCounters(benchmark::State& state, size_t photons, size_t bytes) {
     state.counters["B/photon"] = double(bytes) / double(photons);
 }
 
-void BM_BuildMiddle(benchmark::State& state) {
-    const auto& photons = photonSet(size_t(state.range(0)));
-    KdTree tree(kSceneBounds, kLeafSize);
+void buildMiddle(benchmark::State& state, const std::string& scene) {
+    const PhotonScene& s = photonScene(scene);
+    const auto photons = photonSet(s, size_t(state.range(0)));
+    KdTree tree(s.bounds, kLeafSize);
     for (auto _ : state) {
         tree.build(photons);
         benchmark::DoNotOptimize(tree.nodeCount());
@@ -126,8 +158,8 @@ void BM_BuildMiddle(benchmark::State& state) {
     state.counters["depth"] = tree.depth();
 }
 
-void BM_BuildMedian(benchmark::State& state) {
-    const auto& photons = photonSet(size_t(state.range(0)));
+void buildMedian(benchmark::State& state, const std::string& scene) {
+    const auto photons = photonSet(photonScene(scene), size_t(state.range(0)));
     MedianKdTree tree(kLeafSize);
     for (auto _ : state) {
         tree.build(photons);
@@ -136,8 +168,8 @@ void BM_BuildMedian(benchmark::State& state) {
     setPhotonCounters(state, photons.size(), tree.memoryBytes());
 }
 
-void BM_BuildGrid(benchmark::State& state) {
-    const auto& photons = photonSet(size_t(state.range(0)));
+void buildGrid(benchmark::State& state, const std::string& scene) {
+    const auto photons = photonSet(photonScene(scene), size_t(state.range(0)));
     PhotonGrid grid(uint32_t(state.range(1)));
     for (auto _ : state) {
         grid.build(photons);
@@ -146,9 +178,9 @@ void BM_BuildGrid(benchmark::State& state) {
     setPhotonCounters(state, photons.size(), grid.memoryBytes());
 }
 
-void BM_BuildNanoflann(benchmark::State& state) {
-    const auto& photons = photonSet(size_t(state.range(0)));
-    PhotonCloud cloud{&photons};
+void buildNanoflann(benchmark::State& state, const std::string& scene) {
+    const auto photons = photonSet(photonScene(scene), size_t(state.range(0)));
+    PhotonCloud cloud{photons};
     size_t bytes = 0;
     for (auto _ : state) {
         NanoTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(kLeafSize));
@@ -158,63 +190,76 @@ void BM_BuildNanoflann(benchmark::State& state) {
     setPhotonCounters(state, photons.size(), bytes);
 }
 
-// Full 640×480 frame of kNN queries with r_max; reports the mean photons found as a sanity check
-// that every structure answered the same thing.
+void setQueryCounters(benchmark::State& state, const PhotonScene& s, uint64_t found) {
+    state.counters["found/query"] = double(found) / double(s.queries.size());
+    state.counters["Mquery/s"] = benchmark::Counter(
+        double(s.queries.size()) * double(state.iterations()) / 1e6, benchmark::Counter::kIsRate);
+}
+
+// One frame of kNN queries with r_max; "found/query" checks every index answered the same.
 template <class Index>
-void runQueries(benchmark::State& state, const Index& index, uint32_t k) {
+void runQueries(benchmark::State& state, const PhotonScene& s, const Index& index, uint32_t k) {
     KnnHeap heap(k);
     uint64_t found = 0;
+    const float maxDist2 = s.rMax * s.rMax;
     for (auto _ : state) {
         found = 0;
-        for (const Vec3 q : queries()) {
-            index.knn(q, k, kMaxRadius * kMaxRadius, heap);
+        for (const Vec3 q : s.queries) {
+            index.knn(q, k, maxDist2, heap);
             found += heap.size();
         }
         benchmark::DoNotOptimize(found);
     }
-    state.counters["found/query"] = double(found) / double(queries().size());
-    state.counters["Mquery/s"] = benchmark::Counter(double(queries().size()) * state.iterations() / 1e6,
-                                                    benchmark::Counter::kIsRate);
+    setQueryCounters(state, s, found);
 }
 
-void BM_QueryMiddle(benchmark::State& state) {
-    KdTree tree(kSceneBounds, kLeafSize);
-    tree.build(photonSet(size_t(state.range(0))));
-    runQueries(state, tree, uint32_t(state.range(1)));
+void queryMiddle(benchmark::State& state, const std::string& scene) {
+    const PhotonScene& s = photonScene(scene);
+    KdTree tree(s.bounds, kLeafSize);
+    tree.build(photonSet(s, size_t(state.range(0))));
+    runQueries(state, s, tree, uint32_t(state.range(1)));
 }
 
-void BM_QueryMiddleIncremental(benchmark::State& state) {
-    const auto& photons = photonSet(size_t(state.range(0)));
-    KdTree tree(kSceneBounds, kLeafSize);
+// Ten equal batches inserted into one tree, as accumulation builds a map (paper §5.4).
+void insertInTenBatches(KdTree& tree, std::span<const Photon> photons) {
     const size_t batch = (photons.size() + 9) / 10;
     for (size_t first = 0; first < photons.size(); first += batch)
-        tree.insert(std::span<const Photon>(photons).subspan(first, std::min(batch, photons.size() - first)));
-    runQueries(state, tree, uint32_t(state.range(1)));
+        tree.insert(photons.subspan(first, std::min(batch, photons.size() - first)));
 }
 
-void BM_QueryMedian(benchmark::State& state) {
+void queryMiddleIncremental(benchmark::State& state, const std::string& scene) {
+    const PhotonScene& s = photonScene(scene);
+    KdTree tree(s.bounds, kLeafSize);
+    insertInTenBatches(tree, photonSet(s, size_t(state.range(0))));
+    runQueries(state, s, tree, uint32_t(state.range(1)));
+}
+
+void queryMedian(benchmark::State& state, const std::string& scene) {
+    const PhotonScene& s = photonScene(scene);
     MedianKdTree tree(kLeafSize);
-    tree.build(photonSet(size_t(state.range(0))));
-    runQueries(state, tree, uint32_t(state.range(1)));
+    tree.build(photonSet(s, size_t(state.range(0))));
+    runQueries(state, s, tree, uint32_t(state.range(1)));
 }
 
-void BM_QueryGrid(benchmark::State& state) {
+void queryGrid(benchmark::State& state, const std::string& scene) {
+    const PhotonScene& s = photonScene(scene);
     PhotonGrid grid(uint32_t(state.range(2)));
-    grid.build(photonSet(size_t(state.range(0))));
-    runQueries(state, grid, uint32_t(state.range(1)));
+    grid.build(photonSet(s, size_t(state.range(0))));
+    runQueries(state, s, grid, uint32_t(state.range(1)));
 }
 
-void BM_QueryNanoflann(benchmark::State& state) {
-    const auto& photons = photonSet(size_t(state.range(0)));
-    PhotonCloud cloud{&photons};
+void queryNanoflann(benchmark::State& state, const std::string& scene) {
+    const PhotonScene& s = photonScene(scene);
+    PhotonCloud cloud{photonSet(s, size_t(state.range(0)))};
     NanoTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(kLeafSize));
     const uint32_t k = uint32_t(state.range(1));
+    const float maxDist2 = s.rMax * s.rMax;
     KnnHeap heap(k);
     uint64_t found = 0;
     for (auto _ : state) {
         found = 0;
-        for (const Vec3 q : queries()) {
-            heap.reset(k, kMaxRadius * kMaxRadius);
+        for (const Vec3 q : s.queries) {
+            heap.reset(k, maxDist2);
             NanoHeapAdaptor result{heap};
             const float p[3] = {q.x, q.y, q.z};
             tree.findNeighbors(result, p, nanoflann::SearchParams());
@@ -222,47 +267,46 @@ void BM_QueryNanoflann(benchmark::State& state) {
         }
         benchmark::DoNotOptimize(found);
     }
-    state.counters["found/query"] = double(found) / double(queries().size());
-    state.counters["Mquery/s"] = benchmark::Counter(double(queries().size()) * state.iterations() / 1e6,
-                                                    benchmark::Counter::kIsRate);
+    setQueryCounters(state, s, found);
 }
 
-// Accumulation (paper §5.4): ten frames each adding n/10 photons. "Insert" grows one tree;
-// "Rebuild" builds a tree from scratch over everything accumulated so far, every frame.
-void BM_AccumulateInsert(benchmark::State& state) {
-    const auto& photons = photonSet(size_t(state.range(0)));
-    const size_t batch = (photons.size() + 9) / 10;
+// Accumulation (paper §5.4): ten frames each adding n/10 photons. "insert" grows one tree;
+// "rebuild" builds a tree from scratch over everything accumulated so far, every frame.
+void accumulateInsert(benchmark::State& state, const std::string& scene) {
+    const PhotonScene& s = photonScene(scene);
+    const auto photons = photonSet(s, size_t(state.range(0)));
     size_t bytes = 0;
     for (auto _ : state) {
-        KdTree tree(kSceneBounds, kLeafSize);
-        for (size_t first = 0; first < photons.size(); first += batch)
-            tree.insert(std::span<const Photon>(photons).subspan(first, std::min(batch, photons.size() - first)));
+        KdTree tree(s.bounds, kLeafSize);
+        insertInTenBatches(tree, photons);
         benchmark::DoNotOptimize(tree.nodeCount());
         bytes = tree.memoryBytes();
     }
     setPhotonCounters(state, photons.size(), bytes);
 }
 
-void BM_AccumulateRebuild(benchmark::State& state) {
-    const auto& photons = photonSet(size_t(state.range(0)));
+void accumulateRebuild(benchmark::State& state, const std::string& scene) {
+    const PhotonScene& s = photonScene(scene);
+    const auto photons = photonSet(s, size_t(state.range(0)));
     const size_t batch = (photons.size() + 9) / 10;
+    size_t bytes = 0;
     for (auto _ : state) {
-        KdTree tree(kSceneBounds, kLeafSize);
+        KdTree tree(s.bounds, kLeafSize);
         for (size_t end = batch; end < photons.size() + batch; end += batch) {
-            tree.build(std::span<const Photon>(photons).first(std::min(end, photons.size())));
+            tree.build(photons.first(std::min(end, photons.size())));
             benchmark::DoNotOptimize(tree.nodeCount());
         }
+        bytes = tree.memoryBytes();
     }
-    setPhotonCounters(state, photons.size(), 0);
+    setPhotonCounters(state, photons.size(), bytes);
 }
 
-void BM_AccumulateRebuildNanoflann(benchmark::State& state) {
-    const auto& photons = photonSet(size_t(state.range(0)));
+void accumulateRebuildNanoflann(benchmark::State& state, const std::string& scene) {
+    const auto photons = photonSet(photonScene(scene), size_t(state.range(0)));
     const size_t batch = (photons.size() + 9) / 10;
     for (auto _ : state) {
         for (size_t end = batch; end < photons.size() + batch; end += batch) {
-            std::vector<Photon> sofar(photons.begin(), photons.begin() + std::min(end, photons.size()));
-            PhotonCloud cloud{&sofar};
+            PhotonCloud cloud{photons.first(std::min(end, photons.size()))};
             NanoTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(kLeafSize));
             benchmark::DoNotOptimize(tree.root_node);
         }
@@ -275,29 +319,32 @@ const std::vector<int64_t> kKs = {50, 64, 100};
 
 void registerAll() {
     using benchmark::kMillisecond;
-    for (int64_t n : kSizes) {
-        benchmark::RegisterBenchmark("build/middle", BM_BuildMiddle)->Arg(n)->Unit(kMillisecond);
-        benchmark::RegisterBenchmark("build/median", BM_BuildMedian)->Arg(n)->Unit(kMillisecond);
-        benchmark::RegisterBenchmark("build/nanoflann", BM_BuildNanoflann)->Arg(n)->Unit(kMillisecond);
-        for (int64_t res : {64, 256})
-            benchmark::RegisterBenchmark("build/grid", BM_BuildGrid)->Args({n, res})->Unit(kMillisecond);
-    }
-    for (int64_t n : kSizes) {
-        for (int64_t k : kKs) {
-            benchmark::RegisterBenchmark("knn/middle", BM_QueryMiddle)->Args({n, k})->Unit(kMillisecond);
-            benchmark::RegisterBenchmark("knn/middle-incremental", BM_QueryMiddleIncremental)
-                ->Args({n, k})->Unit(kMillisecond);
-            benchmark::RegisterBenchmark("knn/median", BM_QueryMedian)->Args({n, k})->Unit(kMillisecond);
-            benchmark::RegisterBenchmark("knn/nanoflann", BM_QueryNanoflann)->Args({n, k})->Unit(kMillisecond);
-            for (int64_t res : {64, 256})
-                benchmark::RegisterBenchmark("knn/grid", BM_QueryGrid)->Args({n, k, res})->Unit(kMillisecond);
+    using Fn = void (*)(benchmark::State&, const std::string&);
+    const auto reg = [](const std::string& name, const std::string& scene, Fn fn) {
+        return benchmark::RegisterBenchmark((name + "/" + scene).c_str(), fn, scene)
+            ->Unit(kMillisecond);
+    };
+    for (const std::string scene : {"RING", "GLASS"}) {
+        for (int64_t n : kSizes) {
+            reg("build/middle", scene, buildMiddle)->Arg(n);
+            reg("build/median", scene, buildMedian)->Arg(n);
+            reg("build/nanoflann", scene, buildNanoflann)->Arg(n);
+            for (int64_t res : {64, 256}) reg("build/grid", scene, buildGrid)->Args({n, res});
         }
-    }
-    for (int64_t n : kSizes) {
-        benchmark::RegisterBenchmark("accumulate10/insert", BM_AccumulateInsert)->Arg(n)->Unit(kMillisecond);
-        benchmark::RegisterBenchmark("accumulate10/rebuild", BM_AccumulateRebuild)->Arg(n)->Unit(kMillisecond);
-        benchmark::RegisterBenchmark("accumulate10/rebuild-nanoflann", BM_AccumulateRebuildNanoflann)
-            ->Arg(n)->Unit(kMillisecond);
+        for (int64_t n : kSizes) {
+            for (int64_t k : kKs) {
+                reg("knn/middle", scene, queryMiddle)->Args({n, k});
+                reg("knn/middle-incremental", scene, queryMiddleIncremental)->Args({n, k});
+                reg("knn/median", scene, queryMedian)->Args({n, k});
+                reg("knn/nanoflann", scene, queryNanoflann)->Args({n, k});
+                for (int64_t res : {64, 256}) reg("knn/grid", scene, queryGrid)->Args({n, k, res});
+            }
+        }
+        for (int64_t n : kSizes) {
+            reg("accumulate10/insert", scene, accumulateInsert)->Arg(n);
+            reg("accumulate10/rebuild", scene, accumulateRebuild)->Arg(n);
+            reg("accumulate10/rebuild-nanoflann", scene, accumulateRebuildNanoflann)->Arg(n);
+        }
     }
 }
 
