@@ -1,8 +1,133 @@
-// rtpm-server entry point: parses flags and runs the server.
+// rtpm-server entry point: parses flags (rtpm-render's rendering flags plus the cluster's) and runs the master.
+#include <CLI/CLI.hpp>
+
+#include <cctype>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+
+#include "common/scene_loader.h"
+#include "server/edit_script.h"
+#include "server/master.h"
+
+namespace {
+
+using namespace rtpm;
+
+std::string lower(std::string s) {
+    for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return s;
+}
+std::string upper(std::string s) {
+    for (char& c : s) c = char(std::toupper(static_cast<unsigned char>(c)));
+    return s;
+}
+
+int run(int argc, char** argv) {
+    server::MasterOptions o;
+    RenderSettings& rs = o.settings;
+    bool plain = false;
+    std::string animate, editScript, encoding = "float32";
+    int deadlineMs = int(o.deadline.count());
+    CLI::App app{"rtpm-server: the cluster master. Waits for rtpm-client processes, deals them the M×M "
+                 "interleaving sets, runs the frame loop, assembles their pixels, box-filters the caustics and "
+                 "writes the image rtpm-render writes for the same settings."};
+    // Rendering settings: the same names, meanings and defaults as rtpm-render.
+    app.add_option("--scene", o.sceneName, "built-in scene (RING GLASS EGG HEADLIGHT CORNELL) or .gltf/.glb/.obj file")
+        ->capture_default_str();
+    app.add_option("--width", rs.width, "image width in pixels")->capture_default_str();
+    app.add_option("--height", rs.height, "image height in pixels")->capture_default_str();
+    app.add_option("--frames", o.frames, "frames to render; the last one is written to --out")->capture_default_str();
+    app.add_option("--photons,-P", rs.photons.photonsPerBatch, "P: photon paths traced per set per frame")
+        ->capture_default_str();
+    app.add_option("--k", rs.photons.k, "photons per density estimate")->capture_default_str();
+    app.add_option("--rmax", rs.photons.rMax, "maximum gather radius in metres (0 = 2% of the scene diagonal)")
+        ->capture_default_str();
+    app.add_option("--interleave,-M", rs.interleave, "M: M×M interleaving sets, one photon map each")
+        ->capture_default_str();
+    app.add_option("--filter,-F", rs.filter, "F: caustic box filter size in pixels (0 = M)")->capture_default_str();
+    app.add_flag("--no-spt", plain, "plain QMC photon shooting instead of Selective Photon Tracing");
+    app.add_option("--diffuse-bounces", rs.photons.diffuseBounces, "diffuse bounces a photon may take")
+        ->capture_default_str();
+    app.add_option("--cap", rs.photons.capPhotons, "stored photons per set at which accumulation stops (0 = none)")
+        ->capture_default_str();
+    app.add_option("--depth", rs.eye.maxDepth, "specular depth limit of eye paths")->capture_default_str();
+    app.add_option("--photon-depth", rs.photons.maxDepth, "ray segments per photon path")->capture_default_str();
+    app.add_option("--area-samples", rs.eye.areaLightSamples, "shadow samples per emissive triangle")
+        ->capture_default_str();
+    app.add_option("--seed", rs.photons.seed, "seed of the Halton rotations")->capture_default_str();
+    // Cluster.
+    app.add_option("--listen", o.listen, "address to listen on")->capture_default_str();
+    app.add_option("--port", o.port, "TCP port (0 = any free port; see --port-file)")->capture_default_str();
+    app.add_option("--port-file", o.portFile, "write the bound port here (atomically) once listening");
+    app.add_option("--token", o.token, "shared secret clients must present (default: $RTPM_TOKEN)");
+    app.add_flag("--insecure-no-token", o.insecureNoToken, "accept clients without a token (trusted networks only)");
+    app.add_option("--min-clients", o.minClients, "start frames once this many clients joined")->capture_default_str();
+    app.add_option("--deadline-ms", deadlineMs,
+                   "a frame still missing data this long after it became the oldest is shown with the sets' "
+                   "previous values")
+        ->capture_default_str();
+    app.add_option("--evict-after", o.evictAfter, "drop a client late or skipped this many frames in a row")
+        ->capture_default_str();
+    app.add_option("--encoding", encoding,
+                   "pixels on the wire: float32 (exact, 24 B/px), rgb9e5 (8 B/px, <= 2^-9 relative error), "
+                   "rgb9e5-zstd (rgb9e5 with a compressed caustic plane), rgb8 (6 B/px, clamped to [0,1])")
+        ->capture_default_str();
+    app.add_flag("--walkthrough", o.walkthrough, "no photon shooting after the first frame of each epoch");
+    app.add_option("--out", o.out, "final EXR path (default out/<scene>.exr); the PNG goes beside it");
+    app.add_option("--save-every", o.saveEvery, "also write every n-th frame as <out>_<frame>.exr/.png (0 = off)")
+        ->capture_default_str();
+    app.add_option("--csv", o.csv,
+                   "append per-frame figures: frame, fps, photons per set, mode, bytes, slowest client and ms");
+    app.add_option("--animate", animate, "live edit preset: orbit (camera), light, ior or object (scene edits)");
+    app.add_option("--edit-script", editScript, "file of 'frame <n> camera|light|material|transform ...' lines");
+    app.add_flag("--quiet", o.quiet, "no per-frame line");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    }
+    rs.photons.selective = !plain;
+    if (deadlineMs < 1) throw std::invalid_argument("--deadline-ms must be >= 1");
+    o.deadline = std::chrono::milliseconds(deadlineMs);
+    if (o.token.empty())
+        if (const char* env = std::getenv("RTPM_TOKEN")) o.token = env;
+    if (o.token.empty() && !o.insecureNoToken)
+        throw std::invalid_argument("no token: pass --token or set RTPM_TOKEN (or --insecure-no-token)");
+    auto anim = server::parseAnimation(animate);
+    if (!anim) throw std::invalid_argument("--animate must be orbit, light, ior or object, got '" + animate + "'");
+    o.animation = *anim;
+    if (encoding == "float32") o.encoding = proto::PixelEncoding::Float32;
+    else if (encoding == "rgb9e5") o.encoding = proto::PixelEncoding::Rgb9e5;
+    else if (encoding == "rgb9e5-zstd") o.encoding = proto::PixelEncoding::Rgb9e5Zstd;
+    else if (encoding == "rgb8") o.encoding = proto::PixelEncoding::Rgb8;
+    else throw std::invalid_argument("--encoding must be float32, rgb9e5, rgb9e5-zstd or rgb8, got '" + encoding + "'");
+    validateSettings(rs);
+
+    auto names = builtinSceneNames();
+    o.builtin = std::find(names.begin(), names.end(), upper(o.sceneName)) != names.end();
+    if (o.builtin) o.sceneName = upper(o.sceneName);
+    Scene scene = loadScene(o.sceneName);
+    for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    if (!editScript.empty()) {
+        o.script = server::loadEditScript(editScript);
+        o.scriptFile = editScript;
+    }
+    if (o.out.empty()) o.out = "out/" + lower(std::filesystem::path(o.sceneName).stem().string()) + ".exr";
+
+    server::Master master(std::move(o), std::move(scene));
+    return master.run();
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
-    (void)argv;
-    std::printf("usage: rtpm-server [options]\n");
-    return argc > 1 ? 2 : 0;
+    try {
+        return run(argc, argv);
+    } catch (const rtpm::SceneError& e) {
+        std::fprintf(stderr, "rtpm-server: scene error: %s\n", e.what());
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "rtpm-server: %s\n", e.what());
+    }
+    return 1;
 }

@@ -1,0 +1,85 @@
+// The master: accepts and authenticates clients, drives the frame loop, assembles and outputs.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/render_settings.h"
+#include "common/scene.h"
+#include "proto/messages.h"
+#include "server/edit_script.h"
+
+namespace rtpm::server {
+
+/// Everything rtpm-server's flags decide.
+struct MasterOptions {
+    std::string listen = "127.0.0.1";  ///< address to bind
+    uint16_t port = 7411;              ///< 0 = ephemeral (see portFile)
+    std::string portFile;              ///< written atomically with the bound port once listening
+    std::string token;                 ///< shared secret; empty only with insecureNoToken
+    bool insecureNoToken = false;
+
+    std::string sceneName = "RING";    ///< built-in name or file path (for logs and output names)
+    bool builtin = true;               ///< clients load sceneName themselves; else they get a .glb
+    RenderSettings settings;
+    int frames = 10;
+    proto::PixelEncoding encoding = proto::PixelEncoding::Float32;
+    bool walkthrough = false;          ///< no shooting after the first frame of each epoch
+
+    int minClients = 1;                ///< frames start once this many clients joined
+    std::chrono::milliseconds deadline{10000};  ///< how long the oldest frame waits for data
+    int evictAfter = 10;               ///< consecutive late or skipped frames before a client is dropped
+    std::chrono::milliseconds handshakeTimeout{5000};
+    int maxPeers = 256;                ///< connections (any state) beyond this are closed at once
+    size_t maxQueuedBytes = 256u << 20;  ///< per-peer unsent bytes before it is dropped
+
+    std::string out;                   ///< final EXR (PNG beside it); empty = no output
+    int saveEvery = 0;                 ///< also write frames n, 2n, … as <out stem>_<frame>.exr/.png
+    std::string csv;                   ///< per-frame figures (appended; header when new)
+    Animation animation = Animation::None;
+    std::vector<ScriptEdit> script;
+    std::string scriptFile;
+    bool quiet = false;                ///< no per-frame line on stdout
+};
+
+/// Totals of a run, for the summary line and tests.
+struct MasterSummary {
+    uint64_t framesShown = 0;
+    uint64_t framesIncomplete = 0;  ///< shown at their deadline or with sets nobody rendered
+    double seconds = 0.0;           ///< first FrameBegin → last frame shown
+    uint64_t bytesReceived = 0;     ///< FrameData wire bytes
+    uint64_t clientsJoined = 0;
+    uint64_t peersRejected = 0;     ///< handshakes refused and peers closed for protocol errors
+};
+
+/// The master (DESIGN §1). One io_context thread does all networking; decoding, scattering,
+/// filtering, composing and image output run on a separate assembly thread (and TBB), so a slow
+/// frame never stalls the sockets. Peers that send bad bytes are closed with a log line naming
+/// them; the master keeps serving the others.
+class Master {
+public:
+    /// `scene` is the scene as loaded (clients of a file scene receive it as .glb).
+    /// Throws std::invalid_argument for bad options, std::system_error if it cannot listen.
+    Master(MasterOptions options, Scene scene);
+    ~Master();
+    Master(const Master&) = delete;
+    Master& operator=(const Master&) = delete;
+
+    /// Bound port (valid after construction).
+    uint16_t port() const;
+    /// Runs until every frame is shown (then Bye{Normal} to all) or stop() / SIGINT / SIGTERM.
+    /// Returns the process exit code: 0 when all frames were shown.
+    int run();
+    /// Thread-safe request to stop (clients get Bye{Shutdown}).
+    void stop();
+    const MasterSummary& summary() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rtpm::server

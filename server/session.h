@@ -1,0 +1,86 @@
+// One TCP connection of the master: framed reads through proto::FrameSplitter, queued writes.
+#pragma once
+
+#include <asio.hpp>
+
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "proto/messages.h"
+
+namespace rtpm::server {
+
+class Session;
+
+/// What a Session reports to its owner. Called on the I/O thread only.
+class SessionHandler {
+public:
+    virtual ~SessionHandler() = default;
+    /// A whole, validated message. `wireBytes` = header + payload.
+    virtual void onMessage(Session& s, proto::Message&& m, size_t wireBytes) = 0;
+    /// The peer's bytes cannot be decoded (bad magic, version, size, field…); the session stops
+    /// reading. The handler decides what to send before closing.
+    virtual void onBadBytes(Session& s, const proto::Error& e) = 0;
+    /// The connection is gone (peer closed, I/O error, close() completed). Called exactly once,
+    /// after which the handler must drop its reference.
+    virtual void onClosed(Session& s, const std::string& why) = 0;
+};
+
+/// A connection: reads as fast as the peer sends, splitting the stream into messages; writes
+/// queued buffers one at a time (one write in flight, Asio's rule), sharing encoded buffers
+/// between sessions. Lives on one io_context thread; not thread-safe. Owned by a shared_ptr so
+/// pending handlers keep it alive.
+class Session : public std::enable_shared_from_this<Session> {
+public:
+    using Buffer = std::shared_ptr<const std::vector<uint8_t>>;
+
+    /// `maxQueuedBytes`: a peer that lets more than this pile up unread is closed (it is not
+    /// reading; memory must not grow without bound).
+    Session(asio::ip::tcp::socket socket, SessionHandler& handler, size_t maxQueuedBytes);
+
+    /// Starts reading. `handshakeTimeout`: the connection is closed unless markAuthenticated()
+    /// is called within it.
+    void start(std::chrono::milliseconds handshakeTimeout);
+    void markAuthenticated();
+
+    /// Queues bytes (a whole encoded message) for sending.
+    void send(Buffer bytes);
+    void send(const proto::Message& m) { send(std::make_shared<const std::vector<uint8_t>>(proto::encode(m))); }
+
+    /// Stops reading, sends what is queued, then closes (or closes after `grace` regardless).
+    void closeAfterFlush(std::chrono::milliseconds grace = std::chrono::milliseconds(2000));
+    /// Closes now; queued bytes are dropped.
+    void close(const std::string& why);
+
+    /// "address:port" of the peer (fixed at construction, valid after the socket closes).
+    const std::string& peer() const { return peer_; }
+    bool closing() const { return closing_; }
+    size_t queuedBytes() const { return queuedBytes_; }
+    uint64_t bytesReceived() const { return bytesReceived_; }
+
+private:
+    void readMore();
+    void writeNext();
+    void finish(const std::string& why);
+
+    asio::ip::tcp::socket socket_;
+    SessionHandler& handler_;
+    asio::steady_timer timer_;
+    std::string peer_;
+    proto::FrameSplitter splitter_;
+    std::vector<uint8_t> readBuf_;
+    std::deque<Buffer> queue_;
+    size_t queuedBytes_ = 0;
+    size_t maxQueuedBytes_;
+    uint64_t bytesReceived_ = 0;
+    bool writing_ = false;
+    bool closing_ = false;   // no more messages are delivered
+    bool flushing_ = false;  // close once the queue is empty
+    bool finished_ = false;  // onClosed delivered
+};
+
+}  // namespace rtpm::server
