@@ -1,0 +1,123 @@
+#!/usr/bin/env bash
+# Runs a whole rtpm cluster on this machine: one rtpm-server and N rtpm-client processes.
+#
+#   deploy/run-local.sh --clients N --scene NAME [any rtpm-server flag ...]
+#
+# Builds first if the binaries are missing (deploy/build.sh, into ${RTPM_BUILD_DIR:-build}).
+# The server listens on an ephemeral port (--port 0) and announces it through a port file; the
+# clients start once that file exists (bounded poll, no sleep-as-readiness). The token is
+# $RTPM_TOKEN, or a fresh random one. Each client gets max(1, cores / N) render threads so N
+# clients share the machine instead of oversubscribing it (override: RTPM_CLIENT_THREADS).
+# By default the server writes out/<scene>.exr and out/<scene>.png (relative to the current
+# directory). At the end the per-frame figures are printed as a table. Every process this
+# script started is stopped on exit, Ctrl-C or TERM. Exit status: the server's.
+set -euo pipefail
+
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build=${RTPM_BUILD_DIR:-$root/build}
+clients=2
+scene=RING
+server_args=()
+user_csv=""
+
+usage() {
+    sed -n '2,14p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
+}
+
+while (($#)); do
+    case $1 in
+        --clients) clients=${2:?--clients needs a number}; shift 2 ;;
+        --clients=*) clients=${1#*=}; shift ;;
+        --scene) scene=${2:?--scene needs a name or file}; shift 2 ;;
+        --scene=*) scene=${1#*=}; shift ;;
+        --csv) user_csv=${2:?--csv needs a file}; shift 2 ;;
+        --csv=*) user_csv=${1#*=}; shift ;;
+        -h|--help) usage; exit 0 ;;
+        *) server_args+=("$1"); shift ;;
+    esac
+done
+if ! [[ $clients =~ ^[0-9]+$ ]] || ((clients < 1)); then
+    echo "run-local.sh: --clients must be a positive integer, got '$clients'" >&2
+    exit 2
+fi
+
+server_bin=$build/server/rtpm-server
+client_bin=$build/client/rtpm-client
+if [[ ! -x $server_bin || ! -x $client_bin ]]; then
+    echo "run-local.sh: building rtpm into $build" >&2
+    RTPM_BUILD_DIR=$build bash "$root/deploy/build.sh"
+fi
+
+work=$(mktemp -d "${TMPDIR:-/tmp}/rtpm-local.XXXXXX")
+pids=()
+cleanup() {
+    local status=$?
+    trap - EXIT INT TERM
+    for pid in "${pids[@]}"; do
+        kill "$pid" 2>/dev/null || true
+    done
+    for pid in "${pids[@]}"; do
+        wait "$pid" 2>/dev/null || true
+    done
+    rm -rf "$work"
+    exit "$status"
+}
+trap cleanup EXIT
+trap 'exit 130' INT
+trap 'exit 143' TERM
+
+if [[ -z ${RTPM_TOKEN:-} ]]; then
+    RTPM_TOKEN=$(od -An -tx1 -N16 /dev/urandom | tr -d ' \n')
+fi
+export RTPM_TOKEN
+
+csv=${user_csv:-$work/stats.csv}
+port_file=$work/port
+"$server_bin" --port 0 --port-file "$port_file" --min-clients "$clients" --scene "$scene" --csv "$csv" \
+    "${server_args[@]}" &
+server_pid=$!
+pids+=("$server_pid")
+
+# Readiness: the port file appears (atomically) once the server listens. Bounded poll.
+for ((i = 0; i < 600; i++)); do
+    [[ -s $port_file ]] && break
+    if ! kill -0 "$server_pid" 2>/dev/null; then
+        wait "$server_pid" && status=0 || status=$?
+        echo "run-local.sh: rtpm-server exited (status $status) before listening" >&2
+        exit "${status:-1}"
+    fi
+    sleep 0.05
+done
+if [[ ! -s $port_file ]]; then
+    echo "run-local.sh: rtpm-server did not write its port file within 30 s" >&2
+    exit 1
+fi
+
+cores=$(nproc 2>/dev/null || echo 1)
+threads=${RTPM_CLIENT_THREADS:-$(((cores / clients) > 0 ? cores / clients : 1))}
+for ((c = 1; c <= clients; c++)); do
+    "$client_bin" --port-file "$port_file" --name "local-$c" --threads "$threads" \
+        >"$work/client-$c.log" 2>&1 &
+    pids+=("$!")
+done
+
+status=0
+wait "$server_pid" || status=$?
+# The server said Bye to every client; give them their normal exit, the trap reaps the rest.
+for ((c = 1; c <= clients; c++)); do
+    if ((status != 0)); then
+        echo "--- client $c log ---" >&2
+        tail -n 5 "$work/client-$c.log" >&2 || true
+    fi
+done
+
+if [[ -s $csv ]]; then
+    echo
+    echo "per-frame figures ($csv):"
+    if command -v column >/dev/null; then
+        column -t -s, "$csv"
+    else
+        cat "$csv"
+    fi
+fi
+exit "$status"
