@@ -412,6 +412,7 @@ struct Worker::Impl {
                                     (unsigned long long)f.begin.frame, setList(f.begin.sets).c_str(),
                                     double(r.stats.photonMs), double(r.stats.renderMs), double(r.stats.encodeMs),
                                     (unsigned long long)r.stats.photonsStored);
+                    if (opt.verbose) std::fflush(stdout);  // scripts and tests follow progress live
                     asio::post(io, [this, b = std::move(bytes)]() mutable {
                         if (state != State::Running) return;
                         for (auto& m : b) send(std::move(m));

@@ -210,15 +210,17 @@ TEST(ClusterImageRgb9e5, EqualsSingleProcessWithinTheEncodingsPrecision) {
     }
 }
 
-/// Initial sets a client logged ("connected … (sets 0,2,4, …)").
-std::vector<uint32_t> loggedSets(const std::string& err) {
+/// Sets a client rendered in frame 0 (its --verbose line "frame 0: sets 0,2,4, …").
+std::vector<uint32_t> frameZeroSets(const std::string& out) {
     std::vector<uint32_t> sets;
-    const size_t at = err.find("(sets ");
+    const std::string tag = "frame 0: sets ";
+    const size_t at = out.find(tag);
     if (at == std::string::npos) return sets;
-    std::string token;
-    std::string list = err.substr(at + 6);
-    list = list.substr(0, list.find_first_of(" )"));
+    std::string list = out.substr(at + tag.size());
+    list = list.substr(0, list.find_first_of(" \n"));
+    if (!list.empty() && list.back() == ',') list.pop_back();
     std::stringstream ls(list);
+    std::string token;
     while (std::getline(ls, token, ','))
         if (!token.empty() && token != "none") sets.push_back(uint32_t(std::stoul(token)));
     return sets;
@@ -250,7 +252,7 @@ TEST(ClusterResilience, KilledClientDoesNotStopTheRunAndTheImageIsComplete) {
     // The survivor's own sets kept their photon maps (only the victim's moved): their caustics
     // equal the reference's after the same number of batches; the moved sets restarted on the
     // survivor and must hold some caustic light of their own.
-    const std::vector<uint32_t> kept = loggedSets(survivor.err());
+    const std::vector<uint32_t> kept = frameZeroSets(survivor.out());
     ASSERT_FALSE(kept.empty()) << c.logs();
     const Interleave pattern{rs.width, rs.height, rs.m};
     const std::vector<float> a = got.layerRgb("caustic"), b = ref.layerRgb("caustic");
