@@ -6,6 +6,7 @@
 #include <limits>
 #include <random>
 #include <set>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
@@ -285,6 +286,68 @@ TEST(KdTree, MemoryStaysNearTheStoredPhotonSize) {
     tree.build(photons);
     // 20 bytes of photon plus ~16/B bytes of nodes; a bulk build holds no insertion scratch.
     EXPECT_LE(tree.memoryBytes(), photons.size() * 24);
+}
+
+TEST(KdTree, TenBatchInsertionStaysWithin24BytesPerPhotonWithoutReserve) {
+    const auto photons = uniformPhotons(20000, 32);
+    KdTree tree(boundsOf(photons));
+    const size_t batch = photons.size() / 10;
+    for (size_t first = 0; first < photons.size(); first += batch)
+        tree.insert(std::span<const Photon>(photons).subspan(first, batch));
+    ASSERT_EQ(tree.size(), photons.size());
+    // Growth is exact plus 1/32 slack (no geometric doubling), and insertion scratch is freed.
+    EXPECT_LE(tree.memoryBytes(), photons.size() * 24);
+}
+
+TEST(KdTree, PhotonsKeepTheirPowerAndDirectionThroughBuildAndInsert) {
+    std::vector<Photon> photons = clusteredPhotons(3000, 33);
+    for (size_t i = 0; i < photons.size(); ++i) {
+        photons[i].power = static_cast<uint32_t>(i);  // a distinct tag per photon
+        photons[i].incoming = static_cast<uint32_t>(i * 7919u);
+    }
+    const auto key = [](const Photon& p) {
+        return std::tuple(p.power, p.incoming, p.position.x, p.position.y, p.position.z);
+    };
+    std::vector<std::tuple<uint32_t, uint32_t, float, float, float>> want, bulkGot, incGot;
+    for (const Photon& p : photons) want.push_back(key(p));
+    std::sort(want.begin(), want.end());
+    KdTree bulk(boundsOf(photons)), incremental(boundsOf(photons));
+    bulk.build(photons);
+    incremental.insert(std::span<const Photon>(photons).first(1000));
+    incremental.insert(std::span<const Photon>(photons).subspan(1000));
+    for (const Photon& p : bulk.photons()) bulkGot.push_back(key(p));
+    for (uint32_t i = 0; i < incremental.size(); ++i) {
+        const Photon p = incremental.photon(i);
+        EXPECT_EQ(incremental.photonPower(i), p.power);
+        EXPECT_EQ(incremental.photonIncoming(i), p.incoming);
+        incGot.push_back(key(p));
+    }
+    std::sort(bulkGot.begin(), bulkGot.end());
+    std::sort(incGot.begin(), incGot.end());
+    EXPECT_EQ(bulkGot, want);
+    EXPECT_EQ(incGot, want);
+}
+
+TEST(KnnHeap, BoundNeverIncreasesAndEndsAtTheKthDistance) {
+    std::mt19937 rng(41);
+    std::uniform_real_distribution<float> u(0.0f, 100.0f);
+    for (uint32_t k : {1u, 7u, 64u}) {
+        KnnHeap heap;
+        heap.reset(k, 90.0f);
+        std::vector<float> kept;
+        float bound = heap.worstDist2();
+        for (uint32_t i = 0; i < 2000; ++i) {
+            const float d = u(rng);
+            if (d < 90.0f) kept.push_back(d);
+            heap.add(d, i);
+            ASSERT_LE(heap.worstDist2(), bound);
+            bound = heap.worstDist2();
+        }
+        std::sort(kept.begin(), kept.end());
+        ASSERT_EQ(heap.size(), k);
+        EXPECT_EQ(heap.farthestDist2(), kept[k - 1]);
+        EXPECT_LE(heap.worstDist2(), 90.0f);
+    }
 }
 
 TEST(KnnHeap, KeepsTheKSmallestOfAStream) {
