@@ -33,7 +33,8 @@ bool sameRendering(const proto::Settings& a, const proto::Settings& b) {
     return a.width == b.width && a.height == b.height && a.m == b.m &&
            a.photonsPerSetPerFrame == b.photonsPerSetPerFrame && a.k == b.k && a.rMax == b.rMax &&
            a.maxDepth == b.maxDepth && a.diffuseBounces == b.diffuseBounces &&
-           a.capPhotonsPerSet == b.capPhotonsPerSet && a.spt == b.spt && a.tree == b.tree;
+           a.capPhotonsPerSet == b.capPhotonsPerSet && a.spt == b.spt && a.tree == b.tree && a.seed == b.seed &&
+           a.photonMaxDepth == b.photonMaxDepth && a.areaLightSamples == b.areaLightSamples;
 }
 
 }  // namespace
@@ -48,7 +49,9 @@ RenderSettings toRenderSettings(const proto::Settings& s) {
     rs.interleave = int(s.m);
     rs.filter = int(s.f);
     rs.eye.maxDepth = int(s.maxDepth);
-    rs.photons.maxDepth = s.maxDepth;
+    rs.eye.areaLightSamples = int(s.areaLightSamples);
+    rs.photons.maxDepth = s.photonMaxDepth;
+    rs.photons.seed = s.seed;
     rs.photons.photonsPerBatch = s.photonsPerSetPerFrame;
     rs.photons.k = s.k;
     rs.photons.rMax = s.rMax;

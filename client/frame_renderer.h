@@ -24,10 +24,10 @@ struct ProtocolViolation : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-/// The wire settings as the renderer's settings. Settings.maxDepth bounds both the eye paths'
-/// specular bounces and the photon paths' segments (rtpm-render --depth and --photon-depth);
-/// everything the wire does not carry (area-light samples, Halton seed, SPT tuning) keeps
-/// RenderSettings' defaults, which are rtpm-render's defaults. rMax 0 = automatic.
+/// The wire settings as the renderer's settings: maxDepth → eye.maxDepth (rtpm-render --depth),
+/// photonMaxDepth → photons.maxDepth (--photon-depth), seed, areaLightSamples, and the photon
+/// settings one to one; what the wire does not carry (SPT tuning) keeps RenderSettings' defaults,
+/// which are rtpm-render's. rMax 0 = automatic.
 /// Throws ProtocolViolation for settings the renderer refuses (validateSettings) or a photon-map
 /// structure other than the middle-split kd-tree (the only one RenderJob builds).
 RenderSettings toRenderSettings(const proto::Settings& settings);

@@ -415,6 +415,33 @@ TEST(FrameRenderer, OnlyFilterOrEncodingChangesKeepPhotons) {
     EXPECT_EQ(r.batches(0), 1u);
 }
 
+TEST(FrameRenderer, WireSettingsMapOneToOneOntoRenderSettings) {
+    proto::Settings s = smallSettings();
+    s.maxDepth = 5;
+    s.photonMaxDepth = 9;
+    s.seed = 1234567;
+    s.areaLightSamples = 3;
+    s.k = 17;
+    s.rMax = 0.25f;
+    s.capPhotonsPerSet = 777;
+    s.spt = false;
+    s.diffuseBounces = 0;
+    const RenderSettings rs = client::toRenderSettings(s);
+    EXPECT_EQ(rs.width, 40);
+    EXPECT_EQ(rs.height, 30);
+    EXPECT_EQ(rs.interleave, 2);
+    EXPECT_EQ(rs.eye.maxDepth, 5);
+    EXPECT_EQ(rs.eye.areaLightSamples, 3);
+    EXPECT_EQ(rs.photons.maxDepth, 9u);
+    EXPECT_EQ(rs.photons.seed, 1234567u);
+    EXPECT_EQ(rs.photons.k, 17u);
+    EXPECT_EQ(rs.photons.rMax, 0.25f);
+    EXPECT_EQ(rs.photons.capPhotons, 777u);
+    EXPECT_FALSE(rs.photons.selective);
+    EXPECT_EQ(rs.photons.diffuseBounces, 0u);
+    EXPECT_EQ(rs.photons.photonsPerBatch, 400u);
+}
+
 TEST(FrameRenderer, UnsupportedTreeVariantIsAProtocolViolation) {
     proto::Settings s = smallSettings();
     s.tree = proto::TreeVariant::UniformGrid;

@@ -24,13 +24,21 @@ const std::string kToken = "cluster-test-token";
 /// Settings shared by the cluster and the reference: small so a run takes about a second.
 struct RunSettings {
     int width = 96, height = 72, m = 3, frames = 3, photons = 2000;
+    std::vector<std::string> extra;  ///< more shared flags
 
     /// Flags that rtpm-render and rtpm-server share (README: "The main ones, shared by rtpm-server").
     std::vector<std::string> flags() const {
-        return {"--scene", "RING",    "--width", std::to_string(width), "--height", std::to_string(height),
-                "-M",      std::to_string(m), "--frames", std::to_string(frames), "-P", std::to_string(photons)};
+        std::vector<std::string> f{"--scene", "RING", "--width", std::to_string(width), "--height",
+                                   std::to_string(height), "-M", std::to_string(m), "--frames",
+                                   std::to_string(frames), "-P", std::to_string(photons)};
+        f.insert(f.end(), extra.begin(), extra.end());
+        return f;
     }
-    std::string key() const { return std::to_string(frames); }
+    std::string key() const {
+        std::string k;
+        for (const std::string& f : flags()) k += f + " ";
+        return k;
+    }
 };
 
 /// rtpm-render's image for `rs`, rendered once per settings and kept for the whole binary.
@@ -39,11 +47,12 @@ const ExrImage& reference(const RunSettings& rs) {
     static std::map<std::string, ExrImage> cache;
     auto it = cache.find(rs.key());
     if (it != cache.end()) return it->second;
-    const std::string out = dir.file("ref" + rs.key() + ".exr");
+    const std::string name = "ref" + std::to_string(cache.size());
+    const std::string out = dir.file(name + ".exr");
     std::vector<std::string> argv{binaryPath("common/rtpm-render")};
     for (const std::string& f : rs.flags()) argv.push_back(f);
     argv.insert(argv.end(), {"--out", out});
-    Child render(argv, dir.file("render" + rs.key()));
+    Child render(argv, dir.file(name));
     auto st = render.wait(60s);
     if (!st || !st->exited || st->code != 0) throw std::runtime_error("rtpm-render failed\n" + render.logs());
     return cache.emplace(rs.key(), readExr(out)).first->second;
@@ -148,6 +157,25 @@ TEST_P(ClusterImage, EqualsSingleProcessBitForBitWithFloat32Pixels) {
 
 INSTANTIATE_TEST_SUITE_P(Clients, ClusterImage, ::testing::Values(1, 2, 3),
                          [](const ::testing::TestParamInfo<int>& i) { return std::to_string(i.param) + "Clients"; });
+
+// Every setting that reaches the clients through Settings, away from its default, must reach
+// them intact (seed, both depth limits, area-light samples, k, r_max, filter, diffuse bounces).
+TEST(ClusterImageSettings, NonDefaultSettingsStillGiveTheSingleProcessImage) {
+    RunSettings rs;
+    rs.m = 2;
+    rs.extra = {"--seed", "987654321", "--depth", "6", "--photon-depth", "9", "--area-samples", "2",
+                "--k", "24", "--rmax", "0.3", "-F", "3", "--diffuse-bounces", "0", "--no-spt"};
+    const ExrImage& ref = reference(rs);
+    expectNonTrivial(ref);
+    Cluster c;
+    c.startServer(rs, 2, "float32");
+    c.startClient();
+    c.startClient();
+    c.expectServerFinishes();
+    for (auto& cl : c.clients) c.expectClientExits(*cl, client::kExitOk);
+    const ExrImage got = readExr(c.outPath());
+    for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
+}
 
 // RGB9E5 keeps 9 mantissa bits under a shared exponent: each channel is off by at most half a
 // unit of the largest channel's mantissa (≤ 2^-9 of it), values under 2^-24 flush to 0.
