@@ -1,0 +1,85 @@
+// Helpers shared by the benchmarks: thread limits, raw Embree ray batches, process memory figures.
+#pragma once
+
+#include <embree3/rtcore.h>
+#include <tbb/blocked_range.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+
+#include <cstdint>
+#include <fstream>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "common/embree_scene.h"
+
+namespace rtpm::bench {
+
+/// Threads a benchmark runs with: `requested` > 0 as given, otherwise every hardware thread TBB
+/// sees. Pass the result to tbb::global_control(max_allowed_parallelism, …).
+inline int threadCount(int requested) {
+    return requested > 0 ? requested : tbb::info::default_concurrency();
+}
+
+/// Closest-hit queries for every ray of `rays` through plain rtcIntersect1 (no hit
+/// post-processing), parallel over chunks of `chunk` consecutive rays so a thread keeps the
+/// order of its chunk (which is what makes camera-order rays coherent). `hitIds[i]` receives ray
+/// i's primID (RTC_INVALID_GEOMETRY_ID on a miss) so the work cannot be optimised away.
+/// Precondition: hitIds.size() == rays.size(). Thread-safe for concurrent calls on one scene.
+inline void rawIntersect(RTCScene scene, std::span<const Ray> rays, std::span<unsigned> hitIds,
+                         bool coherent, size_t chunk = 1024) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), chunk),
+                      [&](const tbb::blocked_range<size_t>& r) {
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        if (coherent) ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+        for (size_t i = r.begin(); i < r.end(); ++i) {
+            RTCRayHit rh{};
+            rh.ray.org_x = rays[i].origin.x;
+            rh.ray.org_y = rays[i].origin.y;
+            rh.ray.org_z = rays[i].origin.z;
+            rh.ray.dir_x = rays[i].dir.x;
+            rh.ray.dir_y = rays[i].dir.y;
+            rh.ray.dir_z = rays[i].dir.z;
+            rh.ray.tnear = rays[i].tMin;
+            rh.ray.tfar = rays[i].tMax;
+            rh.ray.mask = 0xFFFFFFFFu;
+            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            rtcIntersect1(scene, &ctx, &rh);
+            hitIds[i] = rh.hit.primID;
+        }
+    });
+}
+
+/// A field of /proc/self/status in kB (e.g. "VmHWM", "VmRSS"), or -1 when it cannot be read
+/// (not Linux, field absent). O(file size).
+inline long procStatusKb(const std::string& field) {
+    std::ifstream in("/proc/self/status");
+    std::string line;
+    const std::string key = field + ":";
+    while (std::getline(in, line)) {
+        if (line.compare(0, key.size(), key) != 0) continue;
+        try {
+            return std::stol(line.substr(key.size()));
+        } catch (...) {
+            return -1;
+        }
+    }
+    return -1;
+}
+
+/// Resets the process's peak resident set (VmHWM) to the current RSS by writing "5" to
+/// /proc/self/clear_refs (Linux ≥ 4.0), so a later VmHWM is the peak of what follows.
+/// Returns false when the kernel or a sandbox refuses; VmHWM is then the process-lifetime peak.
+inline bool resetPeakRss() {
+    std::ofstream out("/proc/self/clear_refs");
+    if (!out) return false;
+    out << "5";
+    out.flush();
+    return static_cast<bool>(out);
+}
+
+}  // namespace rtpm::bench
