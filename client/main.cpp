@@ -20,7 +20,7 @@ int main(int argc, char** argv) {
     CLI::App app{"rtpm-client: render worker of the rtpm cluster. Connects to rtpm-server, renders the "
                  "interleaving sets it is given on every core and streams their pixels back.\n"
                  "Exit codes: 0 server said bye, 1 startup/connect failure, 2 refused by the server, "
-                 "3 server closed the connection, 4 protocol error."};
+                 "3 server closed the connection, 4 protocol error, 128+N stopped by signal N."};
     auto* serverOpt = app.add_option("--server", server, "server address host:port ([v6]:port for IPv6)");
     auto* portFileOpt = app.add_option("--port-file", o.portFile,
                                        "read the port from this file (rtpm-server --port-file); host from --host");

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <csignal>
 #include <cstdio>
 #include <deque>
 #include <fstream>
@@ -130,6 +131,18 @@ struct Worker::Impl {
     int run() {
         deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                       std::chrono::duration<double>(std::max(0.0, opt.connectTimeoutSeconds)));
+        // As PID 1 in a container SIGTERM would otherwise be ignored; leave with a Bye instead.
+        signals.async_wait([this](const asio::error_code& e, int sig) {
+            if (e) return;
+            std::fprintf(stderr, "rtpm-client: stopped by signal %d\n", sig);
+            if (state == State::AwaitWelcome || state == State::Running) {
+                sayByeAndClose(proto::ByeReason::Shutdown, "client stopped by signal " + std::to_string(sig),
+                               128 + sig);
+            } else {
+                exitCode = 128 + sig;
+                closeNow();
+            }
+        });
         asio::post(io, [this] { attempt(); });
         io.run();
         stopRenderThread();
@@ -159,8 +172,7 @@ struct Worker::Impl {
             std::fprintf(stderr, "rtpm-client: could not connect to %s within %.1f s (%d attempts): %s\n",
                          addrText().c_str(), opt.connectTimeoutSeconds, attempts, lastError.c_str());
             exitCode = kExitStartup;
-            state = State::Done;
-            return;
+            return closeNow();
         }
         ++attempts;
         port = opt.port;
@@ -323,6 +335,8 @@ struct Worker::Impl {
         socket.close(ignored);
         attemptTimer.cancel();
         retryTimer.cancel();
+        asio::error_code ignoredSignal;
+        signals.cancel(ignoredSignal);
         writes.clear();
         stopRenderThread(false);
     }
@@ -439,6 +453,7 @@ struct Worker::Impl {
     tcp::socket socket{io};
     asio::steady_timer attemptTimer{io};
     asio::steady_timer retryTimer{io};
+    asio::signal_set signals{io, SIGINT, SIGTERM};
     State state = State::Connecting;
     int exitCode = kExitStartup;
 

@@ -12,6 +12,7 @@ inline constexpr int kExitStartup = 1;        ///< bad flags, no server reachabl
 inline constexpr int kExitRejected = 2;       ///< the server refused the handshake (token, version, full)
 inline constexpr int kExitServerGone = 3;     ///< the server closed or reset the connection
 inline constexpr int kExitProtocolError = 4;  ///< the server sent something unusable, or said Bye{error}
+// SIGINT / SIGTERM: the client says Bye{Shutdown} and exits with 128 + the signal number.
 
 /// How to reach the server and what to tell it.
 struct WorkerOptions {

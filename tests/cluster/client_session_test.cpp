@@ -337,6 +337,18 @@ TEST(ClientSession, ServerVanishingWhileRenderingExitsThreeWithClearMessage) {
         << fs.client->logs();
 }
 
+TEST(ClientSession, SigtermLeavesWithByeShutdown) {
+    FakeServer fs;
+    fs.start();
+    fs.handshake({0});
+    fs.client->signal(SIGTERM);
+    proto::Bye bye = fs.expect<proto::Bye>();
+    EXPECT_EQ(bye.reason, proto::ByeReason::Shutdown);
+    ExitStatus st = fs.exitStatus();
+    EXPECT_TRUE(st.exited);
+    EXPECT_EQ(st.code, 128 + SIGTERM);
+}
+
 TEST(ClientSession, RetriesUntilThePortFileAppears) {
     TempDir dir;
     const std::string portFile = dir.file("port");
