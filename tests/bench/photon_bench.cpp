@@ -1,7 +1,9 @@
 // Photon shooting on the built-in scenes (paper Tables 2–4): throughput, phase split, caustic
 // yield plain vs SPT, memory per photon — next to raw Embree throughput on photon-like rays.
 //
-// Run: photon_bench [--benchmark_filter=RING]. Benchmarks:
+// Run: photon_bench [--benchmark_filter=RING]. Rates are per wall second; the CPU column is the
+// process's CPU time (all threads), so on a shared machine CPU/real shows how much CPU the run got.
+// Benchmarks:
 //  * Shoot/<scene>/<plain|spt>/db:<0|1>/threads:<1|all> — PhotonMaps::shootBatch of one set, P =
 //    kBatchPaths paths per batch, accumulating as in the renderer (reset, untimed, at 1M photons).
 //    Counters: paths/s and stored/s (photons inserted into the kd-tree) and rays/s over the whole
@@ -19,7 +21,15 @@
 //  * Yield/<scene>/<plain|spt>/db:<0|1> — deterministic: kYieldBatches batches from a reset.
 //    yield = productive paths / traced paths over all batches (SPT's first batch includes its
 //    classification period), lastYield = the last batch alone (SPT's steady state); the SPT row
-//    also reports vsPlain = its yield / the plain row's (paper Table 4).
+//    also reports vsPlain = its yield / the plain row's (paper Table 4); spt-nodilate is SPT with
+//    sptDilate off (refine only boxes that were productive, no face neighbours).
+//  * Split/<scene>/db:<0|1> — one thread, plain shooting, every path timed phase by phase through
+//    tracePhotonPath(timed = true) instead of 1 in 64: a check of the sampled Table 3 split. The
+//    cost of the clock reads inside each timed interval (measured here, ~1 read per interval) is
+//    subtracted. rayCastPerRay = seconds per EmbreeScene::intersect inside photon tracing.
+//  * Sample/<scene> — one thread, only the light sampling of a photon (its Halton steering numbers,
+//    sampleEmission, the area-light origin offset) for the first-segment rays above: an untimed
+//    cross-check of the sampling share (sampling share ≈ ns/sample × paths/s of one thread).
 //  * Memory/<scene> — one set (SPT, diffuseBounces 1: the renderer's defaults) shoots batches of
 //    kMemoryBatchPaths until it holds 1M photons (cap) or kMemorySeconds pass. bytes/photon =
 //    KdTree::memoryBytes / photons (photon columns + nodes); peakMB = VmHWM after shooting with
@@ -204,15 +214,103 @@ void rawEmbree(benchmark::State& state, const std::string& name, RayKind kind, i
     state.counters["threads"] = bench::threadCount(threads);
 }
 
+// Seconds per steady_clock::now(): the bias every timed interval carries.
+double clockReadSeconds() {
+    constexpr int kReads = 200000;
+    Clock::time_point x;
+    const Clock::time_point a = Clock::now();
+    for (int i = 0; i < kReads; ++i) x = Clock::now();
+    benchmark::DoNotOptimize(x);
+    return std::chrono::duration<double>(Clock::now() - a).count() / kReads;
+}
+
+void splitRun(benchmark::State& state, const std::string& name, uint32_t db) {
+    LoadedScene& s = loaded(name);
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    const std::vector<Emitter> emitters = buildEmitters(*s.embree);
+    const std::vector<uint32_t> budget = splitBudget(emitters, kBatchPaths);
+    TraceSettings ts;
+    ts.diffuseBounces = db;
+    const double c = clockReadSeconds();
+    double total = 0, sampling = 0, rayCast = 0, rays = 0, paths = 0;
+    std::vector<TracedPhoton> out;
+    uint64_t next = 0;
+    for (auto _ : state) {
+        for (size_t l = 0; l < emitters.size(); ++l) {
+            const Halton halton(PhotonSettings{}.seed, hashKeys(0, l, 0x53504c4954ull));
+            PhotonSource src;
+            src.emitter = &emitters[l];
+            src.halton = &halton;
+            src.hashStream = l;
+            src.powerPerPath = emitters[l].flux / float(budget[l]);
+            src.dims = dimLayout(emitters[l].kind, db);
+            for (uint32_t i = 0; i < budget[l]; ++i) {
+                TraceStats st;
+                out.clear();
+                const Clock::time_point t0 = Clock::now();
+                tracePhotonPath(*s.embree, src, ts, next + i, out, st, true);
+                const double t = std::chrono::duration<double>(Clock::now() - t0).count();
+                // Inside [t0, end]: tStart, tMark, two reads per ray, and one for the pair itself.
+                total += t - c * double(3 + 2 * st.rays);
+                sampling += st.samplingSeconds - c;
+                rayCast += st.rayCastSeconds - c * double(st.rays);
+                rays += double(st.rays);
+                paths += 1;
+            }
+        }
+        next += kBatchPaths;
+    }
+    state.counters["paths/s"] = benchmark::Counter(paths, benchmark::Counter::kIsRate);
+    state.counters["sampling"] = sampling / total;
+    state.counters["rayCast"] = rayCast / total;
+    state.counters["interaction"] = (total - sampling - rayCast) / total;
+    state.counters["rayCastPerRay"] = rays > 0 ? rayCast / rays : 0.0;
+    state.counters["clockRead"] = c;
+    state.counters["rays/path"] = paths > 0 ? rays / paths : 0.0;
+}
+
+void sampleRun(benchmark::State& state, const std::string& name) {
+    LoadedScene& s = loaded(name);
+    const std::vector<Emitter> emitters = buildEmitters(*s.embree);
+    const std::vector<uint32_t> budget = splitBudget(emitters, kBatchPaths);
+    double samples = 0;
+    uint64_t next = 0;
+    Vec3 sink(0.0f);
+    for (auto _ : state) {
+        for (size_t l = 0; l < emitters.size(); ++l) {
+            const Emitter& e = emitters[l];
+            const Halton halton(PhotonSettings{}.seed, hashKeys(0, l, 0x53414d50ull));
+            const DimLayout dims = dimLayout(e.kind, 1);
+            for (uint32_t i = 0; i < budget[l]; ++i) {
+                const uint64_t index = next + i;
+                const Vec2 uDir(halton.sample(dims.direction, index), halton.sample(dims.direction + 1, index));
+                Vec2 uPoint(0.0f);
+                if (dims.point >= 0)
+                    uPoint = Vec2(halton.sample(dims.point, index), halton.sample(dims.point + 1, index));
+                const EmittedRay em = sampleEmission(e, *s.embree, uDir, uPoint);
+                sink += e.kind == EmitterKind::Area ? s.embree->offsetOrigin(em.origin, em.normal, em.dir)
+                                                    : em.origin;
+                sink += em.dir;
+            }
+            samples += double(budget[l]);
+        }
+        next += kBatchPaths;
+    }
+    benchmark::DoNotOptimize(sink);
+    state.counters["samples/s"] = benchmark::Counter(samples, benchmark::Counter::kIsRate);
+}
+
 std::map<std::string, double>& plainYields() {
     static std::map<std::string, double> y;
     return y;
 }
 
-void yieldRun(benchmark::State& state, const std::string& name, bool selective, uint32_t db) {
+void yieldRun(benchmark::State& state, const std::string& name, bool selective, uint32_t db,
+              bool dilate = true) {
     LoadedScene& s = loaded(name);
     PhotonSettings ps = shootSettings(selective, db);
     ps.capPhotons = 0;
+    ps.sptDilate = dilate;
     double yield = 0.0, lastYield = 0.0, paths = 0.0;
     uint64_t stored = 0, refined = 0, cells = 0;
     for (auto _ : state) {
@@ -292,17 +390,17 @@ int main(int argc, char** argv) {
                                            "/db:" + std::to_string(db) + th;
                     RegisterBenchmark(id.c_str(), [=](benchmark::State& st) {
                         shoot(st, name, selective, db, threads);
-                    })->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
+                    })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
                 }
             RegisterBenchmark(("EmbreeEmission/" + name + th).c_str(), [=](benchmark::State& st) {
                 rawEmbree(st, name, RayKind::Emission, threads);
-            })->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
+            })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
             RegisterBenchmark(("EmbreeWrapped/" + name + th).c_str(), [=](benchmark::State& st) {
                 rawEmbree(st, name, RayKind::Wrapped, threads);
-            })->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
+            })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
             RegisterBenchmark(("EmbreeRandom/" + name + th).c_str(), [=](benchmark::State& st) {
                 rawEmbree(st, name, RayKind::Random, threads);
-            })->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
+            })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
         }
         for (uint32_t db : {0u, 1u})
             for (bool selective : {false, true}) {
@@ -310,11 +408,23 @@ int main(int argc, char** argv) {
                                        "/db:" + std::to_string(db);
                 RegisterBenchmark(id.c_str(), [=](benchmark::State& st) {
                     yieldRun(st, name, selective, db);
-                })->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+                })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->Iterations(1);
             }
+        for (uint32_t db : {0u, 1u}) {
+            const std::string tail = name + "/db:" + std::to_string(db);
+            RegisterBenchmark(("Yield/" + name + "/spt-nodilate/db:" + std::to_string(db)).c_str(),
+                              [=](benchmark::State& st) { yieldRun(st, name, true, db, false); })
+                ->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->Iterations(1);
+            RegisterBenchmark(("Split/" + tail).c_str(), [=](benchmark::State& st) {
+                splitRun(st, name, db);
+            })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
+        }
+        RegisterBenchmark(("Sample/" + name).c_str(), [=](benchmark::State& st) {
+            sampleRun(st, name);
+        })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
         RegisterBenchmark(("Memory/" + name).c_str(), [=](benchmark::State& st) {
             memoryRun(st, name);
-        })->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+        })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->Iterations(1);
     }
     benchmark::Initialize(&argc, argv);
     if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
