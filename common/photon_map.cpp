@@ -39,6 +39,16 @@ uint64_t streamOf(uint32_t set, const Emitter& e) {
     return hashKeys(set, e.id, static_cast<uint64_t>(e.kind), 0x4c49474854ull);
 }
 
+// True if some instance uses a mirror or dielectric: only then can a path store a caustic photon.
+bool hasCausticGenerator(const Scene& s) {
+    for (const Instance& inst : s.instances) {
+        if (inst.mesh >= s.meshes.size()) continue;
+        const uint32_t m = s.meshes[inst.mesh].material;
+        if (m < s.materials.size() && s.materials[m].isSpecular()) return true;
+    }
+    return false;
+}
+
 }  // namespace
 
 struct PhotonMaps::SetState {
@@ -173,6 +183,10 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
         st->planned = true;
     }
 
+    // Without a mirror or dielectric no path can store a photon: the batch traces nothing and the
+    // set goes to walkthrough (below), instead of tracing its budget every frame up to the cap.
+    const bool causticPossible = hasCausticGenerator(scene.scene());
+
     TraceSettings ts;
     ts.diffuseBounces = settings_.diffuseBounces;
     ts.maxDepth = settings_.maxDepth;
@@ -186,7 +200,7 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     std::vector<uint64_t> indices;
     for (size_t l = 0; l < emitters_.size(); ++l) {
         SetState::LightState& ls = st->lights[l];
-        if (ls.budget == 0) continue;
+        if (ls.budget == 0 || !causticPossible) continue;
         const Emitter& e = emitters_[l];
         PhotonSource src;
         src.emitter = &e;
@@ -282,8 +296,8 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
         (stats.photonsStored >= settings_.capPhotons ||
          stats.pathsTraced >= kCapPathsPerPhoton * settings_.capPhotons))
         st->capped = true;
-    // A scene without lights never produces photons: nothing to accumulate.
-    if (emitters_.empty()) st->capped = true;
+    // A scene without lights or without a caustic generator never produces photons.
+    if (emitters_.empty() || !causticPossible) st->capped = true;
 }
 
 Vec3 PhotonMaps::radiance(uint32_t set, const SurfaceHit& hit, Vec3 normal, Vec3 albedo) const {
