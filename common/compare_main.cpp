@@ -46,7 +46,7 @@ int run(int argc, char** argv) {
         "rel_rmse = sqrt(mean((o-r)^2)) / mean(|r|); mae = mean(|o-r|); rel_mae = mae / mean(|r|)\n"
         "over all channels of the region's pixels; energy = sum(o) / sum(r) over the whole image.\n"
         "Exit status: 0 ok, 1 cannot compare (missing file/channel, size mismatch), 2 a bound given\n"
-        "by --max-rel-rmse or --energy-bounds is not met."};
+        "by --max-rel-rmse or --energy-bounds is not met, or OUTPUT holds NaN/Inf values."};
     app.add_option("output", outputPath, "rendered EXR (the image judged)")->required();
     app.add_option("reference", referencePath, "reference EXR (converged or analytic)")->required();
     app.add_option("--layer", layers,

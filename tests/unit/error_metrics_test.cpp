@@ -6,10 +6,13 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <string>
 #include <vector>
+
+#include <sys/wait.h>
 
 #include "common/image_io.h"
 
