@@ -204,10 +204,10 @@ Scene buildRingScene() {
     const uint32_t lamp = addMaterial(s, emitter("lamp", Vec3(4000.0f)));
     addMesh(s, floorQuad(2.0f, 0.0f), "floor", floorMat);
 
-    // Ring band: radius 0.5 m, wall 1 cm, height 0.15 m; closed profile (bottom, outer, top, inner)
+    // Ring band: radius 0.5 m, wall 1 cm, height 0.2 m; closed profile (bottom, outer, top, inner)
     // counter-clockwise, 128 segments → 4 bands · 2 · 128 = 1024 triangles.
     // Lifted 0.1 mm so its bottom face is not coplanar with the floor.
-    const float ri = 0.5f, ro = 0.51f, y0 = 0.0001f, h = 0.15f;
+    const float ri = 0.5f, ro = 0.51f, y0 = 0.0001f, h = 0.2f;
     const int seg = 128;
     Mesh ring;
     addLatheBand(ring, line({ri, y0}, {ro, y0}, 1), seg);
@@ -216,11 +216,13 @@ Scene buildRingScene() {
     addLatheBand(ring, line({ri, h}, {ri, y0}, 1), seg);
     addMesh(s, std::move(ring), "ring", metal);
 
-    // Small area light (10 cm) low on the −x side, 14° above the horizon seen from the ring centre,
-    // aimed at the far inner wall: light grazing into the ring reflects into the nephroid.
-    const Vec3 lampPos(-2.0f, 0.5f, 0.0f);
+    // Small area light (10 cm) low on the −x side, 24° above the horizon seen from the ring centre,
+    // aimed at the far inner wall: light entering over the near rim reflects into the nephroid,
+    // whose cusp (R/2 towards the light) lies in the near wall's shadow.
+    const Vec3 lampPos(-2.0f, 0.9f, 0.0f);
     addMesh(s, lightQuad(lampPos, Vec3(0.5f, 0.0f, 0.0f) - lampPos, 0.1f), "lamp", lamp);
-    s.camera = Camera::lookAt(Vec3(0.9f, 1.5f, 1.3f), Vec3(0.05f, 0.0f, 0.0f), Vec3(0, 1, 0), 0.6f);
+    // From the lamp's side, so the lamp itself stays out of view.
+    s.camera = Camera::lookAt(Vec3(-1.1f, 1.6f, 1.1f), Vec3(-0.05f, 0.0f, 0.0f), Vec3(0, 1, 0), 0.6f);
     return s;
 }
 
