@@ -4,7 +4,9 @@
 #include <asio.hpp>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <csignal>
+#include <deque>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -27,6 +29,8 @@ namespace {
 /// Frames in flight at once (and assembly jobs queued at once): the client renders frame f+1
 /// while f travels and is assembled, so neither side idles (DESIGN §2.1 pipelining).
 constexpr size_t kPipeline = 2;
+/// Frames over which the per-frame fps figure is averaged.
+constexpr size_t kFpsWindow = 8;
 
 static_assert(sizeof(proto::PixelPair) == sizeof(PixelRadiance), "decoded pixels copy 1:1");
 
@@ -88,6 +92,7 @@ struct Master::Impl : SessionHandler {
         proto::FrameMode mode = proto::FrameMode::Accumulate;
         uint64_t bytes = 0;
         uint64_t photonsStored = 0;
+        uint64_t setsReported = 0;  // sets of the clients whose Stats arrived
         float slowestMs = -1.0f;
         std::string slowest = "-";
         std::vector<ClientId> owners;  // who was asked for each set
@@ -143,6 +148,7 @@ struct Master::Impl : SessionHandler {
     bool finishing = false;
     int exitCode = 0;
     TimePoint startTime{}, lastShown{};
+    std::deque<TimePoint> shownTimes;  // retirement times of the last kFpsWindow + 1 frames
     MasterSummary summary;
 
     // Assembly thread and its state (touched only there).
@@ -461,6 +467,7 @@ struct Master::Impl : SessionHandler {
         if (v == Verdict::Accept) {
             FrameInfo& info = frameInfo[st.frame];
             info.photonsStored += st.photonsStored;
+            info.setsReported += static_cast<uint64_t>(std::count(info.owners.begin(), info.owners.end(), c.id));
             if (st.frameMs > info.slowestMs) {
                 info.slowestMs = st.frameMs;
                 info.slowest = std::to_string(c.id) + ":" + c.name;
@@ -580,11 +587,16 @@ struct Master::Impl : SessionHandler {
         RetireJob job;
         job.frame = r.frame;
         job.mode = info.mode;
-        double dt = std::chrono::duration<double>(now - lastShown).count();
-        job.fps = dt > 0 ? 1.0 / dt : 0.0;
+        // Frames often retire in pairs (pipelining): a rate over the last few frames says more
+        // than the gap to the previous one.
+        shownTimes.push_back(now);
+        if (shownTimes.size() > kFpsWindow + 1) shownTimes.pop_front();
+        double span = std::chrono::duration<double>(now - (shownTimes.size() > 1 ? shownTimes.front() : startTime)).count();
+        double frames = shownTimes.size() > 1 ? double(shownTimes.size() - 1) : 1.0;
+        job.fps = span > 0 ? frames / span : 0.0;
         lastShown = now;
         job.bytes = info.bytes;
-        job.photonsPerSet = double(info.photonsStored) / double(setCount);
+        job.photonsPerSet = info.setsReported ? double(info.photonsStored) / double(info.setsReported) : 0.0;
         job.slowest = info.slowest;
         job.slowestMs = std::max(0.0f, info.slowestMs);
         job.arrived = r.arrived.size();
