@@ -241,7 +241,8 @@ public:
     /// A message, std::nullopt when more bytes are needed, or the (sticky) fatal error.
     Result<std::optional<Message>> next();
     /// Bytes fed but not yet returned as messages.
-    size_t buffered() const { return buf_.size() - pos_; }
+    /// A header already decoded while its payload is awaited still counts.
+    size_t buffered() const { return buf_.size() - pos_ + (header_ ? kHeaderBytes : 0); }
     bool failed() const { return error_.has_value(); }
 
 private:

@@ -221,6 +221,24 @@ TEST(FrameSplitter, FailsOnAnOversizeHeaderWithoutWaitingForThePayload) {
     EXPECT_TRUE(splitter.failed());
 }
 
+TEST(FrameSplitter, BufferedCountsAHeaderWhosePayloadIsStillAwaited) {
+    // Found by decode_fuzz: a valid message followed by a lone valid header reported 0 bytes
+    // buffered once the header was decoded, as if the stream ended on a message boundary.
+    auto bytes = encode(Reject{RejectReason::BadToken, "token does not match"});
+    Writer w;
+    encodeHeader(Header{kMagic, kProtocolVersion, MessageType::Scene, 0, 1000}, w);
+    bytes.insert(bytes.end(), w.data().begin(), w.data().end());
+    FrameSplitter splitter;
+    splitter.feed(bytes);
+    auto first = splitter.next();
+    ASSERT_TRUE(first.ok());
+    ASSERT_TRUE(first->has_value());
+    auto second = splitter.next();
+    ASSERT_TRUE(second.ok());
+    EXPECT_FALSE(second->has_value());
+    EXPECT_EQ(splitter.buffered(), kHeaderBytes);
+}
+
 TEST(FrameSplitter, GarbageStreamFailsWithBadMagic) {
     FrameSplitter splitter;
     const std::vector<uint8_t> junk = {'G', 'E', 'T', ' ', '/', ' ', 'H', 'T', 'T', 'P',
