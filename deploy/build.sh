@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs missing dependencies, then configures and builds rtpm (Release) into ${RTPM_BUILD_DIR:-build}.
 # Extra arguments are passed to the CMake configure step (e.g. -DRTPM_SANITIZE=ON).
+# RTPM_BUILD_TARGETS (space-separated) limits the build to those targets; default: everything.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${RTPM_BUILD_DIR:-$root/build}
@@ -12,4 +13,6 @@ if [[ ! -f $build/CMakeCache.txt ]]; then
 elif (($#)); then
     cmake "$build" "$@"
 fi
-cmake --build "$build" -j "$(nproc)"
+targets=()
+for t in ${RTPM_BUILD_TARGETS:-}; do targets+=(--target "$t"); done
+cmake --build "$build" "${targets[@]}" -j "$(nproc)"

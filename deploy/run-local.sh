@@ -3,7 +3,7 @@
 #
 #   deploy/run-local.sh --clients N --scene NAME [any rtpm-server flag ...]
 #
-# Builds first if the binaries are missing (deploy/build.sh, into ${RTPM_BUILD_DIR:-build}).
+# Builds first (deploy/build.sh, incremental, into ${RTPM_BUILD_DIR:-build}).
 # The server listens on an ephemeral port (--port 0) and announces it through a port file; the
 # clients start once that file exists (bounded poll, no sleep-as-readiness). The token is
 # $RTPM_TOKEN, or a fresh random one. Each client gets max(1, cores / N) render threads so N
@@ -43,10 +43,9 @@ fi
 
 server_bin=$build/server/rtpm-server
 client_bin=$build/client/rtpm-client
-if [[ ! -x $server_bin || ! -x $client_bin ]]; then
-    echo "run-local.sh: building rtpm into $build" >&2
-    RTPM_BUILD_DIR=$build bash "$root/deploy/build.sh"
-fi
+# Always (incrementally) build, so the server and clients never run stale binaries.
+echo "run-local.sh: building rtpm-server and rtpm-client into $build" >&2
+RTPM_BUILD_DIR=$build RTPM_BUILD_TARGETS="rtpm-server rtpm-client" bash "$root/deploy/build.sh" >&2
 
 work=$(mktemp -d "${TMPDIR:-/tmp}/rtpm-local.XXXXXX")
 pids=()
