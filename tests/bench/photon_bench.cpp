@@ -35,7 +35,7 @@
 //    KdTree::memoryBytes / photons (photon columns + nodes); peakMB = VmHWM after shooting with
 //    the peak reset to the current RSS first (resetPeakRss), baseMB = VmRSS before shooting
 //    (scene, BVH, earlier benchmarks' caches). Run each scene in its own process for a clean
-//    baseline: --benchmark_filter='Memory/RING$'.
+//    baseline: --benchmark_filter='^Memory/RING/'.
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
