@@ -37,41 +37,6 @@ constexpr auto kAttemptTimeout = std::chrono::seconds(5);
 /// After a Bye is queued the socket is closed when it is written, or after this at the latest.
 constexpr auto kByeGrace = std::chrono::seconds(2);
 
-const char* rejectName(proto::RejectReason r) {
-    switch (r) {
-        case proto::RejectReason::VersionMismatch: return "protocol version mismatch";
-        case proto::RejectReason::BadToken: return "bad token";
-        case proto::RejectReason::ServerFull: return "server full";
-        case proto::RejectReason::ProtocolError: return "protocol error";
-    }
-    return "unknown reason";
-}
-
-const char* byeName(proto::ByeReason r) {
-    switch (r) {
-        case proto::ByeReason::Normal: return "normal";
-        case proto::ByeReason::Shutdown: return "shutdown";
-        case proto::ByeReason::ProtocolError: return "protocol error";
-        case proto::ByeReason::Timeout: return "timeout";
-    }
-    return "unknown";
-}
-
-const char* typeName(proto::MessageType t) {
-    switch (t) {
-        case proto::MessageType::Hello: return "Hello";
-        case proto::MessageType::Welcome: return "Welcome";
-        case proto::MessageType::Reject: return "Reject";
-        case proto::MessageType::Scene: return "Scene";
-        case proto::MessageType::Settings: return "Settings";
-        case proto::MessageType::FrameBegin: return "FrameBegin";
-        case proto::MessageType::FrameData: return "FrameData";
-        case proto::MessageType::Edit: return "Edit";
-        case proto::MessageType::Stats: return "Stats";
-        case proto::MessageType::Bye: return "Bye";
-    }
-    return "unknown";
-}
 
 std::string setList(const std::vector<uint32_t>& sets) {
     std::string s;
@@ -270,11 +235,11 @@ struct Worker::Impl {
             }
             if (auto* r = std::get_if<proto::Reject>(&msg)) {
                 std::fprintf(stderr, "rtpm-client: server %s refused the connection: %s: %s\n", addrText().c_str(),
-                             rejectName(r->reason), r->text.c_str());
+                             proto::rejectReasonName(r->reason), r->text.c_str());
                 exitCode = kExitRejected;
                 return closeNow();
             }
-            return protocolError(std::string("expected Welcome or Reject, got ") + typeName(type));
+            return protocolError(std::string("expected Welcome or Reject, got ") + proto::messageTypeName(type));
         }
         switch (type) {
             case proto::MessageType::Settings: return enqueue(std::get<proto::Settings>(std::move(msg)));
@@ -282,14 +247,14 @@ struct Worker::Impl {
             case proto::MessageType::Edit: return enqueue(std::get<proto::Edit>(std::move(msg)));
             case proto::MessageType::FrameBegin:
                 return enqueue(FrameItem{std::get<proto::FrameBegin>(std::move(msg)), Clock::now()});
-            default: return protocolError(std::string("unexpected ") + typeName(type) + " after Welcome");
+            default: return protocolError(std::string("unexpected ") + proto::messageTypeName(type) + " after Welcome");
         }
     }
 
     void handleBye(const proto::Bye& bye) {
         const bool normal = bye.reason == proto::ByeReason::Normal || bye.reason == proto::ByeReason::Shutdown;
         std::fprintf(stderr, "rtpm-client: server %s said bye (%s)%s%s; %llu frames rendered\n", addrText().c_str(),
-                     byeName(bye.reason), bye.text.empty() ? "" : ": ", bye.text.c_str(),
+                     proto::byeReasonName(bye.reason), bye.text.empty() ? "" : ": ", bye.text.c_str(),
                      (unsigned long long)framesRendered.load());
         exitCode = normal ? kExitOk : kExitProtocolError;
         closeNow();

@@ -12,6 +12,7 @@
 #include "common/frame_image.h"
 #include "common/gltf_export.h"
 #include "common/image_io.h"
+#include "common/render_flags.h"
 #include "common/render_job.h"
 #include "common/scene_loader.h"
 
@@ -45,34 +46,12 @@ int run(int argc, char** argv) {
     CLI::App app{"rtpm-render: single-process caustic renderer (photon maps per interleaving set, "
                  "image-space box filter). Writes a multi-layer EXR (R G B, direct.*, caustic.*, "
                  "caustic_filtered.*) and a tone-mapped PNG beside it."};
-    app.add_option("--scene", o.scene, "built-in scene (RING GLASS EGG HEADLIGHT CORNELL) or .gltf/.glb/.obj file")
-        ->capture_default_str();
-    app.add_option("--width", rs.width, "image width in pixels")->capture_default_str();
-    app.add_option("--height", rs.height, "image height in pixels")->capture_default_str();
-    app.add_option("--out", o.out, "output EXR path (default out/<scene>.exr); the PNG goes beside it");
+    addRenderFlags(app, rs, o.scene, o.plain);
     app.add_option("--frames", o.frames,
                    "frames to render; every frame adds one photon batch per set until the cap "
                    "(accumulation), the last frame is written")
         ->capture_default_str();
-    app.add_option("--photons,-P", rs.photons.photonsPerBatch, "P: photon paths traced per set per frame")
-        ->capture_default_str();
-    app.add_option("--k", rs.photons.k, "photons per density estimate")->capture_default_str();
-    app.add_option("--rmax", rs.photons.rMax, "maximum gather radius in metres (0 = 2% of the scene diagonal)")
-        ->capture_default_str();
-    app.add_option("--interleave,-M", rs.interleave, "M: M×M interleaving sets, one photon map each")
-        ->capture_default_str();
-    app.add_option("--filter,-F", rs.filter, "F: caustic box filter size in pixels (0 = M)")->capture_default_str();
-    app.add_flag("--no-spt", o.plain, "plain QMC photon shooting instead of Selective Photon Tracing");
-    app.add_option("--diffuse-bounces", rs.photons.diffuseBounces,
-                   "diffuse bounces a photon may take (0 = only L S+ D caustics)")
-        ->capture_default_str();
-    app.add_option("--cap", rs.photons.capPhotons, "stored photons per set at which accumulation stops (0 = none)")
-        ->capture_default_str();
-    app.add_option("--depth", rs.eye.maxDepth, "specular depth limit of eye paths")->capture_default_str();
-    app.add_option("--photon-depth", rs.photons.maxDepth, "ray segments per photon path")->capture_default_str();
-    app.add_option("--area-samples", rs.eye.areaLightSamples, "shadow samples per emissive triangle")
-        ->capture_default_str();
-    app.add_option("--seed", rs.photons.seed, "seed of the Halton rotations")->capture_default_str();
+    app.add_option("--out", o.out, "output EXR path (default out/<scene>.exr); the PNG goes beside it");
     app.add_option("--threads", o.threads, "worker threads (0 = all cores)")->capture_default_str();
     app.add_option("--camera-eye", o.eye, "camera position x y z (overrides the scene camera)")->expected(3);
     app.add_option("--camera-target", o.target, "camera target x y z")->expected(3);

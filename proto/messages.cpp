@@ -394,6 +394,51 @@ Result<Message> decodeAs(std::span<const uint8_t> payload, const char* name) {
 
 }  // namespace
 
+const char* messageTypeName(MessageType type) {
+    switch (type) {
+        case MessageType::Hello: return "Hello";
+        case MessageType::Welcome: return "Welcome";
+        case MessageType::Reject: return "Reject";
+        case MessageType::Scene: return "Scene";
+        case MessageType::Settings: return "Settings";
+        case MessageType::FrameBegin: return "FrameBegin";
+        case MessageType::FrameData: return "FrameData";
+        case MessageType::Edit: return "Edit";
+        case MessageType::Stats: return "Stats";
+        case MessageType::Bye: return "Bye";
+    }
+    return "unknown";
+}
+
+const char* rejectReasonName(RejectReason reason) {
+    switch (reason) {
+        case RejectReason::VersionMismatch: return "protocol version mismatch";
+        case RejectReason::BadToken: return "bad token";
+        case RejectReason::ServerFull: return "server full";
+        case RejectReason::ProtocolError: return "protocol error";
+    }
+    return "unknown";
+}
+
+const char* byeReasonName(ByeReason reason) {
+    switch (reason) {
+        case ByeReason::Normal: return "normal";
+        case ByeReason::Shutdown: return "shutdown";
+        case ByeReason::ProtocolError: return "protocol error";
+        case ByeReason::Timeout: return "timeout";
+    }
+    return "unknown";
+}
+
+const char* frameModeName(FrameMode mode) {
+    switch (mode) {
+        case FrameMode::Interaction: return "interaction";
+        case FrameMode::Accumulate: return "accumulate";
+        case FrameMode::Walkthrough: return "walkthrough";
+    }
+    return "unknown";
+}
+
 MessageType typeOf(const Message& m) {
     // Variant alternatives are listed in MessageType order, ids 1..10.
     static_assert(std::variant_size_v<Message> == kMaxMessageType);

@@ -214,6 +214,12 @@ using Message = std::variant<Hello, Welcome, Reject, Scene, Settings, FrameBegin
 /// The header type of a message.
 MessageType typeOf(const Message& m);
 
+/// Names for logs and errors ("Hello", "protocol error", …); "unknown" for out-of-range values.
+const char* messageTypeName(MessageType type);
+const char* rejectReasonName(RejectReason reason);
+const char* byeReasonName(ByeReason reason);
+const char* frameModeName(FrameMode mode);
+
 /// Header + payload, ready to write to a socket. Precondition (a bug otherwise, aborts): the
 /// payload fits payloadLimit(typeOf(m)); use tryEncode() for sizes that come from users (glTF).
 /// Encodes what it is given: the receiver validates. Cost: O(size); one allocation.

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "common/render_flags.h"
 #include "common/scene_loader.h"
 #include "server/edit_script.h"
 #include "server/master.h"
@@ -33,29 +34,8 @@ int run(int argc, char** argv) {
                  "interleaving sets, runs the frame loop, assembles their pixels, box-filters the caustics and "
                  "writes the image rtpm-render writes for the same settings."};
     // Rendering settings: the same names, meanings and defaults as rtpm-render.
-    app.add_option("--scene", o.sceneName, "built-in scene (RING GLASS EGG HEADLIGHT CORNELL) or .gltf/.glb/.obj file")
-        ->capture_default_str();
-    app.add_option("--width", rs.width, "image width in pixels")->capture_default_str();
-    app.add_option("--height", rs.height, "image height in pixels")->capture_default_str();
+    addRenderFlags(app, rs, o.sceneName, plain);
     app.add_option("--frames", o.frames, "frames to render; the last one is written to --out")->capture_default_str();
-    app.add_option("--photons,-P", rs.photons.photonsPerBatch, "P: photon paths traced per set per frame")
-        ->capture_default_str();
-    app.add_option("--k", rs.photons.k, "photons per density estimate")->capture_default_str();
-    app.add_option("--rmax", rs.photons.rMax, "maximum gather radius in metres (0 = 2% of the scene diagonal)")
-        ->capture_default_str();
-    app.add_option("--interleave,-M", rs.interleave, "M: M×M interleaving sets, one photon map each")
-        ->capture_default_str();
-    app.add_option("--filter,-F", rs.filter, "F: caustic box filter size in pixels (0 = M)")->capture_default_str();
-    app.add_flag("--no-spt", plain, "plain QMC photon shooting instead of Selective Photon Tracing");
-    app.add_option("--diffuse-bounces", rs.photons.diffuseBounces, "diffuse bounces a photon may take")
-        ->capture_default_str();
-    app.add_option("--cap", rs.photons.capPhotons, "stored photons per set at which accumulation stops (0 = none)")
-        ->capture_default_str();
-    app.add_option("--depth", rs.eye.maxDepth, "specular depth limit of eye paths")->capture_default_str();
-    app.add_option("--photon-depth", rs.photons.maxDepth, "ray segments per photon path")->capture_default_str();
-    app.add_option("--area-samples", rs.eye.areaLightSamples, "shadow samples per emissive triangle")
-        ->capture_default_str();
-    app.add_option("--seed", rs.photons.seed, "seed of the Halton rotations")->capture_default_str();
     // Cluster.
     app.add_option("--listen", o.listen, "address to listen on")->capture_default_str();
     app.add_option("--port", o.port, "TCP port (0 = any free port; see --port-file)")->capture_default_str();

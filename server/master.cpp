@@ -46,30 +46,6 @@ bool tokenMatches(const std::string& expected, const std::string& given) {
     return diff == 0;
 }
 
-const char* modeName(proto::FrameMode m) {
-    switch (m) {
-        case proto::FrameMode::Interaction: return "interaction";
-        case proto::FrameMode::Accumulate: return "accumulate";
-        case proto::FrameMode::Walkthrough: return "walkthrough";
-    }
-    return "?";
-}
-
-const char* typeName(proto::MessageType t) {
-    switch (t) {
-        case proto::MessageType::Hello: return "Hello";
-        case proto::MessageType::Welcome: return "Welcome";
-        case proto::MessageType::Reject: return "Reject";
-        case proto::MessageType::Scene: return "Scene";
-        case proto::MessageType::Settings: return "Settings";
-        case proto::MessageType::FrameBegin: return "FrameBegin";
-        case proto::MessageType::FrameData: return "FrameData";
-        case proto::MessageType::Edit: return "Edit";
-        case proto::MessageType::Stats: return "Stats";
-        case proto::MessageType::Bye: return "Bye";
-    }
-    return "?";
-}
 
 std::string framePath(const std::string& out, uint64_t frame, const char* ext) {
     std::filesystem::path p(out);
@@ -395,7 +371,7 @@ struct Master::Impl : SessionHandler {
             s.closeAfterFlush();
             dropClientOf(s, why);
         } else {
-            protocolError(s, std::string("unexpected ") + typeName(proto::typeOf(m)) + " from a client");
+            protocolError(s, std::string("unexpected ") + proto::messageTypeName(proto::typeOf(m)) + " from a client");
         }
     }
 
@@ -403,7 +379,7 @@ struct Master::Impl : SessionHandler {
         const auto* hello = std::get_if<proto::Hello>(&m);
         if (!hello) {
             reject(s, proto::RejectReason::ProtocolError,
-                   std::string("first message must be Hello, got ") + typeName(proto::typeOf(m)));
+                   std::string("first message must be Hello, got ") + proto::messageTypeName(proto::typeOf(m)));
             return;
         }
         if (hello->protocolVersion != proto::kProtocolVersion) {
@@ -662,14 +638,14 @@ struct Master::Impl : SessionHandler {
         if (!opt.quiet) {
             std::printf("frame %5llu  %7.2f fps  %-11s  photons/set %10.0f  sets %3zu/%-3u  %8.2f MB  "
                         "slowest %s %.1f ms  master %.2f ms%s\n",
-                        (unsigned long long)job.frame, job.fps, modeName(job.mode), job.photonsPerSet, job.arrived,
+                        (unsigned long long)job.frame, job.fps, proto::frameModeName(job.mode), job.photonsPerSet, job.arrived,
                         setCount, double(job.bytes) / 1e6, job.slowest.c_str(), job.slowestMs, masterMs,
                         job.deadlineHit ? "  (deadline)" : "");
             std::fflush(stdout);
         }
         if (csv) {
             std::fprintf(csv, "%llu,%.3f,%.1f,%s,%llu,%s,%.3f,%zu,%u,%d,%.3f\n", (unsigned long long)job.frame,
-                         job.fps, job.photonsPerSet, modeName(job.mode), (unsigned long long)job.bytes,
+                         job.fps, job.photonsPerSet, proto::frameModeName(job.mode), (unsigned long long)job.bytes,
                          job.slowest.c_str(), job.slowestMs, job.arrived, setCount, job.deadlineHit ? 1 : 0,
                          masterMs);
             std::fflush(csv);
