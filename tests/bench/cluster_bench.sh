@@ -1,0 +1,342 @@
+#!/usr/bin/env bash
+# End-to-end cluster benchmarks (paper Tables 6–7) and a long-run memory check; prints markdown.
+#
+#   tests/bench/cluster_bench.sh [--refs] [--scaling] [--resolution] [--memory] [options]
+#
+#   --refs           render the converged references the error columns need (rtpm-render, one
+#                    frame of --ref-photons paths per set, k = --ref-k, another seed) into $REFS
+#                    (default <build>/refs, outside git); only missing ones are made. Without
+#                    --refs a missing reference gives "n/a".
+#   --scaling        fps vs clients 1/2/4 at 640x480, interaction and walkthrough (Table 6)
+#   --resolution     fps vs resolution 640x480 … 1280x960 with --res-clients clients (Table 7)
+#   --memory         server and client VmRSS over a long run with an edit every --mem-every frames
+#   --all            --scaling --resolution --memory (references are still only made with --refs)
+#   --scenes "A B"   scenes (default "RING GLASS")
+#   --clients "1 2 4"            client counts for --scaling
+#   --sizes "640x480 …"          resolutions for --resolution (and --refs)
+#   --frames N       frames per interaction run (default 6)
+#   --walk-frames N  frames per walkthrough run (default 6: 1 shooting frame + 5 walkthrough)
+#   --walk-photons P paths per set shot in the walkthrough run's only shooting frame (default 200000)
+#   --res-clients N  clients for --resolution (default 2)
+#   --res-modes "…"  modes for --resolution (default "walkthrough interaction")
+#   --mem-frames N --mem-size WxH --mem-every N --mem-sample N --mem-clients N --mem-photons P
+#                    --mem-scene S (defaults 5000, 64x48, 100, 100, 2, 2000, RING)
+#
+# Binaries come from ${RTPM_BUILD_DIR:-<repo>/build-clusterbench} (built here if missing: only
+# rtpm-server, rtpm-client, rtpm-render, rtpm-compare, -j2). Clusters start as deploy/run-local.sh
+# starts them (server on port 0 with a port file, random token, each client max(1, cores/N)
+# render threads), but the processes are started here so their PIDs can be sampled.
+#
+# Modes. interaction: P = 20 000 paths per set are shot every frame and accumulate (no cap is
+# reached); the photon count and error are those of the last frame. walkthrough (--walkthrough):
+# frame 0 shoots --walk-photons paths per set, later frames only trace pixels.
+# fps: the server's rate over the frames shown after frame 0 (its sliding window of 8 frames
+# holds them all when the run has at most 9 frames), so it excludes startup and, in walkthrough,
+# the shooting frame. cpu s/frame: user+system CPU seconds of the server and all clients over the
+# whole run (startup included) per frame; on a loaded machine it says what a run costs when the
+# wall clock does not. Photons: stored photons summed over all interleaving sets at the last frame.
+# Error: rtpm-compare caustic_filtered of the last frame against the converged reference,
+# relative RMSE over the caustic region (rtpm-compare's default region of the reference).
+set -euo pipefail
+
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+build=${RTPM_BUILD_DIR:-$root/build-clusterbench}
+refs=${REFS:-$build/refs}
+scenes="RING GLASS"
+frames=6
+walkFrames=6
+walkPhotons=200000
+clientCounts="1 2 4"
+sizes="640x480 800x600 1024x768 1280x960"
+resClients=2
+resModes="walkthrough interaction"
+memFrames=5000 memSize=64x48 memEvery=100 memSample=100 memClients=2 memPhotons=2000 memScene=RING
+doRefs=0 doScaling=0 doResolution=0 doMemory=0
+refPhotons=2000000 refK=200 refSeed=977
+
+while (($#)); do
+    case $1 in
+        --refs) doRefs=1 ;;
+        --scaling) doScaling=1 ;;
+        --resolution) doResolution=1 ;;
+        --memory) doMemory=1 ;;
+        --all) doScaling=1 doResolution=1 doMemory=1 ;;
+        --scenes) scenes=$2; shift ;;
+        --frames) frames=$2; shift ;;
+        --walk-frames) walkFrames=$2; shift ;;
+        --walk-photons) walkPhotons=$2; shift ;;
+        --clients) clientCounts=$2; shift ;;
+        --sizes) sizes=$2; shift ;;
+        --ref-photons) refPhotons=$2; shift ;;
+        --ref-k) refK=$2; shift ;;
+        --mem-scene) memScene=$2; shift ;;
+        --res-clients) resClients=$2; shift ;;
+        --res-modes) resModes=$2; shift ;;
+        --mem-frames) memFrames=$2; shift ;;
+        --mem-size) memSize=$2; shift ;;
+        --mem-every) memEvery=$2; shift ;;
+        --mem-sample) memSample=$2; shift ;;
+        --mem-clients) memClients=$2; shift ;;
+        --mem-photons) memPhotons=$2; shift ;;
+        -h|--help) sed -n '2,41p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        *) echo "cluster_bench.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
+    esac
+    shift
+done
+if ((frames < 3 || frames > 9 || walkFrames < 3 || walkFrames > 9)); then
+    echo "cluster_bench.sh: --frames and --walk-frames must be in [3, 9] (fps is the server's rate over the frames after frame 0, a window of 8)" >&2
+    exit 2
+fi
+
+server_bin=$build/server/rtpm-server
+client_bin=$build/client/rtpm-client
+render_bin=$build/common/rtpm-render
+compare_bin=$build/common/rtpm-compare
+for b in "$server_bin" "$client_bin" "$render_bin" "$compare_bin"; do
+    if [[ ! -x $b ]]; then
+        [[ -f $build/CMakeCache.txt ]] || cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release >&2
+        cmake --build "$build" --target rtpm-server rtpm-client rtpm-render rtpm-compare -j2 >&2
+        break
+    fi
+done
+
+work=$(mktemp -d "${TMPDIR:-/tmp}/rtpm-clusterbench.XXXXXX")
+pids=()
+cleanup() {
+    local status=$?
+    trap - EXIT INT TERM
+    for pid in "${pids[@]}"; do kill "$pid" 2>/dev/null || true; done
+    for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null || true; done
+    rm -rf "$work"
+    exit "$status"
+}
+trap cleanup EXIT
+trap 'exit 130' INT
+trap 'exit 143' TERM
+RTPM_TOKEN=$(od -An -tx1 -N16 /dev/urandom | tr -d ' \n')
+export RTPM_TOKEN
+cores=$(nproc)
+
+refPath() { echo "$refs/${1}_${2}x${3}.exr"; }
+
+# start_cluster CLIENTS SCENE SERVER_ARGS... : starts the server and clients in the background,
+# sets server_pid and client_pids. Readiness is the port file (bounded poll).
+start_cluster() {
+    local n=$1 scene=$2
+    shift 2
+    rm -f "$work/port"
+    "$server_bin" --port 0 --port-file "$work/port" --min-clients "$n" --scene "$scene" --quiet \
+        --deadline-ms 600000 "$@" \
+        >"$work/server.log" 2>&1 &
+    server_pid=$!
+    pids+=("$server_pid")
+    local i
+    for ((i = 0; i < 600; i++)); do
+        [[ -s $work/port ]] && break
+        kill -0 "$server_pid" 2>/dev/null || { cat "$work/server.log" >&2; return 1; }
+        sleep 0.05
+    done
+    [[ -s $work/port ]] || { echo "server did not listen within 30 s" >&2; return 1; }
+    local threads=$(((cores / n) > 0 ? cores / n : 1))
+    client_pids=()
+    for ((i = 1; i <= n; i++)); do
+        "$client_bin" --port-file "$work/port" --name "bench-$i" --threads "$threads" >"$work/client-$i.log" 2>&1 &
+        client_pids+=("$!")
+        pids+=("$!")
+    done
+}
+
+# wait_cluster: waits for the server, then the clients (the server's Bye ends them).
+wait_cluster() {
+    local status=0 p
+    wait "$server_pid" || status=$?
+    for p in "${client_pids[@]}"; do wait "$p" 2>/dev/null || true; done
+    pids=()  # all reaped: never signal a PID that may since have been reused
+    if ((status != 0)); then
+        echo "rtpm-server exited with $status:" >&2
+        tail -n 20 "$work/server.log" >&2
+    fi
+    return $status
+}
+
+# error OUT.exr SCENE W H: caustic_filtered relative RMSE over the caustic region, or n/a.
+error() {
+    local ref
+    ref=$(refPath "$2" "$3" "$4")
+    [[ -f $ref ]] || { echo "n/a"; return; }
+    "$compare_bin" --csv --layer caustic_filtered "$1" "$ref" | awk -F, 'NR == 2 { printf "%.3f", $6 }'
+}
+
+
+# childCpu FILE: user+system CPU seconds of all reaped children of this shell so far, from the
+# shell builtin `times` (it must run in this shell, not in a command substitution).
+childCpu() {
+    times >"$1"
+    awk 'NR == 2 { t = 0
+        for (i = 1; i <= 2; i++) { split($i, a, /[ms]/); t += a[1] * 60 + a[2] }
+        printf "%.3f\n", t }' "$1"
+}
+
+# run_case CLIENTS SCENE W H MODE: one cluster run (in this shell, so `times` sees it); sets
+# result="fps|cpu_s_per_frame|photons_total|error|frames|incomplete|last_mode".
+run_case() {
+    local n=$1 scene=$2 w=$3 h=$4 mode=$5
+    local csv=$work/run.csv out=$work/run.exr cpu0 cpu1 args
+    rm -f "$csv" "$out"
+    if [[ $mode == walkthrough ]]; then
+        args=(--walkthrough --frames "$walkFrames" --photons "$walkPhotons")
+    else
+        args=(--frames "$frames")
+    fi
+    childCpu "$work/times" >"$work/cpu0"
+    cpu0=$(cat "$work/cpu0")
+    start_cluster "$n" "$scene" --width "$w" --height "$h" --csv "$csv" --out "$out" "${args[@]}" || return 1
+    wait_cluster || return 1
+    childCpu "$work/times" >"$work/cpu1"
+    cpu1=$(cat "$work/cpu1")
+    local fps cpuf ph nf inc lastMode err
+    # CSV: frame,fps,photons_per_set,mode,bytes,slowest_client,slowest_ms,sets_arrived,sets,deadline,master_ms
+    IFS='|' read -r fps cpuf ph nf inc lastMode < <(awk -F, -v c0="$cpu0" -v c1="$cpu1" '
+        NR == 1 { next }
+        { n++; fps = $2; ph = $3 * $9; mode = $4; inc += ($8 < $9) }
+        END { printf "%.3f|%.2f|%.0f|%d|%d|%s\n", fps, (c1 - c0) / n, ph, n, inc, mode }' "$csv")
+    err=$(error "$out" "$scene" "$w" "$h")
+    result="$fps|$cpuf|$ph|$err|$nf|$inc|$lastMode"
+}
+
+make_refs() {
+    mkdir -p "$refs"
+    local scene size w h ref
+    for scene in $scenes; do
+        for size in $sizes; do
+            w=${size%x*} h=${size#*x}
+            ref=$(refPath "$scene" "$w" "$h")
+            [[ -f $ref ]] && continue
+            echo "cluster_bench.sh: reference $ref" >&2
+            "$render_bin" --scene "$scene" --width "$w" --height "$h" --frames 1 --photons "$refPhotons" \
+                --k "$refK" --seed "$refSeed" --out "$ref" >"$work/ref.log" 2>&1 ||
+                { cat "$work/ref.log" >&2; return 1; }
+            tail -n 2 "$work/ref.log" | head -n 1 >&2
+        done
+    done
+}
+
+header() {
+    echo "Machine: nproc = $cores, $(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //'); load at start:$(uptime | sed 's/.*load average://')"
+    echo
+}
+
+scaling() {
+    echo "### fps vs clients, 640x480 (paper Table 6)"
+    echo
+    echo "Clients on loopback with max(1, $cores / N) render threads each, plus the master, on $cores cores:"
+    echo "N = 4 oversubscribes the machine. Interaction: $frames frames of P = 20 000 paths/set;"
+    echo "walkthrough: --walkthrough, frame 0 shoots $walkPhotons paths/set, $((walkFrames - 1)) walkthrough frames."
+    echo
+    echo "| scene | mode | clients | fps | fps / fps(1 client) | cpu s/frame | photons (all sets) | caustic rel. RMSE | frames (incomplete) |"
+    echo "|---|---|---|---|---|---|---|---|---|"
+    local scene mode n r base
+    for scene in $scenes; do
+        for mode in interaction walkthrough; do
+            base=""
+            for n in $clientCounts; do
+                run_case "$n" "$scene" 640 480 "$mode" && r=$result || { echo "| $scene | $mode | $n | failed | | | | | |"; continue; }
+                IFS='|' read -r fps cpuf ph err nf inc lastMode <<<"$r"
+                [[ -z $base ]] && base=$fps
+                echo "| $scene | $mode | $n | $fps | $(awk -v a="$fps" -v b="$base" 'BEGIN { printf "%.2f×", a / b }') | $cpuf | $ph | $err | $nf ($inc) |"
+                echo "  [$(date +%T) load$(uptime | sed 's/.*load average://')] $scene $mode $n: $r" >&2
+            done
+        done
+    done
+    echo
+}
+
+resolution() {
+    echo "### fps vs resolution, $resClients clients (paper Table 7)"
+    echo
+    echo "| scene | mode | resolution | fps | fps × pixels / (fps × pixels at 640x480) | cpu s/frame | photons (all sets) | caustic rel. RMSE | frames (incomplete) |"
+    echo "|---|---|---|---|---|---|---|---|---|"
+    local scene mode size w h r base
+    for scene in $scenes; do
+        for mode in $resModes; do
+            base=""
+            for size in $sizes; do
+                w=${size%x*} h=${size#*x}
+                run_case "$resClients" "$scene" "$w" "$h" "$mode" && r=$result || { echo "| $scene | $mode | $size | failed | | | | | |"; continue; }
+                IFS='|' read -r fps cpuf ph err nf inc lastMode <<<"$r"
+                [[ -z $base ]] && base=$(awk -v f="$fps" -v w="$w" -v h="$h" 'BEGIN { print f * w * h }')
+                echo "| $scene | $mode | $size | $fps | $(awk -v f="$fps" -v w="$w" -v h="$h" -v b="$base" 'BEGIN { printf "%.2f", f * w * h / b }') | $cpuf | $ph | $err | $nf ($inc) |"
+                echo "  [$(date +%T) load$(uptime | sed 's/.*load average://')] $scene $mode $size: $r" >&2
+            done
+        done
+    done
+    echo
+}
+
+rssKb() { awk '/^VmRSS:/ { print $2 }' "/proc/$1/status" 2>/dev/null || echo 0; }
+
+memory() {
+    local w=${memSize%x*} h=${memSize#*x} script=$work/edits.txt csv=$work/mem.csv samples=$work/mem.txt
+    # An edit every memEvery frames (a new epoch: every photon map is reset), alternating the ring
+    # metal's colour between two values, so the scene does not drift.
+    : >"$script"
+    local f c
+    for ((f = memEvery; f < memFrames; f += memEvery)); do
+        if (((f / memEvery) % 2)); then c="0.94 0.92 0.87"; else c="0.95 0.93 0.88"; fi
+        echo "frame $f material 1 color $c" >>"$script"
+    done
+    rm -f "$csv"
+    local t0=$SECONDS
+    start_cluster "$memClients" "$memScene" --width "$w" --height "$h" --frames "$memFrames" \
+        --photons "$memPhotons" --csv "$csv" --out "" --edit-script "$script" || return 1
+    : >"$samples"
+    local next=0 shown p line
+    while kill -0 "$server_pid" 2>/dev/null; do
+        shown=0
+        [[ -f $csv ]] && shown=$(($(wc -l <"$csv") - 1))
+        if ((shown >= next)); then
+            line="$shown $(rssKb "$server_pid")"
+            for p in "${client_pids[@]}"; do line+=" $(rssKb "$p")"; done
+            # A process that already exited reads 0: keep only complete samples.
+            [[ $line == *" 0"* ]] || echo "$line" >>"$samples"
+            next=$((next + memSample))
+        fi
+        sleep 0.1
+    done
+    wait_cluster || return 1
+    local secs=$((SECONDS - t0))
+    echo "### Memory over a long run"
+    echo
+    echo "$memScene ${w}x${h}, $memClients clients, P = $memPhotons paths/set/frame, $memFrames frames in $secs s,"
+    echo "an edit (ring metal colour) every $memEvery frames; VmRSS sampled every $memSample frames (MB)."
+    echo
+    local hdr="| frame | server"
+    for ((c = 1; c <= memClients; c++)); do hdr+=" | client $c"; done
+    echo "$hdr |"
+    echo "|---$(for ((c = 0; c <= memClients; c++)); do printf '|---'; done)|"
+    local rows
+    rows=$(wc -l <"$samples")
+    awk -v rows="$rows" 'NR == 1 || NR == rows || (NR - 1) % int((rows + 9) / 10) == 0 {
+        printf "| %d", $1; for (i = 2; i <= NF; i++) printf " | %.1f", $i / 1024; print " |" }' "$samples"
+    echo
+    echo "| process | mean first quarter (MB) | mean last quarter (MB) | last / first | max (MB) |"
+    echo "|---|---|---|---|---|"
+    awk -v rows="$rows" '
+        { for (i = 2; i <= NF; i++) { v = $i / 1024; if (v > mx[i]) mx[i] = v
+              if (NR <= rows / 4) { a[i] += v; na[i]++ } else if (NR > rows - rows / 4) { b[i] += v; nb[i]++ } }
+          nf = NF }
+        END { for (i = 2; i <= nf; i++) {
+                name = i == 2 ? "server" : "client " (i - 2)
+                printf "| %s | %.1f | %.1f | %.3f | %.1f |\n", name, a[i] / na[i], b[i] / nb[i], (b[i] / nb[i]) / (a[i] / na[i]), mx[i] } }' "$samples"
+    echo
+}
+
+((doRefs)) && make_refs
+if ((doScaling || doResolution || doMemory)); then
+    header
+    ((doScaling)) && scaling
+    ((doResolution)) && resolution
+    ((doMemory)) && memory
+    echo "Load at end:$(uptime | sed 's/.*load average://')"
+fi
+exit 0
