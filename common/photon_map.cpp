@@ -2,7 +2,9 @@
 //
 // Power bookkeeping (paper-notes §5.5, §5.7; DESIGN §5). Every light l with a share P_l of the
 // batch is estimated on its own, and every photon carries its own power (W, relative to one
-// batch; the estimate divides by the number of batches):
+// batch; the estimate divides by the number of batches; stored divided by the maps' power unit,
+// a power of two near the largest path power, so the RGB9E5 code's fixed range is relative to
+// the scene's photon powers rather than to 1 W):
 //  * plain: indices [n_l, n_l + P_l) of its sequence, each path starts with Φ_l / P_l.
 //  * SPT: the steering dims are cut into N_g = Π b_d^{k_d} elementary boxes; indices i and
 //    i + m·N_g share a box. A batch traces one pilot per box (i + p·N_g, p = the batch's first
@@ -24,6 +26,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "common/check.h"
 #include "common/density.h"
@@ -49,7 +52,54 @@ bool hasCausticGenerator(const Scene& s) {
     return false;
 }
 
+// The photons of `old` followed by `batch`: the input of a from-scratch rebuild.
+template <class Index>
+std::vector<Photon> withBatch(const Index* old, const std::vector<Photon>& batch) {
+    std::vector<Photon> all;
+    all.reserve((old ? old->size() : 0) + batch.size());
+    if (old) all.insert(all.end(), old->photons().begin(), old->photons().end());
+    all.insert(all.end(), batch.begin(), batch.end());
+    return all;
+}
+
+float maxChannel(Vec3 v) { return std::max({v.x, v.y, v.z}); }
+
 }  // namespace
+
+std::optional<PhotonTree> parsePhotonTree(std::string_view name) {
+    if (name == "middle") return PhotonTree::MiddleSplit;
+    if (name == "median") return PhotonTree::MedianBalanced;
+    if (name == "grid") return PhotonTree::UniformGrid;
+    return std::nullopt;
+}
+
+const char* photonTreeName(PhotonTree tree) {
+    switch (tree) {
+        case PhotonTree::MiddleSplit: return "middle";
+        case PhotonTree::MedianBalanced: return "median";
+        case PhotonTree::UniformGrid: return "grid";
+    }
+    return "?";
+}
+
+uint32_t gridResolution(uint64_t photons, Vec3 extent, uint32_t k, float rMax) {
+    const double maxExtent = std::max({double(extent.x), double(extent.y), double(extent.z)});
+    if (!(maxExtent > 0.0) || !std::isfinite(maxExtent)) return 1;
+    double res = 1.0;
+    if (rMax > 0.0f) res = std::max(res, std::ceil(maxExtent / double(rMax)));
+    if (k > 0) res = std::max(res, std::ceil(std::sqrt(double(photons) / double(k))));
+    uint32_t r = static_cast<uint32_t>(std::min(res, double(PhotonGrid::kMaxResolution)));
+    const double maxCells = std::max(2.0 * double(photons), 4096.0);
+    // Cell count as PhotonGrid::build computes it: ceil(side / cell) per axis, at least 1.
+    const auto cells = [&](uint32_t n) {
+        const double cell = maxExtent / double(n);
+        double c = 1.0;
+        for (int a = 0; a < 3; ++a) c *= std::clamp(std::ceil(double(extent[a]) / cell), 1.0, double(n));
+        return c;
+    };
+    while (r > 1 && cells(r) > maxCells) --r;
+    return r;
+}
 
 struct PhotonMaps::SetState {
     struct LightState {
@@ -65,7 +115,10 @@ struct PhotonMaps::SetState {
         bool dilate = true;
     };
     uint32_t set = 0;
+    // The one index of settings.tree; the others stay null.
     std::unique_ptr<KdTree> tree;
+    std::unique_ptr<MedianKdTree> median;
+    std::unique_ptr<PhotonGrid> grid;
     PhotonSetStats stats;
     std::vector<LightState> lights;
     bool planned = false;
@@ -125,6 +178,7 @@ void PhotonMaps::reset() {
     }
     emitters_.clear();
     emittersReady_ = false;
+    powerUnit_ = 1.0f;
 }
 
 bool PhotonMaps::capped(uint32_t set) const {
@@ -151,6 +205,37 @@ const KdTree* PhotonMaps::tree(uint32_t set) const {
     return s->tree.get();
 }
 
+const MedianKdTree* PhotonMaps::medianTree(uint32_t set) const {
+    const SetState* s = find(set);
+    RTPM_CHECK(s != nullptr);
+    return s->median.get();
+}
+
+const PhotonGrid* PhotonMaps::grid(uint32_t set) const {
+    const SetState* s = find(set);
+    RTPM_CHECK(s != nullptr);
+    return s->grid.get();
+}
+
+std::vector<Photon> PhotonMaps::photons(uint32_t set) const {
+    const SetState* s = find(set);
+    RTPM_CHECK(s != nullptr);
+    std::vector<Photon> out;
+    if (s->tree) out.assign(s->tree->photons().begin(), s->tree->photons().end());
+    if (s->median) out.assign(s->median->photons().begin(), s->median->photons().end());
+    if (s->grid) out.assign(s->grid->photons().begin(), s->grid->photons().end());
+    return out;
+}
+
+Vec3 PhotonMaps::storedPowerPerBatch(uint32_t set) const {
+    const SetState* s = find(set);
+    RTPM_CHECK(s != nullptr);
+    if (s->stats.batches == 0) return Vec3(0.0f);
+    glm::dvec3 sum(0.0);
+    for (const Photon& p : photons(set)) sum += glm::dvec3(p.powerRgb());
+    return Vec3(sum * (double(powerUnit_) / double(s->stats.batches)));
+}
+
 void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     SetState* st = find(set);
     RTPM_CHECK(st != nullptr);
@@ -159,10 +244,40 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
         emitters_ = buildEmitters(scene);
         const float diag = scene.bounds().diagonal();
         rMax_ = settings_.rMax > 0.0f ? settings_.rMax : 0.02f * (diag > 0.0f ? diag : 1.0f);
+        // The power unit: the largest initial path power of the first batch (the plan below is
+        // the same for every set), rounded down to a power of two. A path's power never grows
+        // (mirrors and glass reflect at most all of it, Russian roulette divides by the largest
+        // channel's albedo), so stored values are < 2 units; SPT refinement weights (≥ 1/65),
+        // absorption and colour only shrink them, and RGB9E5 keeps 2^-9 relative precision
+        // down to 2^-20 units (photon.cpp) whatever the scene's scale in metres and watts.
+        const std::vector<uint32_t> budget = splitBudget(emitters_, settings_.photonsPerBatch);
+        float largest = 0.0f;
+        for (size_t l = 0; l < emitters_.size(); ++l) {
+            if (budget[l] == 0) continue;
+            float paths = static_cast<float>(budget[l]);
+            if (settings_.selective) {
+                const DimLayout dims = dimLayout(emitters_[l].kind, settings_.diffuseBounces);
+                const uint64_t target = settings_.sptCells > 0 ? settings_.sptCells
+                                                               : std::max<uint64_t>(1, budget[l] / 4);
+                paths = static_cast<float>(makeSptGrid(dims.count, target).cellCount);
+            }
+            largest = std::max(largest, maxChannel(emitters_[l].flux) / paths);
+        }
+        powerUnit_ = 1.0f;
+        if (largest > 0.0f && std::isfinite(largest)) {
+            int exp2 = 0;
+            std::frexp(largest, &exp2);  // largest = f · 2^exp2, f in [0.5, 1)
+            // Unit and 1/unit stay normal floats (so p / unit is exact and never overflows).
+            powerUnit_ = std::ldexp(1.0f, std::clamp(exp2 - 1, -100, 100));
+        }
         emittersReady_ = true;
     }
     if (!st->planned) {
-        st->tree = std::make_unique<KdTree>(scene.bounds());
+        switch (settings_.tree) {
+            case PhotonTree::MiddleSplit: st->tree = std::make_unique<KdTree>(scene.bounds()); break;
+            case PhotonTree::MedianBalanced: st->median = std::make_unique<MedianKdTree>(); break;
+            case PhotonTree::UniformGrid: st->grid = std::make_unique<PhotonGrid>(); break;
+        }
         const std::vector<uint32_t> budget = splitBudget(emitters_, settings_.photonsPerBatch);
         st->lights.clear();
         for (size_t l = 0; l < emitters_.size(); ++l) {
@@ -269,18 +384,38 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
         }
         traced.add(out.stats);
         batch.reserve(batch.size() + out.photons.size());
-        for (const TracedPhoton& p : out.photons)
-            batch.push_back(Photon::make(p.position, p.power, p.incoming));
+        for (const TracedPhoton& p : out.photons)  // exact: powerUnit_ is a power of two
+            batch.push_back(Photon::make(p.position, p.power / powerUnit_, p.incoming));
     }
 
     const Clock::time_point t0 = Clock::now();
-    st->tree->insert(batch);
+    switch (settings_.tree) {
+        case PhotonTree::MiddleSplit:
+            st->tree->insert(batch);
+            stats.photonsStored = st->tree->size();
+            break;
+        case PhotonTree::MedianBalanced: {
+            const std::vector<Photon> all = withBatch(st->median.get(), batch);
+            st->median->build(all);
+            stats.photonsStored = st->median->size();
+            break;
+        }
+        case PhotonTree::UniformGrid: {
+            const std::vector<Photon> all = withBatch(st->grid.get(), batch);
+            Bounds b;
+            for (const Photon& p : all) b.extend(p.position);
+            const uint32_t res = all.empty() ? 1 : gridResolution(all.size(), b.extent(), settings_.k, rMax_);
+            st->grid = std::make_unique<PhotonGrid>(res);
+            st->grid->build(all);
+            stats.photonsStored = st->grid->size();
+            break;
+        }
+    }
     const double insertSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
 
     stats.batches += 1;
     stats.pathsTraced += traced.paths;
     stats.productivePaths += traced.productivePaths;
-    stats.photonsStored = st->tree->size();
     stats.raysCast += traced.rays;
     stats.anomalies += traced.anomalies;
     stats.sptCells = cellsTotal;
@@ -302,10 +437,14 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
 
 Vec3 PhotonMaps::radiance(uint32_t set, const SurfaceHit& hit, Vec3 normal, Vec3 albedo) const {
     const SetState* st = find(set);
-    if (!st || !st->tree || st->stats.batches == 0) return Vec3(0.0f);
+    if (!st || st->stats.batches == 0) return Vec3(0.0f);
     thread_local KnnHeap heap;
-    const float scale = 1.0f / static_cast<float>(st->stats.batches);
-    return causticRadiance(*st->tree, hit.position, normal, albedo, settings_.k, rMax_, scale, heap);
+    const float scale = powerUnit_ / static_cast<float>(st->stats.batches);
+    if (st->tree) return causticRadiance(*st->tree, hit.position, normal, albedo, settings_.k, rMax_, scale, heap);
+    if (st->median)
+        return causticRadiance(*st->median, hit.position, normal, albedo, settings_.k, rMax_, scale, heap);
+    if (st->grid) return causticRadiance(*st->grid, hit.position, normal, albedo, settings_.k, rMax_, scale, heap);
+    return Vec3(0.0f);
 }
 
 }  // namespace rtpm

@@ -3,13 +3,49 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
+#include <string_view>
 #include <vector>
 
 #include "common/eye_pass.h"
 #include "common/kd_tree.h"
+#include "common/median_kd_tree.h"
+#include "common/photon_grid.h"
 #include "common/photon_tracer.h"
 
 namespace rtpm {
+
+/// Spatial index of a photon map (paper §5.2/§5.3, Table 5). Every variant answers the same
+/// kNN queries (same photons, same result sets up to ties at the k-th distance) through
+/// density.h's causticRadiance; they differ only in build cost, query speed and memory.
+enum class PhotonTree : uint8_t {
+    /// Unbalanced middle-split kd-tree with incremental batch insertion (kd_tree.h): the default.
+    MiddleSplit = 0,
+    /// Balanced median-split kd-tree (median_kd_tree.h), rebuilt from all photons every batch
+    /// (it has no insertion): O(n log n) per batch.
+    MedianBalanced = 1,
+    /// Uniform grid (photon_grid.h), rebuilt from all photons every batch, O(n + cells); the
+    /// resolution follows gridResolution().
+    UniformGrid = 2,
+};
+
+/// "middle", "median", "grid" (as the --tree flags take them) → variant; nullopt otherwise.
+std::optional<PhotonTree> parsePhotonTree(std::string_view name);
+/// Inverse of parsePhotonTree.
+const char* photonTreeName(PhotonTree tree);
+
+/// Uniform-grid resolution (cells along the photons' largest extent) for `photons` photons whose
+/// bounding box has sides `extent` (m), k photons per estimate and gather radius rMax (m):
+///  * cells no larger than rMax, so a query's initial search sphere overlaps at most 3 cells
+///    per axis (resolution ≥ extent / rMax);
+///  * and no larger than where a cell would hold about k photons if they covered one face of the
+///    bounds evenly (resolution ≥ √(photons / k)): caustic photons lie on surfaces, so a
+///    per-area count is the right measure, and k photons per cell keeps the scan near k;
+///  * at most PhotonGrid::kMaxResolution, and reduced until the cell table (4 B per cell) holds
+///    at most max(2 · photons, 4096) cells, so the table never costs more than 40 % of the
+///    photons' own memory (20 B each).
+/// Returns 1 … kMaxResolution. Pure function, O(kMaxResolution).
+uint32_t gridResolution(uint64_t photons, Vec3 extent, uint32_t k, float rMax);
 
 /// Photon shooting and density-estimation settings (DESIGN §5, paper §5.1/§5.4).
 struct PhotonSettings {
@@ -43,6 +79,8 @@ struct PhotonSettings {
     /// Correctness does not depend on it (photon_map.cpp: the estimate is unbiased for any
     /// refine set chosen before the batch); it trades yield for faster discovery.
     bool sptDilate = true;
+    /// Spatial index of every set's map (PhotonTree). Needs a reset to change.
+    PhotonTree tree = PhotonTree::MiddleSplit;
 };
 
 /// A set stops shooting after this many traced paths per capped photon (see capPhotons).
@@ -55,7 +93,7 @@ struct PhotonSetStats {
     uint32_t batches = 0;          ///< batches shot (the accumulation count)
     uint64_t pathsTraced = 0;      ///< light paths traced: pilots, refinements, classification
     uint64_t productivePaths = 0;  ///< paths that stored ≥ 1 caustic photon
-    uint64_t photonsStored = 0;    ///< photons in the kd-tree
+    uint64_t photonsStored = 0;    ///< photons in the map
     uint64_t raysCast = 0;         ///< closest-hit queries issued while shooting
     uint64_t anomalies = 0;        ///< paths dropped for a non-finite power or direction
     uint64_t sptCells = 0;         ///< Σ over lights of N_g in the last batch (0 without SPT)
@@ -68,7 +106,7 @@ struct PhotonSetStats {
     double samplingSeconds = 0.0;
     double rayCastSeconds = 0.0;
     double interactionSeconds = 0.0;
-    double insertSeconds = 0.0;    ///< kd-tree insertion
+    double insertSeconds = 0.0;    ///< kd-tree insertion (median tree, grid: the rebuild)
     /// Caustic yield: productive paths / traced paths (paper Table 4).
     double yield() const {
         return pathsTraced ? static_cast<double>(productivePaths) / static_cast<double>(pathsTraced)
@@ -76,9 +114,14 @@ struct PhotonSetStats {
     }
 };
 
-/// One caustic photon map (kd-tree) per owned interleaving set, grown batch by batch.
+/// One caustic photon map per owned interleaving set, grown batch by batch.
 /// Photon powers are stored relative to one batch; `radiance` divides by the batch count
 /// (paper-notes §5.7), so the estimate is consistent at every accumulation stage.
+/// Stored powers are also in units of powerUnit() (not W): the RGB9E5 code has relative
+/// precision only over a fixed range (photon.cpp), and a photon's power in W scales with the
+/// scene (a 1 mm scene with the same irradiance has 10⁻⁶ × the flux). Relative to the unit,
+/// stored values are below 2 and only SPT weights, absorption and colour make them smaller.
+/// Read photon powers in W through powerWatts() / storedPowerPerBatch(), never powerRgb().
 /// Thread safety: `radiance` may be called concurrently; `shootBatch`, `reset` must not overlap
 /// any other call. `shootBatch` itself runs in parallel (TBB) and its result does not depend on
 /// the thread count.
@@ -102,8 +145,9 @@ public:
     bool capped(uint32_t set) const;
 
     /// Caustic radiance L_c = ρ/π · Σ Φ_p/(π r_k²) / batches at `hit` from `set`'s map
-    /// (density.h causticRadiance; photons from behind `normal` are ignored). Zero for a set that
-    /// is not owned or has no batch yet. Thread-safe; a thread_local heap avoids allocation.
+    /// (density.h causticRadiance with powerScale = powerUnit() / batches; photons from behind
+    /// `normal` are ignored). Zero for a set that is not owned or has no batch yet. Thread-safe;
+    /// a thread_local heap avoids allocation.
     Vec3 radiance(uint32_t set, const SurfaceHit& hit, Vec3 normal, Vec3 albedo) const override;
 
     const PhotonSettings& settings() const { return settings_; }
@@ -112,8 +156,25 @@ public:
     const std::vector<uint32_t>& ownedSets() const { return ownedSets_; }
     /// Stats of an owned set. Precondition: `set` is owned.
     const PhotonSetStats& stats(uint32_t set) const;
-    /// The kd-tree of an owned set, or null before its first batch. Precondition: `set` is owned.
+    /// The index of an owned set for the variant in use (settings().tree), or null before its
+    /// first batch or for the other variants. Precondition: `set` is owned.
+    /// Stored photon powers are in units of powerUnit().
     const KdTree* tree(uint32_t set) const;
+    const MedianKdTree* medianTree(uint32_t set) const;
+    const PhotonGrid* grid(uint32_t set) const;
+    /// Copy of every photon of an owned set's map, any variant (powers in units of powerUnit()).
+    /// O(photons); for tests and tools.
+    std::vector<Photon> photons(uint32_t set) const;
+
+    /// W per unit of stored photon power: a power of two (so dividing by it is exact), fixed at
+    /// the first batch after a reset: the largest initial path power of any light's first batch
+    /// (Φ_l / P_l plain, Φ_l / N_g SPT; largest channel) rounded down to a power of two. 1 before.
+    float powerUnit() const { return powerUnit_; }
+    /// A stored photon's power in W (per batch, like the stored value).
+    Vec3 powerWatts(const Photon& p) const { return p.powerRgb() * powerUnit_; }
+    /// Σ stored photon power of an owned set in W divided by its batch count: the flux per batch
+    /// the density estimate integrates. 0 before the first batch. O(photons), double sums.
+    Vec3 storedPowerPerBatch(uint32_t set) const;
     /// Gather radius in use (metres): settings.rMax or the automatic one of the last scene.
     float gatherRadius() const { return rMax_; }
 
@@ -128,6 +189,7 @@ private:
     std::vector<Emitter> emitters_;  ///< built at the first batch after a reset
     bool emittersReady_ = false;
     float rMax_ = 0.0f;
+    float powerUnit_ = 1.0f;
 };
 
 }  // namespace rtpm

@@ -63,9 +63,7 @@ Accumulated shoot(const EmbreeScene& es, bool selective, uint32_t diffuseBounces
     PhotonMaps maps(ps, {set});
     for (int b = 0; b < batches; ++b) maps.shootBatch(es, set);
     Accumulated acc;
-    double sum = 0.0;
-    for (const Photon& p : maps.tree(set)->photons()) sum += p.powerRgb().x;
-    acc.power = sum / batches;
+    acc.power = maps.storedPowerPerBatch(set).x;
     acc.stats = maps.stats(set);
     return acc;
 }

@@ -25,9 +25,7 @@ YieldRun run(const EmbreeScene& es, bool selective, uint32_t diffuseBounces, int
     for (int b = 0; b < batches; ++b) maps.shootBatch(es, 0);
     YieldRun r;
     r.stats = maps.stats(0);
-    glm::dvec3 sum(0.0);
-    for (const Photon& p : maps.tree(0)->photons()) sum += glm::dvec3(p.powerRgb());
-    r.power = Vec3(sum / static_cast<double>(batches));
+    r.power = maps.storedPowerPerBatch(0);
     return r;
 }
 

@@ -91,14 +91,7 @@ Vec3 emittedFlux(const EmbreeScene& es) {
 }
 
 // Σ stored photon power of a set in W, per batch (what the estimate integrates).
-Vec3 storedPowerPerBatch(const PhotonMaps& maps, uint32_t set) {
-    const KdTree* tree = maps.tree(set);
-    const uint32_t batches = maps.stats(set).batches;
-    if (!tree || batches == 0) return Vec3(0.0f);
-    glm::dvec3 sum(0.0);
-    for (const Photon& p : tree->photons()) sum += glm::dvec3(p.powerRgb());
-    return Vec3(sum / double(batches));
-}
+Vec3 storedPowerPerBatch(const PhotonMaps& maps, uint32_t set) { return maps.storedPowerPerBatch(set); }
 
 // Energy: with diffuseBounces = 0 a path stores at most once, so Σ stored ≤ Φ per batch; with
 // d diffuse bounces a path stores at most d + 1 times, each with at most the path's power
@@ -614,13 +607,13 @@ TEST(HardCases, MillimetreAndHundredKilometreScenesRenderTheSameDirectLight) {
     }
 }
 
-// Fails today (reported): photon.cpp stores photon power as RGB9E5 with a fixed exponent bias of
-// 20, i.e. relative precision only for [2^-20, 2044] W per photon. At 1e-3 m the light's
-// 2.5e-5 W spread over 20 000 paths is 1.3e-9 W per photon, below the absolute step 1.9e-9 W
-// (measured caustic energy ratio 4.5e-5); at 1e5 m it is 1.3e7 W, clamped to 2044 W (ratio 1.1e-3).
-// Enable once the maps store power relative to a per-map unit (e.g. Φ_light / paths, undone by
-// causticRadiance's powerScale).
-TEST(HardCases, DISABLED_MillimetreAndHundredKilometreScenesRenderTheSameCaustic) {
+// Photon powers are RGB9E5 codes with a fixed range (photon.cpp: relative precision for
+// [2^-20, 2044] units). The light's 2.5e-5 W at 1e-3 m over 20 000 paths is 1.3e-9 W per photon,
+// 1.3e7 W at 1e5 m: stored in W, they fell below the code's step and above its clamp (caustic
+// energy ratios were 4.5e-5 and 1.1e-3). PhotonMaps stores them in units of powerUnit(), a power
+// of two near the largest path power, so the codes here are bit-identical at every scale
+// whenever the geometry gives the same paths.
+TEST(HardCases, MillimetreAndHundredKilometreScenesRenderTheSameCaustic) {
     const std::vector<ScaledRender> r = renderScaled();
     const int w = r[0].frame.image->width(), h = r[0].frame.image->height();
     for (size_t i = 1; i < r.size(); ++i) {
@@ -664,7 +657,7 @@ TEST(HardCases, KLargerThanPhotonCountUsesTheMaximumRadius) {
     double flux = 0.0;
     for (const Photon& p : tree->photons())
         if (glm::length(p.position) < ps.rMax && glm::dot(p.incomingDir(), Vec3(0, 1, 0)) <= 0.0f)
-            flux += p.powerRgb().x;
+            flux += maps.powerWatts(p).x;
     const double expected = 0.5 / kPi * flux / (kPi * ps.rMax * ps.rMax);
     ASSERT_GT(expected, 0.0);
     EXPECT_NEAR(l.x, expected, expected * 1e-4);
