@@ -40,9 +40,6 @@ bool sameRendering(const proto::Settings& a, const proto::Settings& b) {
 }  // namespace
 
 RenderSettings toRenderSettings(const proto::Settings& s) {
-    if (s.tree != proto::TreeVariant::MiddleSplitKdTree)
-        throw ProtocolViolation("settings.tree " + std::to_string(int(s.tree)) +
-                                " not supported: this client builds middle-split kd-trees only");
     RenderSettings rs;
     rs.width = int(s.width);
     rs.height = int(s.height);
@@ -58,6 +55,12 @@ RenderSettings toRenderSettings(const proto::Settings& s) {
     rs.photons.diffuseBounces = s.diffuseBounces;
     rs.photons.capPhotons = s.capPhotonsPerSet;
     rs.photons.selective = s.spt;
+    switch (s.tree) {  // the decoder refuses values above kMaxTreeVariant
+        case proto::TreeVariant::MiddleSplitKdTree: rs.photons.tree = PhotonTree::MiddleSplit; break;
+        case proto::TreeVariant::BalancedKdTree: rs.photons.tree = PhotonTree::MedianBalanced; break;
+        case proto::TreeVariant::UniformGrid: rs.photons.tree = PhotonTree::UniformGrid; break;
+        default: throw ProtocolViolation("settings.tree " + std::to_string(int(s.tree)) + " is not a tree variant");
+    }
     try {
         validateSettings(rs);
     } catch (const std::invalid_argument& e) {

@@ -42,12 +42,27 @@ private:
 
 /// Caustic radiance (W/(m²·sr)) leaving a Lambertian point x with albedo ρ toward any direction:
 ///   L = ρ/π · Σ_p Φ_p·powerScale / (π r²)
+/// (Φ_p: the decoded stored power; PhotonMaps passes powerUnit / batches, so Φ_p·powerScale is
+/// W per batch whatever unit the map stores in)
 /// over the k nearest photons within rMax (m) that arrive from the front of `normal`
 /// (photons with dot(incomingDir, normal) > 0 are ignored). r is the distance to the k-th such
 /// photon; when fewer than k are found within rMax, r = rMax (the search disc is the area the
 /// found photons are spread over: an under-estimate at the caustic's edge, never a spike).
 /// r is clamped below by kMinDensityRadiusRelative × bounds diagonal. Returns 0 for an empty
 /// map, k = 0, rMax ≤ 0 or no photon found; never NaN/Inf for finite inputs.
+/// Known limitation (thin occluders): the gather is a sphere with a front-facing test only, no
+/// visibility or surface test, so photons on the far side of a thin wall that stands on the
+/// same plane (same normal) as x are counted. Query points within r_k (≤ rMax) of the wall's
+/// foot on its dark side get up to the lit side's estimate there (HardCases test: 0.26 vs 0.28
+/// W/(m²·sr) at ±5 mm; zero beyond rMax). The band narrows as r_k shrinks with more photons.
+/// No cheap principled fix exists: a Photon has no spare bits (12 B position, 32-bit RGB9E5,
+/// 2×16-bit direction; bits could be taken from the direction, whose sign test is all this
+/// uses), but a surface id does not separate two halves of one floor; a disc-shaped gather
+/// (reject photons far from the tangent plane) rejects nothing on one plane; a visibility ray
+/// to the k-th photon only says that one photon is hidden, not which of the k are, and
+/// shrinking r at the first hidden photon would bias every estimate near any contact edge; a
+/// ray per gathered photon is exact for planar receivers but costs k (64) rays per estimate,
+/// more than the rest of the eye pass.
 /// `Index` is KdTree, MedianKdTree or PhotonGrid (anything with size(), photonIncoming(),
 /// photonPower(), bounds(), search()). Thread-safe if each thread has its own heap; no allocation once the heap saw k.
 template <class Index>

@@ -3,6 +3,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <string>
+
 #include "common/render_settings.h"
 
 namespace rtpm {
@@ -42,6 +44,12 @@ inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string&
     app.add_option("--area-samples", rs.eye.areaLightSamples, "shadow samples per emissive triangle")
         ->capture_default_str();
     app.add_option("--seed", rs.photons.seed, "seed of the Halton rotations")->capture_default_str();
+    // PhotonTree; every variant gives the same estimate, they differ in build/query cost.
+    app.add_option_function<std::string>(
+           "--tree", [&rs](const std::string& name) { rs.photons.tree = *parsePhotonTree(name); },
+           "photon map index: middle (incremental middle-split kd-tree), median (balanced "
+           "kd-tree rebuilt each frame) or grid (uniform grid rebuilt each frame); default middle")
+        ->check(CLI::IsMember({"middle", "median", "grid"}));
 }
 
 }  // namespace rtpm

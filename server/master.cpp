@@ -173,6 +173,9 @@ struct Master::Impl : SessionHandler {
         if (rs.photons.capPhotons > (1u << 30)) throw std::invalid_argument("--cap must be at most 2^30 in a cluster");
         s.capPhotonsPerSet = static_cast<uint32_t>(rs.photons.capPhotons);
         s.spt = rs.photons.selective;
+        s.tree = rs.photons.tree == PhotonTree::MedianBalanced ? proto::TreeVariant::BalancedKdTree
+                 : rs.photons.tree == PhotonTree::UniformGrid  ? proto::TreeVariant::UniformGrid
+                                                               : proto::TreeVariant::MiddleSplitKdTree;
         s.encoding = opt.encoding;
         s.seed = rs.photons.seed;
         s.photonMaxDepth = rs.photons.maxDepth;

@@ -454,9 +454,14 @@ TEST(FrameRenderer, WireSettingsMapOneToOneOntoRenderSettings) {
     EXPECT_EQ(rs.photons.photonsPerBatch, 400u);
 }
 
-TEST(FrameRenderer, UnsupportedTreeVariantIsAProtocolViolation) {
+TEST(FrameRenderer, TreeVariantsMapOntoPhotonTreesAndUnknownOnesAreRefused) {
     proto::Settings s = smallSettings();
+    EXPECT_EQ(client::toRenderSettings(s).photons.tree, PhotonTree::MiddleSplit);
+    s.tree = proto::TreeVariant::BalancedKdTree;
+    EXPECT_EQ(client::toRenderSettings(s).photons.tree, PhotonTree::MedianBalanced);
     s.tree = proto::TreeVariant::UniformGrid;
+    EXPECT_EQ(client::toRenderSettings(s).photons.tree, PhotonTree::UniformGrid);
+    s.tree = static_cast<proto::TreeVariant>(7);  // only a corrupt in-memory value; the decoder refuses it
     EXPECT_THROW(client::toRenderSettings(s), client::ProtocolViolation);
 }
 
