@@ -9,11 +9,12 @@ namespace rtpm {
 namespace {
 
 // RGB9E5 layout of EXT_texture_shared_exponent (9-bit mantissas, 5-bit exponent), but with the
-// exponent bias 20 instead of 15: photon powers are small (Φ_light / photons per batch, e.g.
-// 1 W / 1e6 = 1e-6 W), and bias 15 would leave them in the subnormal range below 2^-15 where
-// relative precision collapses. With bias 20 the relative error stays ≤ 2^-9 for a largest
-// channel in [2^-20 ≈ 9.5e-7, 2044] W; below that the absolute step is 2^-29 ≈ 1.9e-9 W, and
-// anything above 2044 W is clamped (no light in our scenes comes close per photon).
+// exponent bias 20 instead of 15. The relative error stays ≤ 2^-9 for a largest channel in
+// [2^-20 ≈ 9.5e-7, 2044]; below that the absolute step is 2^-29 ≈ 1.9e-9, and anything above
+// 2044 is clamped. A fixed range cannot hold photon powers in W (they scale with the scene:
+// 1e-9 W per photon in a 1 mm scene, 1e7 W in a 100 km one), so PhotonMaps stores them in units
+// of a power of two near the largest path power: stored values are < 2, and the 2^-20 of range
+// below keeps SPT weights, absorption and colour ratios at full relative precision.
 constexpr int kMantissaBits = 9;
 constexpr int kExpBias = 20;
 constexpr int kMaxBiasedExp = 31;

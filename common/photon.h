@@ -14,7 +14,8 @@ Vec3 decodeRgb9e5(uint32_t packed);
 uint32_t encodeOctahedral(Vec3 unitDir);
 Vec3 decodeOctahedral(uint32_t packed);
 
-/// Photon as stored in a photon map. Power is the flux it carries in W (before the batch scale);
+/// Photon as stored in a photon map. Power is the flux it carries per batch, in units of the
+/// map's power unit (PhotonMaps::powerUnit, W per unit; PhotonMaps::powerWatts converts);
 /// `incoming` is the unit direction the photon travelled *along* when it hit the surface.
 struct Photon {
     Vec3 position{0.0f};
