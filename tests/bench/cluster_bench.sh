@@ -32,9 +32,11 @@
 # frame 0 shoots --walk-photons paths per set, later frames only trace pixels.
 # fps: the server's rate over the frames shown after frame 0 (its sliding window of 8 frames
 # holds them all when the run has at most 9 frames), so it excludes startup and, in walkthrough,
-# the shooting frame. cpu s/frame: user+system CPU seconds of the server and all clients over the
-# whole run (startup included) per frame; on a loaded machine it says what a run costs when the
-# wall clock does not. Photons: stored photons summed over all interleaving sets at the last frame.
+# the shooting frame. cpu s/frame: user+system CPU seconds of the server and all clients per frame
+# over the same frames (total CPU of the reaped processes minus what they had used when frame 0
+# was shown); on a loaded machine it says what a frame costs when the wall clock does not, and
+# cores / (cpu s/frame) is the fps the run would reach on dedicated cores if it parallelised
+# perfectly (an upper bound, labelled "fps bound"). Photons: stored photons summed over all interleaving sets at the last frame.
 # Error: rtpm-compare caustic_filtered of the last frame against the converged reference,
 # relative RMSE over the caustic region (rtpm-compare's default region of the reference).
 set -euo pipefail
@@ -177,6 +179,14 @@ childCpu() {
         printf "%.3f\n", t }' "$1"
 }
 
+# procCpu PID...: user+system CPU seconds the running processes used so far (/proc/<pid>/stat).
+procCpu() {
+    local p t=0
+    for p in "$@"; do t=$(awk -v t="$t" -v hz="$clk" '{ printf "%.3f", t + ($14 + $15) / hz }' "/proc/$p/stat" 2>/dev/null || echo "$t"); done
+    echo "$t"
+}
+clk=$(getconf CLK_TCK)
+
 # run_case CLIENTS SCENE W H MODE: one cluster run (in this shell, so `times` sees it); sets
 # result="fps|cpu_s_per_frame|photons_total|error|frames|incomplete|last_mode".
 run_case() {
@@ -191,15 +201,25 @@ run_case() {
     childCpu "$work/times" >"$work/cpu0"
     cpu0=$(cat "$work/cpu0")
     start_cluster "$n" "$scene" --width "$w" --height "$h" --csv "$csv" --out "$out" "${args[@]}" || return 1
+    # CPU used up to the moment frame 0 is shown (startup, scene load, BVH, frame 0), so the
+    # per-frame CPU of the later frames can be told apart.
+    local at0=""
+    while kill -0 "$server_pid" 2>/dev/null; do
+        if [[ -z $at0 && -f $csv ]] && (($(wc -l <"$csv") >= 2)); then
+            at0=$(procCpu "$server_pid" "${client_pids[@]}")
+        fi
+        sleep 0.05
+    done
     wait_cluster || return 1
     childCpu "$work/times" >"$work/cpu1"
     cpu1=$(cat "$work/cpu1")
     local fps cpuf ph nf inc lastMode err
     # CSV: frame,fps,photons_per_set,mode,bytes,slowest_client,slowest_ms,sets_arrived,sets,deadline,master_ms
-    IFS='|' read -r fps cpuf ph nf inc lastMode < <(awk -F, -v c0="$cpu0" -v c1="$cpu1" '
+    IFS='|' read -r fps cpuf ph nf inc lastMode < <(awk -F, -v c0="$cpu0" -v c1="$cpu1" -v a0="$at0" '
         NR == 1 { next }
         { n++; fps = $2; ph = $3 * $9; mode = $4; inc += ($8 < $9) }
-        END { printf "%.3f|%.2f|%.0f|%d|%d|%s\n", fps, (c1 - c0) / n, ph, n, inc, mode }' "$csv")
+        END { cf = a0 == "" || n < 2 ? "n/a" : sprintf("%.2f", (c1 - c0 - a0) / (n - 1))
+              printf "%.3f|%s|%.0f|%d|%d|%s\n", fps, cf, ph, n, inc, mode }' "$csv")
     err=$(error "$out" "$scene" "$w" "$h")
     result="$fps|$cpuf|$ph|$err|$nf|$inc|$lastMode"
 }
@@ -221,6 +241,9 @@ make_refs() {
     done
 }
 
+ratio() { awk -v a="$1" -v b="$2" 'BEGIN { if (a == "n/a" || b == "n/a" || b == 0) print "n/a"; else printf "%.2f×", a / b }'; }
+bound() { awk -v c="$1" -v n="$cores" 'BEGIN { if (c == "n/a" || c == 0) print "n/a"; else printf "%.2f", n / c }'; }
+
 header() {
     echo "Machine: nproc = $cores, $(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //'); load at start:$(uptime | sed 's/.*load average://')"
     echo
@@ -233,17 +256,17 @@ scaling() {
     echo "N = 4 oversubscribes the machine. Interaction: $frames frames of P = 20 000 paths/set;"
     echo "walkthrough: --walkthrough, frame 0 shoots $walkPhotons paths/set, $((walkFrames - 1)) walkthrough frames."
     echo
-    echo "| scene | mode | clients | fps | fps / fps(1 client) | cpu s/frame | photons (all sets) | caustic rel. RMSE | frames (incomplete) |"
-    echo "|---|---|---|---|---|---|---|---|---|"
-    local scene mode n r base
+    echo "| scene | mode | clients | fps | fps / fps(1 client) | cpu s/frame | cpu / cpu(1 client) | fps bound | photons (all sets) | caustic rel. RMSE | frames (incomplete) |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|"
+    local scene mode n r base cbase
     for scene in $scenes; do
         for mode in interaction walkthrough; do
-            base=""
+            base="" cbase=""
             for n in $clientCounts; do
                 run_case "$n" "$scene" 640 480 "$mode" && r=$result || { echo "| $scene | $mode | $n | failed | | | | | |"; continue; }
                 IFS='|' read -r fps cpuf ph err nf inc lastMode <<<"$r"
-                [[ -z $base ]] && base=$fps
-                echo "| $scene | $mode | $n | $fps | $(awk -v a="$fps" -v b="$base" 'BEGIN { printf "%.2f×", a / b }') | $cpuf | $ph | $err | $nf ($inc) |"
+                [[ -z $base ]] && base=$fps cbase=$cpuf
+                echo "| $scene | $mode | $n | $fps | $(ratio "$fps" "$base") | $cpuf | $(ratio "$cpuf" "$cbase") | $(bound "$cpuf") | $ph | $err | $nf ($inc) |"
                 echo "  [$(date +%T) load$(uptime | sed 's/.*load average://')] $scene $mode $n: $r" >&2
             done
         done
@@ -254,8 +277,8 @@ scaling() {
 resolution() {
     echo "### fps vs resolution, $resClients clients (paper Table 7)"
     echo
-    echo "| scene | mode | resolution | fps | fps × pixels / (fps × pixels at 640x480) | cpu s/frame | photons (all sets) | caustic rel. RMSE | frames (incomplete) |"
-    echo "|---|---|---|---|---|---|---|---|---|"
+    echo "| scene | mode | resolution | fps | px/s ÷ px/s at first size | cpu s/frame | cpu µs/px | fps bound | photons (all sets) | caustic rel. RMSE | frames (incomplete) |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|"
     local scene mode size w h r base
     for scene in $scenes; do
         for mode in $resModes; do
@@ -265,7 +288,7 @@ resolution() {
                 run_case "$resClients" "$scene" "$w" "$h" "$mode" && r=$result || { echo "| $scene | $mode | $size | failed | | | | | |"; continue; }
                 IFS='|' read -r fps cpuf ph err nf inc lastMode <<<"$r"
                 [[ -z $base ]] && base=$(awk -v f="$fps" -v w="$w" -v h="$h" 'BEGIN { print f * w * h }')
-                echo "| $scene | $mode | $size | $fps | $(awk -v f="$fps" -v w="$w" -v h="$h" -v b="$base" 'BEGIN { printf "%.2f", f * w * h / b }') | $cpuf | $ph | $err | $nf ($inc) |"
+                echo "| $scene | $mode | $size | $fps | $(awk -v f="$fps" -v w="$w" -v h="$h" -v b="$base" 'BEGIN { printf "%.2f", f * w * h / b }') | $cpuf | $(awk -v c="$cpuf" -v p="$((w * h))" 'BEGIN { if (c == "n/a") print "n/a"; else printf "%.2f", c / p * 1e6 }') | $(bound "$cpuf") | $ph | $err | $nf ($inc) |"
                 echo "  [$(date +%T) load$(uptime | sed 's/.*load average://')] $scene $mode $size: $r" >&2
             done
         done
