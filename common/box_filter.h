@@ -21,9 +21,11 @@ struct BoxWindow {
 /// Box filter with reusable scratch memory (one per thread; not thread-safe).
 ///
 /// Algorithm: a row of vertical window sums (one per pixel and channel) slides down the image,
-/// adding the row that enters and subtracting the one that leaves (a contiguous loop over
-/// W·3 values that vectorises); along each row a running horizontal sum over a zero-padded copy
-/// of that row gives every window sum with one add and one subtract. Cost O(W·H·3) whatever F.
+/// adding the row that enters and subtracting the one that leaves (one contiguous loop over W·3
+/// values that vectorises); along each row a running horizontal sum over those sums, kept
+/// zero-padded in place so the loop has no border branch, gives every window sum with one add
+/// and one subtract of a whole pixel (RGB as one 4-lane vector). Cost O(W·H·3) whatever F. On
+/// x86-64 the row loops are compiled for AVX2 and for baseline SSE2, chosen at load time.
 ///
 /// Precision: sums are kept in double. Subtracting a bright value that left the window can
 /// still leave rounding residue, so the vertical sums are recomputed from scratch every
@@ -46,8 +48,9 @@ public:
     void apply(std::span<const float> in, int width, int height, int f, std::span<float> out);
 
 private:
-    std::vector<double> colSum_;  ///< vertical window sums of the current row, W·3
-    std::vector<double> padded_;  ///< colSum_ with r0+1 zero pixels before and r1 after
+    /// Vertical window sums of the current row (W·3) with r0+1 zero pixels before, r1 after and
+    /// one spare value (the unused fourth lane of the last pixel's load).
+    std::vector<double> padded_;
     std::vector<double> invCols_; ///< 1 / validCols(x)
 };
 
