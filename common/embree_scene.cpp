@@ -47,6 +47,7 @@ struct EmbreeScene::Impl {
     std::vector<Mesh> meshes;
     std::vector<Mat4> transforms;          // object → world
     std::vector<glm::mat3> normalMatrices;  // inverse transpose of the upper 3×3
+    std::vector<uint8_t> identityLinear;    // upper 3×3 is exactly the identity: skip nm · n per hit
     std::vector<uint32_t> instanceMesh;
 
     std::mutex errorMutex;
@@ -149,6 +150,7 @@ struct EmbreeScene::Impl {
         // glTF: a negative determinant flips the winding so front faces stay front faces; the
         // inverse transpose keeps the object-space normal's side, which is what that rule wants.
         normalMatrices[index] = glm::inverseTranspose(linear);
+        identityLinear[index] = linear == glm::mat3(1.0f) ? 1 : 0;
         rtcSetGeometryTransform(instanceGeoms[index], 0, RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, &m[0][0]);
         rtcCommitGeometry(instanceGeoms[index]);
     }
@@ -181,6 +183,7 @@ EmbreeScene::EmbreeScene(const Scene& scene) : impl_(std::make_unique<Impl>()), 
     s.instanceGeoms.assign(n, nullptr);
     s.transforms.assign(n, Mat4(1.0f));
     s.normalMatrices.assign(n, glm::mat3(1.0f));
+    s.identityLinear.assign(n, 1);
     s.instanceMesh.assign(n, 0);
     for (uint32_t i = 0; i < n; ++i) {
         const Instance& inst = scene.instances[i];
@@ -275,7 +278,9 @@ bool EmbreeScene::intersect(const Ray& ray, SurfaceHit& hit) const {
     const uint32_t i1 = mesh.indices[3 * tri + 1];
     const uint32_t i2 = mesh.indices[3 * tri + 2];
     const float u = rh.hit.u, v = rh.hit.v, w = 1.0f - u - v;
+    // Most instances are not rotated or scaled; their normals need no matrix product.
     const glm::mat3& nm = s.normalMatrices[inst];
+    const bool identity = s.identityLinear[inst] != 0;
 
     hit.t = rh.ray.tfar;
     hit.position = ray.origin + hit.t * ray.dir;
@@ -287,7 +292,8 @@ bool EmbreeScene::intersect(const Ray& ray, SurfaceHit& hit) const {
     // the mesh so it does not depend on Embree's Ng convention; degenerate triangles (which a
     // robust traversal may still report) fall back to facing the ray instead of producing NaN.
     const Vec3 p0 = mesh.positions[i0], p1 = mesh.positions[i1], p2 = mesh.positions[i2];
-    Vec3 ng = nm * glm::cross(p1 - p0, p2 - p0);
+    Vec3 ng = glm::cross(p1 - p0, p2 - p0);
+    if (!identity) ng = nm * ng;
     float len2 = glm::dot(ng, ng);
     if (len2 > 0.0f && std::isfinite(len2)) {
         ng *= 1.0f / std::sqrt(len2);
@@ -299,7 +305,8 @@ bool EmbreeScene::intersect(const Ray& ray, SurfaceHit& hit) const {
 
     Vec3 ns = ng;
     if (mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty()) {
-        Vec3 interp = nm * (w * mesh.normals[i0] + u * mesh.normals[i1] + v * mesh.normals[i2]);
+        Vec3 interp = w * mesh.normals[i0] + u * mesh.normals[i1] + v * mesh.normals[i2];
+        if (!identity) interp = nm * interp;
         const float l2 = glm::dot(interp, interp);
         if (l2 > 0.0f && std::isfinite(l2)) {
             interp *= 1.0f / std::sqrt(l2);

@@ -61,10 +61,11 @@ LoadedScene& loaded(const std::string& name) {
 
 int threadCount(int requested) { return requested > 0 ? requested : tbb::info::default_concurrency(); }
 
-void eyePass(benchmark::State& state, const std::string& name, int threads) {
+void eyePass(benchmark::State& state, const std::string& name, int threads, int width = kWidth,
+             int height = kHeight) {
     LoadedScene& s = loaded(name);
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threadCount(threads)));
-    const Interleave pattern{kWidth, kHeight, 1};
+    const Interleave pattern{width, height, 1};
     std::vector<PixelRadiance> out(size_t(pattern.pixelCount(0)));
     EyeStats stats;
     for (auto _ : state) {
@@ -72,11 +73,12 @@ void eyePass(benchmark::State& state, const std::string& name, int threads) {
         benchmark::DoNotOptimize(out.data());
     }
     const double rays = double(stats.primaryRays + stats.secondaryRays + stats.shadowRays);
-    state.counters["pixels/s"] = benchmark::Counter(double(state.iterations()) * kWidth * kHeight,
+    const double pixels = double(width) * double(height);
+    state.counters["pixels/s"] = benchmark::Counter(double(state.iterations()) * pixels,
                                                     benchmark::Counter::kIsRate);
     state.counters["rays/s"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
     state.counters["shadow/s"] = benchmark::Counter(double(stats.shadowRays), benchmark::Counter::kIsRate);
-    state.counters["rays/px"] = rays / (double(state.iterations()) * kWidth * kHeight);
+    state.counters["rays/px"] = rays / (double(state.iterations()) * pixels);
     state.counters["threads"] = threadCount(threads);
 }
 
@@ -135,6 +137,12 @@ int main(int argc, char** argv) {
                 ->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
         }
     }
+    // A 160×120 image of the same view on one thread: small enough to profile under
+    // valgrind --tool=callgrind (instruction counts are repeatable on a loaded machine).
+    for (const std::string& name : builtinSceneNames())
+        benchmark::RegisterBenchmark(("EyePassSmall/" + name).c_str(),
+                                     [=](benchmark::State& st) { eyePass(st, name, 1, 160, 120); })
+            ->Unit(benchmark::kMillisecond)->Iterations(1);
     benchmark::Initialize(&argc, argv);
     if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
     benchmark::RunSpecifiedBenchmarks();
