@@ -13,6 +13,8 @@
 
 #include <glm/gtc/matrix_inverse.hpp>
 
+#include "common/check.h"
+
 namespace rtpm {
 
 namespace {
@@ -341,6 +343,38 @@ bool EmbreeScene::occluded(const Ray& ray) const {
     rtcOccluded1(impl_->top, &ctx, &r);
     // Embree sets tfar to -inf when an occluder is found.
     return r.tfar < 0.0f;
+}
+
+uint32_t EmbreeScene::occluded8(const Ray* rays, int count) const {
+    RTPM_DCHECK(count >= 0 && count <= 8);
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    alignas(32) int valid[8];
+    alignas(32) RTCRay8 r;
+    for (int i = 0; i < 8; ++i) {
+        // Inactive lanes repeat ray 0 so every lane holds finite values.
+        const Ray& ray = rays[i < count ? i : 0];
+        valid[i] = i < count ? -1 : 0;
+        r.org_x[i] = ray.origin.x;
+        r.org_y[i] = ray.origin.y;
+        r.org_z[i] = ray.origin.z;
+        r.dir_x[i] = ray.dir.x;
+        r.dir_y[i] = ray.dir.y;
+        r.dir_z[i] = ray.dir.z;
+        r.tnear[i] = ray.tMin;
+        r.tfar[i] = ray.tMax;
+        r.time[i] = 0.0f;
+        r.mask[i] = 0xFFFFFFFFu;
+        r.id[i] = 0;
+        r.flags[i] = 0;
+    }
+    if (count <= 0) return 0;
+    rtcOccluded8(valid, impl_->top, &ctx, &r);
+    uint32_t bits = 0;
+    for (int i = 0; i < count; ++i)
+        if (r.tfar[i] < 0.0f) bits |= 1u << i;  // Embree sets tfar to −inf on an occluder
+    return bits;
 }
 
 void EmbreeScene::setTransform(uint32_t index, const Mat4& transform) {

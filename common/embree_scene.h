@@ -54,6 +54,10 @@ public:
     bool intersect(const Ray& ray, SurfaceHit& hit) const;
     /// True if anything is hit in (tMin, tMax).
     bool occluded(const Ray& ray) const;
+    /// Occlusion of rays[0 .. count) (count ≤ 8) as one Embree packet: bit i of the result is
+    /// occluded(rays[i]). Cheaper than count single queries when the rays are coherent (shadow
+    /// rays from one point toward one light). Thread-safe like occluded().
+    uint32_t occluded8(const Ray* rays, int count) const;
 
     /// Moves instance `index` (object → world); recommits only the top level.
     void setTransform(uint32_t index, const Mat4& transform);

@@ -143,6 +143,17 @@ Vec3 directLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec
 
     const auto& tris = es.emissiveTriangles();
     if (tris.empty()) return sum;
+    // Shadow rays toward the emitters go to Embree in packets of 8 (one origin, one small light:
+    // coherent); contributions are added in sample order, so the sum is the one of single rays.
+    Ray pendingRay[8];
+    Vec3 pendingValue[8];
+    int pending = 0;
+    auto flush = [&] {
+        const uint32_t blocked = es.occluded8(pendingRay, pending);
+        for (int i = 0; i < pending; ++i)
+            if (!(blocked & (1u << i))) sum += pendingValue[i];
+        pending = 0;
+    };
     auto sampleTriangle = [&](const EmissiveTriangle& e, float u1, float u2, float weight) {
         // Uniform point on the triangle (Turk's square-root parametrisation).
         const float su = std::sqrt(u1);
@@ -158,8 +169,9 @@ Vec3 directLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec
         const Vec3 origin = es.offsetOrigin(hit.position, ng, wi);
         const Vec3 end = es.offsetOrigin(q, e.normal, -wi);
         ++count.shadow;
-        if (es.occluded(Ray{origin, end - origin, 0.0f, 1.0f})) return;
-        sum += brdf * e.radiance * (cosS * cosL / dist2 * weight);
+        pendingRay[pending] = Ray{origin, end - origin, 0.0f, 1.0f};
+        pendingValue[pending] = brdf * e.radiance * (cosS * cosL / dist2 * weight);
+        if (++pending == 8) flush();
     };
 
     if (ctx.sampleEach) {
@@ -184,6 +196,7 @@ Vec3 directLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec
                            tris[t].area / (p * float(ns)));
         }
     }
+    if (pending > 0) flush();
     return sum;
 }
 

@@ -304,5 +304,29 @@ TEST(EmbreeScene, EmptySceneMissesEverything) {
     EXPECT_TRUE(es.emissiveTriangles().empty());
 }
 
+TEST(EmbreeScene, PacketOcclusionMatchesSingleRaysForEveryPacketSize) {
+    Scene scene = sceneWith(makeSphere(1.0f, 24, 48));
+    EmbreeScene es(scene);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> u(-3.0f, 3.0f);
+    int blocked = 0, free = 0;
+    for (int trial = 0; trial < 50; ++trial) {
+        for (int count = 0; count <= 8; ++count) {
+            Ray rays[8];
+            uint32_t expected = 0;
+            for (int i = 0; i < count; ++i) {
+                // Segments between random points: some cross the sphere, some stop short of it.
+                const Vec3 a(u(rng), u(rng), u(rng)), b(u(rng), u(rng), u(rng));
+                rays[i] = Ray{a, b - a, 0.0f, 1.0f};
+                if (es.occluded(rays[i])) expected |= 1u << i;
+                (expected & (1u << i)) ? ++blocked : ++free;
+            }
+            ASSERT_EQ(es.occluded8(rays, count), expected) << "trial " << trial << " count " << count;
+        }
+    }
+    EXPECT_GT(blocked, 100);
+    EXPECT_GT(free, 100);
+}
+
 }  // namespace
 }  // namespace rtpm
