@@ -34,7 +34,8 @@ bool sameRendering(const proto::Settings& a, const proto::Settings& b) {
            a.photonsPerSetPerFrame == b.photonsPerSetPerFrame && a.k == b.k && a.rMax == b.rMax &&
            a.maxDepth == b.maxDepth && a.diffuseBounces == b.diffuseBounces &&
            a.capPhotonsPerSet == b.capPhotonsPerSet && a.spt == b.spt && a.tree == b.tree && a.seed == b.seed &&
-           a.photonMaxDepth == b.photonMaxDepth && a.areaLightSamples == b.areaLightSamples;
+           a.photonMaxDepth == b.photonMaxDepth && a.areaLightSamples == b.areaLightSamples &&
+           a.gatherVisibility == b.gatherVisibility;
 }
 
 }  // namespace
@@ -55,6 +56,7 @@ RenderSettings toRenderSettings(const proto::Settings& s) {
     rs.photons.diffuseBounces = s.diffuseBounces;
     rs.photons.capPhotons = s.capPhotonsPerSet;
     rs.photons.selective = s.spt;
+    rs.photons.gatherVisibility = s.gatherVisibility;
     switch (s.tree) {  // the decoder refuses values above kMaxTreeVariant
         case proto::TreeVariant::MiddleSplitKdTree: rs.photons.tree = PhotonTree::MiddleSplit; break;
         case proto::TreeVariant::BalancedKdTree: rs.photons.tree = PhotonTree::MedianBalanced; break;

@@ -62,27 +62,37 @@ private:
 /// to the k-th photon only says that one photon is hidden, not which of the k are, and
 /// shrinking r at the first hidden photon would bias every estimate near any contact edge; a
 /// ray per gathered photon is exact for planar receivers but costs k (64) rays per estimate,
-/// more than the rest of the eye pass.
+/// more than the rest of the eye pass. That exact test is offered as an option:
+/// causticRadianceIf counts only the k nearest photons p for which `visible(p)` holds
+/// (PhotonSettings::gatherVisibility casts one shadow ray per gathered photon); r stays r_k, so
+/// the estimate is unchanged wherever every found photon is visible.
 /// `Index` is KdTree, MedianKdTree or PhotonGrid (anything with size(), photonIncoming(),
 /// photonPower(), bounds(), search()). Thread-safe if each thread has its own heap; no allocation once the heap saw k.
-template <class Index>
-Vec3 causticRadiance(const Index& index, Vec3 x, Vec3 normal, Vec3 albedo, uint32_t k,
-                     float rMax, float powerScale, KnnHeap& heap) {
+template <class Index, class Visible>
+Vec3 causticRadianceIf(const Index& index, Vec3 x, Vec3 normal, Vec3 albedo, uint32_t k, float rMax,
+                       float powerScale, KnnHeap& heap, const Visible& visible) {
     if (index.size() == 0 || k == 0 || !(rMax > 0.0f)) return Vec3(0.0f);
     const float maxDist2 = rMax * rMax;
     heap.reset(k, maxDist2);
     FrontFacingKnn<Index> policy(heap, index, normal);
     index.search(x, policy);
     if (heap.empty()) return Vec3(0.0f);
-
     Vec3 flux(0.0f);
-    for (const KnnEntry& e : heap.entries()) flux += decodeRgb9e5(index.photonPower(e.index));
-
+    for (const KnnEntry& e : heap.entries())
+        if (visible(index.photon(e.index))) flux += decodeRgb9e5(index.photonPower(e.index));
     const float rMin = kMinDensityRadiusRelative * index.bounds().diagonal();
     const float r2 = heap.full() ? std::max(heap.farthestDist2(), rMin * rMin) : maxDist2;
     if (!(r2 > 0.0f)) return Vec3(0.0f);
     constexpr float kInvPi = std::numbers::inv_pi_v<float>;
     return albedo * kInvPi * flux * (powerScale / (std::numbers::pi_v<float> * r2));
+}
+
+/// The estimate above with every found photon counted (no visibility test).
+template <class Index>
+Vec3 causticRadiance(const Index& index, Vec3 x, Vec3 normal, Vec3 albedo, uint32_t k, float rMax,
+                     float powerScale, KnnHeap& heap) {
+    return causticRadianceIf(index, x, normal, albedo, k, rMax, powerScale, heap,
+                             [](const Photon&) { return true; });
 }
 
 /// The kd-tree estimate the renderer uses (non-template entry point; see the template above).

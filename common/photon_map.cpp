@@ -239,6 +239,7 @@ Vec3 PhotonMaps::storedPowerPerBatch(uint32_t set) const {
 void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     SetState* st = find(set);
     RTPM_CHECK(st != nullptr);
+    scene_ = &scene;
     if (st->capped) return;
     if (!emittersReady_) {
         emitters_ = buildEmitters(scene);
@@ -440,10 +441,27 @@ Vec3 PhotonMaps::radiance(uint32_t set, const SurfaceHit& hit, Vec3 normal, Vec3
     if (!st || st->stats.batches == 0) return Vec3(0.0f);
     thread_local KnnHeap heap;
     const float scale = powerUnit_ / static_cast<float>(st->stats.batches);
-    if (st->tree) return causticRadiance(*st->tree, hit.position, normal, albedo, settings_.k, rMax_, scale, heap);
-    if (st->median)
-        return causticRadiance(*st->median, hit.position, normal, albedo, settings_.k, rMax_, scale, heap);
-    if (st->grid) return causticRadiance(*st->grid, hit.position, normal, albedo, settings_.k, rMax_, scale, heap);
+    const auto estimate = [&](const auto& index) {
+        if (!settings_.gatherVisibility || !scene_)
+            return causticRadiance(index, hit.position, normal, albedo, settings_.k, rMax_, scale, heap);
+        // Both ends are lifted off their surfaces by the same distance: x along its normal, the
+        // photon back along the direction it arrived from (the side of the surface it lies on).
+        // A ray between two points of one plane then runs parallel to it, and a photon on the
+        // lit face of a zero-thickness wall is seen from the lit side only.
+        const Vec3 origin = scene_->offsetOrigin(hit.position, hit.geometricNormal, normal);
+        const float lift = glm::length(origin - hit.position);
+        const auto visible = [&](const Photon& photon) {
+            Ray ray;
+            ray.origin = origin;
+            ray.dir = photon.position - lift * photon.incomingDir() - origin;
+            ray.tMax = 1.0f;
+            return glm::dot(ray.dir, ray.dir) == 0.0f || !scene_->occluded(ray);
+        };
+        return causticRadianceIf(index, hit.position, normal, albedo, settings_.k, rMax_, scale, heap, visible);
+    };
+    if (st->tree) return estimate(*st->tree);
+    if (st->median) return estimate(*st->median);
+    if (st->grid) return estimate(*st->grid);
     return Vec3(0.0f);
 }
 

@@ -50,6 +50,9 @@ inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string&
            "photon map index: middle (incremental middle-split kd-tree), median (balanced "
            "kd-tree rebuilt each frame) or grid (uniform grid rebuilt each frame); default middle")
         ->check(CLI::IsMember({"middle", "median", "grid"}));
+    app.add_flag("--gather-visibility", rs.photons.gatherVisibility,
+                 "count only photons visible from the shaded point (a shadow ray per gathered "
+                 "photon): no caustic leaks through thin walls, k more rays per pixel");
 }
 
 }  // namespace rtpm

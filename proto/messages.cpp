@@ -99,6 +99,7 @@ void putPayload(Writer& w, const Settings& m) {
     w.u64(m.seed);
     w.u32(m.photonMaxDepth);
     w.u32(m.areaLightSamples);
+    w.u8(m.gatherVisibility ? 1 : 0);
 }
 void putPayload(Writer& w, const FrameBegin& m) {
     w.u64(m.frame);
@@ -317,6 +318,7 @@ void get(Reader& r, Settings& m) {
     r.u64(m.seed);
     r.u32(m.photonMaxDepth);
     r.u32(m.areaLightSamples);
+    getBool(r, m.gatherVisibility, "settings.gatherVisibility");
     inRange(r, m.photonMaxDepth, 0, kMaxDepthLimit, "settings.photonMaxDepth");
     inRange(r, m.areaLightSamples, 1, kMaxAreaLightSamples, "settings.areaLightSamples");
     inRange(r, m.width, 1, kMaxImageSide, "settings.width");

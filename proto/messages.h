@@ -144,6 +144,7 @@ struct Settings {
     uint64_t seed = 0x72'74'70'6d;   ///< PhotonSettings::seed (Halton rotations, hashed randoms)
     uint32_t photonMaxDepth = 16;    ///< PhotonSettings::maxDepth: ray segments per photon path, ≤ kMaxDepthLimit
     uint32_t areaLightSamples = 4;   ///< EyeSettings::areaLightSamples, in [1, kMaxAreaLightSamples]
+    bool gatherVisibility = false;   ///< PhotonSettings::gatherVisibility (u8 0/1)
     bool operator==(const Settings&) const = default;
 };
 

@@ -180,6 +180,7 @@ struct Master::Impl : SessionHandler {
         s.seed = rs.photons.seed;
         s.photonMaxDepth = rs.photons.maxDepth;
         s.areaLightSamples = static_cast<uint32_t>(rs.eye.areaLightSamples);
+        s.gatherVisibility = rs.photons.gatherVisibility;
         settingsMsg = std::make_shared<const std::vector<uint8_t>>(proto::encode(s));
         if (!opt.builtin) {
             glb = encodeGlb(live.loaded());

@@ -155,7 +155,7 @@ TEST(Messages, FieldValidationRejectsBadValues) {
 
 TEST(Messages, FixedSizePayloadsHaveTheDocumentedSizes) {
     // PROTOCOL.md §5.5 and §5.9 state these sizes.
-    EXPECT_EQ(encode(Settings{}).size(), kHeaderBytes + 59);
+    EXPECT_EQ(encode(Settings{}).size(), kHeaderBytes + 60);
     EXPECT_EQ(encode(Stats{}).size(), kHeaderBytes + 52);
     EXPECT_EQ(encode(Edit{1, CameraEdit{}}).size(), kHeaderBytes + 4 + 41);
     EXPECT_EQ(encode(Edit{1, LightEdit{}}).size(), kHeaderBytes + 4 + 41);
