@@ -127,10 +127,11 @@ struct EmbreeScene::Impl {
     }
 
     void buildMeshScene(uint32_t meshIndex) {
+        // The geometry first: it validates the mesh and may throw, and nothing else is held yet.
+        RTCGeometry geom = buildTriangleGeometry(meshes[meshIndex], meshIndex);
         RTCScene s = rtcNewScene(device);
         rtcSetSceneFlags(s, RTC_SCENE_FLAG_ROBUST);
         rtcSetSceneBuildQuality(s, RTC_BUILD_QUALITY_HIGH);
-        RTCGeometry geom = buildTriangleGeometry(meshes[meshIndex], meshIndex);
         rtcAttachGeometryByID(s, geom, 0);
         rtcReleaseGeometry(geom);
         rtcCommitScene(s);
