@@ -131,11 +131,15 @@ def make_references(tools, scenes):
         for seed in REF_SEEDS:
             out = tools.cache / f"ref_{scene.lower()}_seed{seed}.exr"
             csv_path = tools.cache / f"ref_{scene.lower()}_seed{seed}.csv"
-            csv_path.unlink(missing_ok=True)
-            log(f"reference {scene} seed {seed}: P={r['P']} x {r['frames']} frames, k={r['k']}")
-            rc, so, se = run_timed([str(tools.render)] + render_args(scene, pt, out, csv_path, seed))
-            if rc != 0:
-                sys.exit(f"sweep.py: reference render failed: {se.strip()}")
+            done = out.exists() and csv_path.exists() and len(list(csv.DictReader(open(csv_path)))) == r["frames"]
+            if done:
+                log(f"reference {scene} seed {seed}: kept {out.name} (delete it to render again)")
+            else:
+                csv_path.unlink(missing_ok=True)
+                log(f"reference {scene} seed {seed}: P={r['P']} x {r['frames']} frames, k={r['k']}")
+                rc, so, se = run_timed([str(tools.render)] + render_args(scene, pt, out, csv_path, seed))
+                if rc != 0:
+                    sys.exit(f"sweep.py: reference render failed: {se.strip()}")
             rows = list(csv.DictReader(open(csv_path)))
             parts.append((out, int(rows[-1]["photons"]), int(rows[-1]["paths"])))
         # The two seeds' difference: rel RMSE(A - B) = sqrt(2) sigma of one, sigma of the mean = that / 2.
@@ -184,7 +188,8 @@ def sweep_points(scene, tools, quick=False):
     add("paper", "paper N=16000 k=40", N=16000, k=40)
     add("paper", "paper N=16000 k=100", N=16000, k=100)
     if tools.has_tree:
-        for tree in ["median", "grid"]:
+        # The default tree again, measured next to the others: the load changes over a sweep.
+        for tree in ["middle", "median", "grid"]:
             add("tree", f"tree={tree}", tree=tree)
     # Accumulation: N x frames at k = 64, and at larger k, which is what lowers the noise once the
     # photon density is high (the estimate's relative noise ~ 1/sqrt(k F^2)).
@@ -193,7 +198,11 @@ def sweep_points(scene, tools, quick=False):
     add("accumulate", "N=8000 x 16 frames", frames=16)
     add("accumulate", "N=8000 k=200 x 4 frames", k=200, frames=4)
     add("accumulate", "N=8000 k=200 x 16 frames", k=200, frames=16)
-    add("accumulate", "N=32000 k=400 x 8 frames", N=32000, k=400, frames=8)
+    if scene == "RING":
+        add("accumulate", "N=32000 k=400 x 8 frames", N=32000, k=400, frames=8)
+    else:
+        # GLASS paths cost ~3x RING's per stored photon: the large-N point stays affordable at k = 64.
+        add("accumulate", "N=32000 x 4 frames", N=32000, frames=4)
     if not heavy:
         add("accumulate", "N=2000 x 16 frames", N=2000, frames=16)
     # Walkthrough: accumulate to a cap of ~3.5 frames' photons, then frames without shooting.
@@ -245,6 +254,11 @@ def measure_cluster(tools, scene, pt, work, out):
            "--deadline-ms=600000", "--quiet"] + args
     r = subprocess.run(cmd, capture_output=True, text=True, env=env)
     if r.returncode != 0:
+        # Seen once: rtpm-server died of SIGSEGV with one client; say so and try once more.
+        log(f"{scene} {pt['clients']} client(s): run-local.sh failed ({r.stderr.strip()[-300:]}); retrying once")
+        csv_path.unlink(missing_ok=True)
+        r = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    if r.returncode != 0:
         raise RuntimeError(f"run-local.sh failed: {r.stderr.strip()[-400:]}")
     rows = list(csv.DictReader(open(csv_path)))
     # The server pipelines frames, so its frame time is 1 / fps (throughput), not a latency.
@@ -265,21 +279,30 @@ def write_results(rows):
             w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items() if k in FIELDS})
 
 
-def run_sweep(tools, scenes, quick):
+def slug(text):
+    return "".join(c if c.isalnum() else "_" for c in text.lower()).strip("_")
+
+
+def run_sweep(tools, scenes, quick, groups=None):
     for scene in scenes:
         if not tools.ref_path(scene).exists():
             sys.exit(f"sweep.py: no reference for {scene}; run sweep.py --make-references first")
     old = []
     if RESULTS_CSV.exists():
-        old = [r for r in csv.DictReader(open(RESULTS_CSV)) if r["scene"] not in scenes]
+        old = [r for r in csv.DictReader(open(RESULTS_CSV))
+               if r["scene"] not in scenes or (groups and r["group"] not in groups)]
     work = tools.cache / "work"
     work.mkdir(exist_ok=True)
     rows = []
     t0 = time.time()
     for scene in scenes:
-        cap_per_set = None
-        yield0 = None
+        # With --groups, the yield and the cap come from the scene's stored default and base rows.
+        prev = {r["group"]: r for r in old if r["scene"] == scene}
+        yield0 = float(prev["default"]["photons_per_set"]) / float(prev["default"]["P"]) if "default" in prev else None
+        cap_per_set = float(prev["base"]["photons_per_set"]) if "base" in prev else None
         for group, label, pt in sweep_points(scene, tools, quick):
+            if groups and group not in groups:
+                continue
             if pt["N"]:
                 # SPT off keeps the base's paths (its lower yield is the point of the comparison).
                 n = BASE["N"] if pt.pop("nSpt", 0) else pt["N"]
@@ -288,7 +311,7 @@ def run_sweep(tools, scenes, quick):
                 pt = dict(pt, cap=max(1, int(3.5 * cap_per_set)))
             # Each point's image is kept so its error can be recomputed against a new reference
             # (--recompare) without re-running the point.
-            out = work / f"{scene.lower()}_{len(rows):03d}.exr"
+            out = work / f"{scene.lower()}_{slug(label)}.exr"
             try:
                 if pt["clients"]:
                     res = measure_cluster(tools, scene, pt, work, out)
@@ -367,7 +390,9 @@ def time_to_error(front_t, front_e, target):
         return "reached at the fastest point", front_t[0]
     tail = list(zip(front_t, front_e))[-3:]
     fit = slope_fit([a for a, _ in tail], [b for _, b in tail]) if len(tail) >= 2 else None
-    if fit and fit[0] < -0.02:
+    # A front flatter than error ~ t^-0.2 has met a floor (blur the photon count cannot remove, or
+    # the reference's own noise); its extrapolation would be meaningless.
+    if fit and fit[0] < -0.2:
         b, a = fit
         return f"extrapolated (slope {b:.2f} over the last {len(tail)} front points)", math.exp(
             (math.log(target) - a) / b)
@@ -383,7 +408,7 @@ def report(tools_meta, machine):
     for r in rows:
         for k in ("ms_per_frame", "cum_ms", "rel_rmse", "energy", "rel_mae", "fps", "load1", "photons_per_set"):
             r[k] = float(r[k])
-        for k in ("N", "P", "k", "M", "F", "spt", "frames", "clients", "cap"):
+        for k in ("paper", "N", "P", "k", "M", "F", "spt", "frames", "clients", "cap"):
             r[k] = int(float(r[k]))
     import matplotlib
     matplotlib.use("Agg")
@@ -449,10 +474,10 @@ def report(tools_meta, machine):
         if e10 is not None:
             e10_text = f"{e10:.3f} (interpolated on the frame front)"
         elif ft and TARGET_MS < ft[0]:
-            fit = slope_fit(ft[:3], fe[:3]) if len(ft) >= 2 else None
-            ext = math.exp(fit[1] + fit[0] * math.log(TARGET_MS)) if fit else None
-            e10_text = (f"not reached: the fastest point takes {ft[0]:.0f} ms/frame (error {fe[0]:.3f})"
-                        + (f"; extrapolated along the front ≈ {ext:.3f}" if ext else ""))
+            # No extrapolation: below the fastest point the error is set by what a frame can hold
+            # (too few photons for the gather radius), which the slope of the front does not predict.
+            e10_text = (f"not reached at {WIDTH}×{HEIGHT} on this machine: the fastest point takes {ft[0]:.0f} "
+                        f"ms/frame ({1000 / ft[0]:.1f} fps) with error {fe[0]:.3f}")
         else:
             e10_text = f"{fe[-1]:.3f} (every front point is faster than 10 fps; the most accurate)"
         how, t2 = time_to_error([r["cum_ms"] for r in f_image], [r["rel_rmse"] for r in f_image], TARGET_ERROR)
@@ -503,10 +528,10 @@ def plot(plt, scene, sr, single, f_frame, f_image, ref):
         m, c = styles[r["mode"]]
         if r["clients"]:
             m, c = "D", "C4"
-        edge = "k" if r["paper"] else c
-        a.scatter(r["ms_per_frame"], r["rel_rmse"], marker=m, c=c, edgecolors=edge, s=36, zorder=3)
+        edge, lw = ("k", 1.5) if r["paper"] else ("none", 0.0)
+        a.scatter(r["ms_per_frame"], r["rel_rmse"], marker=m, c=c, edgecolors=edge, linewidths=lw, s=36, zorder=3)
         if r["clients"] == 0:
-            b.scatter(r["cum_ms"], r["rel_rmse"], marker=m, c=c, edgecolors=edge, s=36, zorder=3)
+            b.scatter(r["cum_ms"], r["rel_rmse"], marker=m, c=c, edgecolors=edge, linewidths=lw, s=36, zorder=3)
     a.plot([r["ms_per_frame"] for r in f_frame], [r["rel_rmse"] for r in f_frame], "k-", lw=1,
            label="Pareto front (interaction)")
     b.plot([r["cum_ms"] for r in f_image], [r["rel_rmse"] for r in f_image], "k-", lw=1, label="Pareto front")
@@ -532,8 +557,8 @@ def plot(plt, scene, sr, single, f_frame, f_image, ref):
     b.set_xlabel("time from reset to the image, ms (wall)")
     a.set_title(f"{scene} {WIDTH}×{HEIGHT}: per frame (black edge = paper's operating points)", fontsize=9)
     b.set_title(f"{scene}: convergence", fontsize=9)
-    a.legend(fontsize=6, loc="upper right")
-    b.legend(fontsize=6, loc="upper right")
+    a.legend(fontsize=6, loc="lower left")
+    b.legend(fontsize=6, loc="lower left")
     fig.tight_layout()
     fig.savefig(BENCH / f"sweep_{scene.lower()}.png")
     plt.close(fig)
@@ -552,7 +577,7 @@ def machine_lines(start_load=None):
     lines = [f"Machine: `nproc` = {info.get('nproc', os.cpu_count())}, {info.get('cpu', cpu)}. "
              f"Load average (uptime) at the start of the sweep: {info.get('load_start', '?')}, at the end: "
              f"{info.get('load_end', '?')}; sweep wall time {info.get('wall_s', '?')} s; commit "
-             f"{info.get('commit', '?')}.",
+             f"{info.get('commit', '?')}. {info.get('note', '')}",
              "Other jobs shared the 2 cores: wall times are inflated and noisy (the `load` column is the "
              "1-minute load average when the point started); ratios between neighbouring rows and the "
              "CPU-time column are more trustworthy than absolute fps."]
@@ -569,6 +594,8 @@ def main():
                     help="recompute the errors of the CSV's points (kept images) against the references")
     ap.add_argument("--quick", action="store_true", help="only the base and paper points (smoke test)")
     ap.add_argument("--scenes", default=",".join(SCENES))
+    ap.add_argument("--groups", default="", help="run only these groups (comma-separated, e.g. tree); "
+                    "the CSV keeps the other rows")
     a = ap.parse_args()
     scenes = [s.strip().upper() for s in a.scenes.split(",") if s.strip()]
     for s in scenes:
@@ -584,14 +611,15 @@ def main():
             log("rtpm-render has no --tree flag: the tree variants are skipped")
         t0 = time.time()
         load_start = " ".join(f"{v:.2f}" for v in os.getloadavg())
-        run_sweep(tools, scenes, a.quick)
+        run_sweep(tools, scenes, a.quick, [g for g in a.groups.split(",") if g] or None)
         commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
                                 text=True).stdout.strip()
-        (BENCH / "sweep_machine.json").write_text(json.dumps(dict(
-            nproc=os.cpu_count(), cpu=next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo")
-                                            if l.startswith("model name")), "?"),
-            load_start=load_start, load_end=" ".join(f"{v:.2f}" for v in os.getloadavg()),
-            wall_s=round(time.time() - t0), commit=commit, tree_flag=tools.has_tree), indent=1) + "\n")
+        if not a.groups:  # a partial re-run (--groups) keeps the full sweep's machine note
+            (BENCH / "sweep_machine.json").write_text(json.dumps(dict(
+                nproc=os.cpu_count(), cpu=next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo")
+                                                if l.startswith("model name")), "?"),
+                load_start=load_start, load_end=" ".join(f"{v:.2f}" for v in os.getloadavg()),
+                wall_s=round(time.time() - t0), commit=commit, tree_flag=tools.has_tree), indent=1) + "\n")
     if a.recompare:
         recompare(tools)
     if a.report or a.run or a.recompare:
