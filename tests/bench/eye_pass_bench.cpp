@@ -5,11 +5,7 @@
 // primary + specular + shadow), shadow/s; raw benchmarks report rays/s. "threads:all" uses every
 // hardware thread through TBB, "threads:1" limits TBB to one.
 #include <benchmark/benchmark.h>
-#include <embree3/rtcore.h>
-#include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
-#include <tbb/info.h>
-#include <tbb/parallel_for.h>
 
 #include <map>
 #include <memory>
@@ -18,6 +14,7 @@
 #include <vector>
 
 #include "common/eye_pass.h"
+#include "tests/bench/bench_util.h"
 #include "common/scene_loader.h"
 
 namespace rtpm {
@@ -59,7 +56,7 @@ LoadedScene& loaded(const std::string& name) {
     return *slot;
 }
 
-int threadCount(int requested) { return requested > 0 ? requested : tbb::info::default_concurrency(); }
+using bench::threadCount;
 
 void eyePass(benchmark::State& state, const std::string& name, int threads, int width = kWidth,
              int height = kHeight) {
@@ -89,28 +86,7 @@ void rawEmbree(benchmark::State& state, const std::string& name, bool coherent, 
     RTCScene scene = s.embree->rtcScene();
     std::vector<unsigned> hitIds(rays.size());
     for (auto _ : state) {
-        // Chunks of 1024 consecutive rays keep camera order (coherence) within a thread.
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
-            RTCIntersectContext ctx;
-            rtcInitIntersectContext(&ctx);
-            if (coherent) ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-            for (size_t i = r.begin(); i < r.end(); ++i) {
-                RTCRayHit rh{};
-                rh.ray.org_x = rays[i].origin.x;
-                rh.ray.org_y = rays[i].origin.y;
-                rh.ray.org_z = rays[i].origin.z;
-                rh.ray.dir_x = rays[i].dir.x;
-                rh.ray.dir_y = rays[i].dir.y;
-                rh.ray.dir_z = rays[i].dir.z;
-                rh.ray.tnear = 0.0f;
-                rh.ray.tfar = 1e30f;
-                rh.ray.mask = 0xFFFFFFFFu;
-                rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-                rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-                rtcIntersect1(scene, &ctx, &rh);
-                hitIds[i] = rh.hit.primID;
-            }
-        });
+        bench::rawIntersect(scene, rays, hitIds, coherent);  // camera order kept per chunk
         benchmark::DoNotOptimize(hitIds.data());
     }
     state.counters["rays/s"] = benchmark::Counter(double(state.iterations()) * double(rays.size()),
