@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "common/photon_map.h"
+#include "tests/accuracy/test_scenes.h"
 
 namespace rtpm {
 namespace {
@@ -26,21 +27,11 @@ struct MirrorScene {
         addQuad(1, 0.0f, a);
         addQuad(0, ceiling, 6.0f);
         if (withFloor) addQuad(0, -0.01f, 6.0f);
-        Light l;
-        l.type = LightType::Point;
-        l.position = Vec3(0.0f, h, 0.0f);
-        l.intensity = Vec3(intensity);
-        scene.lights.push_back(l);
+        testscenes::addPointLight(scene, Vec3(0.0f, h, 0.0f), Vec3(intensity));
     }
-    void addQuad(uint32_t material, float y, float half) {
-        Mesh m;
-        m.positions = {{-half, y, -half}, {half, y, -half}, {half, y, half}, {-half, y, half}};
-        m.indices = {0, 1, 2, 0, 2, 3};
-        m.material = material;
-        scene.meshes.push_back(m);
-        Instance inst;
-        inst.mesh = static_cast<uint32_t>(scene.meshes.size() - 1);
-        scene.instances.push_back(inst);
+    void addQuad(uint32_t material, float y, float half) {  // horizontal square, facing down
+        testscenes::addMesh(scene, testscenes::quad(Vec3(0.0f, y, 0.0f), Vec3(half, 0.0f, 0.0f),
+                                                    Vec3(0.0f, 0.0f, half), material));
     }
     // ρ · I · Ω, Ω = 4 asin(a² / (a² + h²)) for a square of half-size a seen from height h.
     double analyticCausticPower() const {
