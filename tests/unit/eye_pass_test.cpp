@@ -10,45 +10,16 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "tests/accuracy/test_scenes.h"
+
 namespace rtpm {
 namespace {
 
 constexpr float kPi = 3.14159265358979f;
 
-Mesh quad(Vec3 centre, Vec3 uAxis, Vec3 vAxis, uint32_t material) {
-    // Counter-clockwise seen from the side cross(uAxis, vAxis) points to.
-    Mesh m;
-    m.positions = {centre - uAxis - vAxis, centre + uAxis - vAxis, centre + uAxis + vAxis,
-                   centre - uAxis + vAxis};
-    m.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-    m.indices = {0, 1, 2, 0, 2, 3};
-    m.material = material;
-    return m;
-}
-
-/// Axis-aligned closed box, faces wound outward.
-Mesh box(Vec3 lo, Vec3 hi, uint32_t material) {
-    Mesh m;
-    m.material = material;
-    for (int i = 0; i < 8; ++i)
-        m.positions.push_back(Vec3(i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z));
-    const uint32_t faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                                  {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-    for (const auto& f : faces) m.indices.insert(m.indices.end(), {f[0], f[1], f[2], f[0], f[2], f[3]});
-    const Vec3 c = 0.5f * (lo + hi);
-    for (size_t t = 0; t < m.indices.size(); t += 3) {
-        const Vec3 p0 = m.positions[m.indices[t]], p1 = m.positions[m.indices[t + 1]],
-                   p2 = m.positions[m.indices[t + 2]];
-        if (glm::dot(glm::cross(p1 - p0, p2 - p0), (p0 + p1 + p2) / 3.0f - c) < 0.0f)
-            std::swap(m.indices[t + 1], m.indices[t + 2]);
-    }
-    return m;
-}
-
-void addMesh(Scene& s, Mesh m) {
-    s.instances.push_back(Instance{"i" + std::to_string(s.meshes.size()), uint32_t(s.meshes.size()), Mat4(1.0f)});
-    s.meshes.push_back(std::move(m));
-}
+using testscenes::addMesh;
+using testscenes::box;
+using testscenes::quad;
 
 std::vector<PixelRadiance> render(const EmbreeScene& es, const Camera& cam, int w, int h,
                                   EyeSettings settings = {}, const CausticEstimator* caustics = nullptr,
