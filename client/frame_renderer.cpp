@@ -7,9 +7,9 @@
 #include <cstring>
 #include <glm/gtc/type_ptr.hpp>
 
-#include "common/gltf_loader.h"
-#include "common/photon.h"
-#include "common/scene_loader.h"
+#include "common/scene/gltf_loader.h"
+#include "common/photon/photon.h"
+#include "common/scene/scene_loader.h"
 #include "proto/pixel_codec.h"
 
 namespace rtpm::client {

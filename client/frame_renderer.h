@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "common/render_job.h"
-#include "common/render_settings.h"
-#include "common/scene.h"
+#include "common/render/render_job.h"
+#include "common/core/render_settings.h"
+#include "common/scene/scene.h"
 #include "proto/messages.h"
 
 namespace rtpm::client {

@@ -165,7 +165,7 @@ struct FrameBegin {
 };
 
 /// Client → server: every pixel of one set for one frame, row-major within the set
-/// (common/interleave.h). `pixels` is the pixel codec payload; its size is validated against
+/// (common/core/interleave.h). `pixels` is the pixel codec payload; its size is validated against
 /// `pixelCount` and `encoding` by the decoder, its content by decodePixels().
 struct FrameData {
     uint64_t frame = 0;

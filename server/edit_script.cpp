@@ -13,7 +13,6 @@ namespace rtpm::server {
 
 namespace {
 
-constexpr float kPi = 3.14159265358979f;
 
 proto::Vec3f toProto(Vec3 v) { return {v.x, v.y, v.z}; }
 

@@ -7,7 +7,7 @@
 #include <string_view>
 #include <vector>
 
-#include "common/scene.h"
+#include "common/scene/scene.h"
 #include "proto/messages.h"
 
 namespace rtpm::server {

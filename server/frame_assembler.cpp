@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-#include "common/check.h"
+#include "common/core/check.h"
 
 namespace rtpm::server {
 

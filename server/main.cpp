@@ -6,8 +6,8 @@
 #include <cstdlib>
 #include <filesystem>
 
-#include "common/render_flags.h"
-#include "common/scene_loader.h"
+#include "common/render/render_flags.h"
+#include "common/scene/scene_loader.h"
 #include "server/edit_script.h"
 #include "server/master.h"
 

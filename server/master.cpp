@@ -14,10 +14,10 @@
 #include <stdexcept>
 #include <thread>
 
-#include "common/frame_image.h"
-#include "common/gltf_export.h"
-#include "common/image_io.h"
-#include "common/interleave.h"
+#include "common/image/frame_image.h"
+#include "common/scene/gltf_export.h"
+#include "common/image/image_io.h"
+#include "common/core/interleave.h"
 #include "server/assignment.h"
 #include "server/frame_assembler.h"
 #include "server/session.h"

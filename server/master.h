@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "common/render_settings.h"
-#include "common/scene.h"
+#include "common/core/render_settings.h"
+#include "common/scene/scene.h"
 #include "proto/messages.h"
 #include "server/edit_script.h"
 

@@ -9,12 +9,12 @@
 #include <numeric>
 #include <vector>
 
-#include "common/embree_scene.h"
-#include "common/error_metrics.h"
-#include "common/frame_image.h"
-#include "common/image_io.h"
-#include "common/photon_map.h"
-#include "common/render_job.h"
+#include "common/trace/embree_scene.h"
+#include "common/image/error_metrics.h"
+#include "common/image/frame_image.h"
+#include "common/image/image_io.h"
+#include "common/photon/photon_map.h"
+#include "common/render/render_job.h"
 #include "tests/accuracy/test_scenes.h"
 
 namespace rtpm {

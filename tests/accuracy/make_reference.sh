@@ -9,7 +9,7 @@
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
 build=${1:-${RTPM_BUILD_DIR:-$root/build}}
-render="$build/common/rtpm-render"
+render="$build/common/cmd/rtpm-render"
 out="$root/tests/data/reference/ring_160x120.exr"
 [[ -x "$render" ]] || { echo "make_reference.sh: $render not built (cmake --build $build --target rtpm-render)" >&2; exit 1; }
 command -v oiiotool >/dev/null || { echo "make_reference.sh: oiiotool (openimageio-tools) is needed" >&2; exit 1; }

@@ -8,11 +8,11 @@
 #include <string>
 #include <vector>
 
-#include "common/error_metrics.h"
-#include "common/frame_image.h"
-#include "common/image_io.h"
-#include "common/render_job.h"
-#include "common/scene_loader.h"
+#include "common/image/error_metrics.h"
+#include "common/image/frame_image.h"
+#include "common/image/image_io.h"
+#include "common/render/render_job.h"
+#include "common/scene/scene_loader.h"
 
 namespace rtpm {
 namespace {

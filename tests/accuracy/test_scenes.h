@@ -4,7 +4,7 @@
 #include <string>
 #include <utility>
 
-#include "common/scene.h"
+#include "common/scene/scene.h"
 
 namespace rtpm::testscenes {
 

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "common/embree_scene.h"
+#include "common/trace/embree_scene.h"
 
 namespace rtpm::bench {
 

@@ -7,7 +7,7 @@
 #include <random>
 #include <vector>
 
-#include "common/box_filter.h"
+#include "common/image/box_filter.h"
 
 namespace {
 

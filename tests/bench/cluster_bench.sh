@@ -92,8 +92,8 @@ fi
 
 server_bin=$build/server/rtpm-server
 client_bin=$build/client/rtpm-client
-render_bin=$build/common/rtpm-render
-compare_bin=$build/common/rtpm-compare
+render_bin=$build/common/cmd/rtpm-render
+compare_bin=$build/common/cmd/rtpm-compare
 for b in "$server_bin" "$client_bin" "$render_bin" "$compare_bin"; do
     if [[ ! -x $b ]]; then
         [[ -f $build/CMakeCache.txt ]] || cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release >&2

@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "common/eye_pass.h"
+#include "common/trace/eye_pass.h"
 #include "tests/bench/bench_util.h"
-#include "common/scene_loader.h"
+#include "common/scene/scene_loader.h"
 
 namespace rtpm {
 namespace {

@@ -24,13 +24,13 @@
 
 #include <nanoflann.hpp>
 
-#include "common/embree_scene.h"
-#include "common/kd_tree.h"
-#include "common/median_kd_tree.h"
-#include "common/optics.h"
-#include "common/photon_grid.h"
-#include "common/photon_map.h"
-#include "common/scene_loader.h"
+#include "common/trace/embree_scene.h"
+#include "common/photon/kd_tree.h"
+#include "common/photon/median_kd_tree.h"
+#include "common/trace/optics.h"
+#include "common/photon/photon_grid.h"
+#include "common/photon/photon_map.h"
+#include "common/scene/scene_loader.h"
 
 namespace rtpm {
 namespace {

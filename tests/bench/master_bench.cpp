@@ -10,8 +10,8 @@
 #include <thread>
 #include <vector>
 
-#include "common/interleave.h"
-#include "common/scene_loader.h"
+#include "common/core/interleave.h"
+#include "common/scene/scene_loader.h"
 #include "proto/messages.h"
 #include "proto/pixel_codec.h"
 #include "server/master.h"

@@ -47,8 +47,8 @@
 #include <string>
 #include <vector>
 
-#include "common/photon_map.h"
-#include "common/scene_loader.h"
+#include "common/photon/photon_map.h"
+#include "common/scene/scene_loader.h"
 #include "tests/bench/bench_util.h"
 
 namespace rtpm {

@@ -8,8 +8,8 @@
 #include "client/frame_renderer.h"
 #include "client/worker.h"
 #include "cluster_util.h"
-#include "common/render_job.h"
-#include "common/scene_loader.h"
+#include "common/render/render_job.h"
+#include "common/scene/scene_loader.h"
 
 namespace rtpm::test {
 namespace {

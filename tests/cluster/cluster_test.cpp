@@ -11,8 +11,8 @@
 
 #include "client/worker.h"
 #include "cluster_util.h"
-#include "common/image_io.h"
-#include "common/interleave.h"
+#include "common/image/image_io.h"
+#include "common/core/interleave.h"
 
 namespace rtpm::test {
 namespace {
@@ -49,7 +49,7 @@ const ExrImage& reference(const RunSettings& rs) {
     if (it != cache.end()) return it->second;
     const std::string name = "ref" + std::to_string(cache.size());
     const std::string out = dir.file(name + ".exr");
-    std::vector<std::string> argv{binaryPath("common/rtpm-render")};
+    std::vector<std::string> argv{binaryPath("common/cmd/rtpm-render")};
     for (const std::string& f : rs.flags()) argv.push_back(f);
     argv.insert(argv.end(), {"--out", out});
     Child render(argv, dir.file(name));

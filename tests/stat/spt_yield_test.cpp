@@ -4,8 +4,8 @@
 
 #include <gtest/gtest.h>
 
-#include "common/photon_map.h"
-#include "common/scene_loader.h"
+#include "common/photon/photon_map.h"
+#include "common/scene/scene_loader.h"
 
 namespace rtpm {
 namespace {

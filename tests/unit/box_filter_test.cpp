@@ -1,5 +1,5 @@
 // Box filter: the constant-time filter matches the O(F²) reference, borders, degenerate sizes, NaN.
-#include "common/box_filter.h"
+#include "common/image/box_filter.h"
 
 #include <gtest/gtest.h>
 

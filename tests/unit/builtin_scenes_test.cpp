@@ -1,12 +1,12 @@
 // Tests of the built-in scenes: sizes in the paper's range, lights, cameras, winding, watertightness.
-#include "common/builtin_scenes.h"
+#include "common/scene/builtin_scenes.h"
 
 #include <gtest/gtest.h>
 
 #include <map>
 #include <tuple>
 
-#include "common/scene_loader.h"
+#include "common/scene/scene_loader.h"
 
 namespace rtpm {
 namespace {

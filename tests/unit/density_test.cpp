@@ -1,13 +1,13 @@
 // Tests of the caustic density estimate against analytic irradiance and its edge-case guards.
-#include "common/density.h"
+#include "common/photon/density.h"
 
 #include <cmath>
 #include <numbers>
 
 #include <gtest/gtest.h>
 
-#include "common/median_kd_tree.h"
-#include "common/photon_grid.h"
+#include "common/photon/median_kd_tree.h"
+#include "common/photon/photon_grid.h"
 
 namespace rtpm {
 namespace {

@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "common/scene_loader.h"
+#include "common/scene/scene_loader.h"
 
 namespace rtpm::server {
 namespace {

@@ -1,5 +1,5 @@
 // Tests of EmbreeScene: analytic intersections, instancing, normals, offsets at extreme scales, edits.
-#include "common/embree_scene.h"
+#include "common/trace/embree_scene.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Tests of the error metrics (caustic region, relative RMSE, MAE, energy ratio) and of the
 // rtpm-compare executable's output and exit codes on real EXR files.
-#include "common/error_metrics.h"
+#include "common/image/error_metrics.h"
 
 #include <gtest/gtest.h>
 
@@ -14,7 +14,7 @@
 
 #include <sys/wait.h>
 
-#include "common/image_io.h"
+#include "common/image/image_io.h"
 
 namespace rtpm {
 namespace {
@@ -159,7 +159,7 @@ TEST(ErrorMetrics, CompareExrNamesTheMissingChannelAndTheSizeMismatch) {
 #ifdef RTPM_BINARY_DIR
 // Runs rtpm-compare and returns its exit status; stdout+stderr go to `log`.
 int runCompare(const std::string& args, const std::string& log) {
-    const std::string exe = std::string(RTPM_BINARY_DIR) + "/common/rtpm-compare";
+    const std::string exe = std::string(RTPM_BINARY_DIR) + "/common/cmd/rtpm-compare";
     if (!std::filesystem::exists(exe)) return -1;
     const int status = std::system((exe + " " + args + " > " + log + " 2>&1").c_str());
     return WIFEXITED(status) ? WEXITSTATUS(status) : -2;
@@ -177,7 +177,7 @@ std::string slurp(const std::string& path) {
 }
 
 TEST(RtpmCompare, ExitCodesAndCsvOutput) {
-    const std::string exe = std::string(RTPM_BINARY_DIR) + "/common/rtpm-compare";
+    const std::string exe = std::string(RTPM_BINARY_DIR) + "/common/cmd/rtpm-compare";
     if (!std::filesystem::exists(exe)) GTEST_SKIP() << "rtpm-compare not built in " << RTPM_BINARY_DIR;
     TempDir dir;
     std::vector<float> ref = constant(0.0f), out = constant(0.0f);

@@ -1,6 +1,6 @@
 // Tests of the eye pass against analytic radiance: point-lit plane, mirror, glass slab, area light,
 // plus the camera convention, determinism across threads and sets, and NaN safety.
-#include "common/eye_pass.h"
+#include "common/trace/eye_pass.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>

@@ -1,5 +1,5 @@
 // Tests of the glTF importer and exporter: a hand-written file's values, round trips, broken files.
-#include "common/gltf_loader.h"
+#include "common/scene/gltf_loader.h"
 
 #include <gtest/gtest.h>
 
@@ -14,8 +14,8 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "common/gltf_export.h"
-#include "common/scene_loader.h"
+#include "common/scene/gltf_export.h"
+#include "common/scene/scene_loader.h"
 
 namespace rtpm {
 namespace {

@@ -1,13 +1,13 @@
 // Tests of the radical inverse, the Halton box (periodicity) property SPT relies on, the per-set
 // rotation, the hashed random numbers and the SPT grid bookkeeping.
-#include "common/halton.h"
+#include "common/core/halton.h"
 
 #include <cmath>
 #include <set>
 
 #include <gtest/gtest.h>
 
-#include "common/photon_tracer.h"
+#include "common/photon/photon_tracer.h"
 
 namespace rtpm {
 namespace {

@@ -17,15 +17,15 @@
 #include <string>
 #include <vector>
 
-#include "common/density.h"
-#include "common/embree_scene.h"
-#include "common/error_metrics.h"
-#include "common/frame_image.h"
-#include "common/kd_tree.h"
-#include "common/photon_map.h"
-#include "common/photon_tracer.h"
-#include "common/render_job.h"
-#include "common/scene_loader.h"
+#include "common/photon/density.h"
+#include "common/trace/embree_scene.h"
+#include "common/image/error_metrics.h"
+#include "common/image/frame_image.h"
+#include "common/photon/kd_tree.h"
+#include "common/photon/photon_map.h"
+#include "common/photon/photon_tracer.h"
+#include "common/render/render_job.h"
+#include "common/scene/scene_loader.h"
 #include "tests/accuracy/test_scenes.h"
 
 namespace rtpm {

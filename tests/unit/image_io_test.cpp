@@ -1,5 +1,5 @@
 // Tests of image output: EXR layer round trip with the DESIGN §6 channel names, PNG tone mapping.
-#include "common/image_io.h"
+#include "common/image/image_io.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <set>
 #include <vector>
 
-#include "common/frame_image.h"
+#include "common/image/frame_image.h"
 
 namespace rtpm {
 namespace {

@@ -1,5 +1,5 @@
 // Brute-force oracle tests of the photon indices: middle-split KdTree, MedianKdTree, PhotonGrid.
-#include "common/kd_tree.h"
+#include "common/photon/kd_tree.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,8 +10,8 @@
 
 #include <gtest/gtest.h>
 
-#include "common/median_kd_tree.h"
-#include "common/photon_grid.h"
+#include "common/photon/median_kd_tree.h"
+#include "common/photon/photon_grid.h"
 
 namespace rtpm {
 namespace {

@@ -1,5 +1,5 @@
 // Tests of the OBJ/MTL importer: the MTL material mapping, normals, overrides and malformed files.
-#include "common/obj_loader.h"
+#include "common/scene/obj_loader.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "common/scene_loader.h"
+#include "common/scene/scene_loader.h"
 
 namespace rtpm {
 namespace {

@@ -1,5 +1,5 @@
 // Tests of the smooth-surface optics against closed-form Fresnel and Snell values.
-#include "common/optics.h"
+#include "common/trace/optics.h"
 
 #include <gtest/gtest.h>
 

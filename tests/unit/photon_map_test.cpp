@@ -8,9 +8,9 @@
 #include <tuple>
 #include <vector>
 
-#include "common/density.h"
-#include "common/embree_scene.h"
-#include "common/photon_map.h"
+#include "common/photon/density.h"
+#include "common/trace/embree_scene.h"
+#include "common/photon/photon_map.h"
 #include "tests/accuracy/test_scenes.h"
 
 namespace rtpm {

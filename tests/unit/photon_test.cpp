@@ -1,5 +1,5 @@
 // Tests of the photon encodings: RGB9E5 power and octahedral direction round trips and edge cases.
-#include "common/photon.h"
+#include "common/photon/photon.h"
 
 #include <cmath>
 #include <limits>

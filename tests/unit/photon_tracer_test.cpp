@@ -1,7 +1,7 @@
 // Tests of photon emission and tracing: exact power conservation per light type, specular
 // interactions (mirror, Fresnel, Beer–Lambert), the caustic storage rule, determinism and
 // robustness against degenerate input.
-#include "common/photon_tracer.h"
+#include "common/photon/photon_tracer.h"
 
 #include <cmath>
 #include <numbers>
@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
-#include "common/photon_map.h"
+#include "common/photon/photon_map.h"
 
 namespace rtpm {
 namespace {

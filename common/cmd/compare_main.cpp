@@ -1,0 +1,133 @@
+// rtpm-compare: error metrics of a rendered EXR against a reference EXR, as a table or CSV.
+#include <CLI/CLI.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "common/image/error_metrics.h"
+#include "common/image/image_io.h"
+
+namespace {
+
+using namespace rtpm;
+
+// Exit codes: scripts tell a failed comparison from a comparison that could not be made.
+constexpr int kExitError = 1;      // missing file, size mismatch, missing channel, bad option
+constexpr int kExitOverBound = 2;  // --max-rel-rmse or --energy-bounds not met
+
+std::string fmt(double v, const char* spec = "%.4g") {
+    if (std::isnan(v)) return "n/a";
+    char buf[64];
+    std::snprintf(buf, sizeof buf, spec, v);
+    return buf;
+}
+
+ExrImage load(const std::string& path) {
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) throw std::runtime_error(path + ": no such file");
+    if (std::filesystem::is_directory(path, ec)) throw std::runtime_error(path + ": is a directory");
+    return readExr(path);
+}
+
+int run(int argc, char** argv) {
+    std::string outputPath, referencePath, maskLayer;
+    std::vector<std::string> layers;
+    RegionSettings region;
+    bool csv = false;
+    double maxRelRmse = 0.0;
+    std::vector<double> energyBounds;
+    CLI::App app{
+        "rtpm-compare: errors of OUTPUT.exr against REFERENCE.exr, per layer.\n"
+        "Caustic region: pixels whose reference mask-layer luminance exceeds FRACTION x the\n"
+        "PERCENTILE quantile of its positive values (default 5% of the 99th percentile).\n"
+        "rel_rmse = sqrt(mean((o-r)^2)) / mean(|r|); mae = mean(|o-r|); rel_mae = mae / mean(|r|)\n"
+        "over all channels of the region's pixels; energy = sum(o) / sum(r) over the whole image.\n"
+        "Exit status: 0 ok, 1 cannot compare (missing file/channel, size mismatch), 2 a bound given\n"
+        "by --max-rel-rmse or --energy-bounds is not met, or OUTPUT holds NaN/Inf values."};
+    app.add_option("output", outputPath, "rendered EXR (the image judged)")->required();
+    app.add_option("reference", referencePath, "reference EXR (converged or analytic)")->required();
+    app.add_option("--layer", layers,
+                   "layer(s) to compare: caustic_filtered, caustic, direct, or \"\" / final for R G B "
+                   "(repeatable; default caustic_filtered)");
+    app.add_option("--mask-layer", maskLayer,
+                   "reference layer that defines the caustic region (default: the compared layer if it "
+                   "is a caustic layer, else caustic)");
+    app.add_option("--fraction", region.regionFraction, "region threshold relative to the quantile")
+        ->capture_default_str()
+        ->check(CLI::Range(1e-9, 1.0));
+    app.add_option("--percentile", region.regionPercentile, "quantile of positive mask luminance, (0, 1]")
+        ->capture_default_str()
+        ->check(CLI::Range(1e-9, 1.0));
+    app.add_flag("--csv", csv, "print CSV (header + one row per layer) instead of a table");
+    app.add_option("--max-rel-rmse", maxRelRmse, "fail (exit 2) when the caustic-region rel_rmse exceeds this");
+    app.add_option("--energy-bounds", energyBounds, "fail (exit 2) when the energy ratio is outside [LO, HI]")
+        ->expected(2);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    }
+    if (layers.empty()) layers.push_back("caustic_filtered");
+    for (std::string& l : layers)
+        if (l == "final") l.clear();
+
+    const ExrImage output = load(outputPath);
+    const ExrImage reference = load(referencePath);
+
+    bool overBound = false;
+    if (csv) {
+        std::printf("layer,width,height,threshold,caustic_pixels,caustic_rel_rmse,caustic_mae,caustic_rel_mae,"
+                    "image_rel_rmse,image_mae,image_rel_mae,energy_ratio,nonfinite_output,nonfinite_reference\n");
+    } else {
+        std::printf("output    %s\nreference %s\n", outputPath.c_str(), referencePath.c_str());
+        std::printf("%-18s %8s %10s %10s %10s | %10s %10s %10s | %8s\n", "layer", "region_px", "rel_rmse", "mae",
+                    "rel_mae", "img_rmse", "img_mae", "img_rmae", "energy");
+    }
+    for (const std::string& layer : layers) {
+        const std::string mask = maskLayer.empty() ? defaultMaskLayer(layer) : maskLayer;
+        const ErrorMetrics m = compareExr(output, reference, layer, mask, region, outputPath, referencePath);
+        const std::string name = layer.empty() ? "final" : layer;
+        if (csv) {
+            std::printf("%s,%d,%d,%.6g,%zu,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%zu,%zu\n", name.c_str(), m.width,
+                        m.height, m.threshold, m.caustic.pixels, m.caustic.relRmse, m.caustic.mae,
+                        m.caustic.relMae, m.image.relRmse, m.image.mae, m.image.relMae, m.energyRatio,
+                        m.nonFiniteOutput, m.nonFiniteReference);
+        } else {
+            std::printf("%-18s %8zu %10s %10s %10s | %10s %10s %10s | %8s\n", name.c_str(), m.caustic.pixels,
+                        fmt(m.caustic.relRmse).c_str(), fmt(m.caustic.mae).c_str(), fmt(m.caustic.relMae).c_str(),
+                        fmt(m.image.relRmse).c_str(), fmt(m.image.mae).c_str(), fmt(m.image.relMae).c_str(),
+                        fmt(m.energyRatio, "%.4f").c_str());
+        }
+        if (m.nonFiniteOutput || m.nonFiniteReference) {
+            std::fprintf(stderr, "rtpm-compare: %s: %zu non-finite values in %s, %zu in %s (excluded)\n",
+                         name.c_str(), m.nonFiniteOutput, outputPath.c_str(), m.nonFiniteReference,
+                         referencePath.c_str());
+            overBound = overBound || m.nonFiniteOutput > 0;
+        }
+        if (maxRelRmse > 0.0 && !(m.caustic.relRmse <= maxRelRmse)) {
+            std::fprintf(stderr, "rtpm-compare: %s: caustic rel_rmse %s exceeds %g\n", name.c_str(),
+                         fmt(m.caustic.relRmse).c_str(), maxRelRmse);
+            overBound = true;
+        }
+        if (energyBounds.size() == 2 && !(m.energyRatio >= energyBounds[0] && m.energyRatio <= energyBounds[1])) {
+            std::fprintf(stderr, "rtpm-compare: %s: energy ratio %s outside [%g, %g]\n", name.c_str(),
+                         fmt(m.energyRatio).c_str(), energyBounds[0], energyBounds[1]);
+            overBound = true;
+        }
+    }
+    return overBound ? kExitOverBound : 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return run(argc, argv);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "rtpm-compare: %s\n", e.what());
+    }
+    return kExitError;
+}

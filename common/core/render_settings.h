@@ -1,0 +1,93 @@
+// Everything that decides what a frame looks like, shared by rtpm-render, the master and clients.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace rtpm {
+
+/// Eye-pass settings (DESIGN §2 step 4).
+struct EyeSettings {
+    int maxDepth = 16;          ///< specular bounces before a path is ended
+    int areaLightSamples = 4;   ///< shadow rays per emissive triangle sample set (stratified)
+};
+
+/// Spatial index of a photon map (paper §5.2/§5.3, Table 5). Every variant answers the same
+/// kNN queries (same photons, same result sets up to ties at the k-th distance) through
+/// density.h's causticRadiance; they differ only in build cost, query speed and memory.
+enum class PhotonTree : uint8_t {
+    /// Unbalanced middle-split kd-tree with incremental batch insertion (kd_tree.h): the default.
+    MiddleSplit = 0,
+    /// Balanced median-split kd-tree (median_kd_tree.h), rebuilt from all photons every batch
+    /// (it has no insertion): O(n log n) per batch.
+    MedianBalanced = 1,
+    /// Uniform grid (photon_grid.h), rebuilt from all photons every batch, O(n + cells); the
+    /// resolution follows gridResolution().
+    UniformGrid = 2,
+};
+
+/// "middle", "median", "grid" (as the --tree flags take them) → variant; nullopt otherwise.
+std::optional<PhotonTree> parsePhotonTree(std::string_view name);
+/// Inverse of parsePhotonTree.
+const char* photonTreeName(PhotonTree tree);
+
+/// Photon shooting and density-estimation settings (DESIGN §5, paper §5.1/§5.4).
+struct PhotonSettings {
+    /// P: light paths traced per interleaving set per batch (pilots + refinements with SPT).
+    uint32_t photonsPerBatch = 20000;
+    /// Selective Photon Tracing (DESIGN §5.1) instead of plain QMC shooting.
+    bool selective = true;
+    /// Diffuse bounces a photon may take before or between specular chains (0 → only L S+ D).
+    uint32_t diffuseBounces = 1;
+    /// Maximum ray segments per photon path.
+    uint32_t maxDepth = 16;
+    /// Photons per density estimate.
+    uint32_t k = 64;
+    /// Maximum gather radius in metres; 0 → 2 % of the scene's bounding-box diagonal, a size at
+    /// which a k-photon estimate in a caustic is local but empty regions stop the search early.
+    float rMax = 0.0f;
+    /// Stored caustic photons per set at which that set stops shooting (walkthrough). A set also
+    /// stops once it has traced kCapPathsPerPhoton × capPhotons paths, so scenes without caustic
+    /// paths reach walkthrough too. 0 → no cap.
+    uint64_t capPhotons = 2'000'000;
+    /// Seed of every Halton rotation and hashed random number (same seed → same photons).
+    uint64_t seed = 0x72'74'70'6d;
+    /// SPT: target number of cells N_g per light and batch; 0 → a quarter of that light's share
+    /// of photonsPerBatch. The real N_g is the largest product Π b_d^{k_d} not above the target.
+    uint32_t sptCells = 0;
+    /// SPT: refinements R per box of the refine set; 0 → chosen per batch so that
+    /// pilots + R · (boxes refined) ≈ the light's share, capped at kMaxSptRefinements.
+    uint32_t sptRefinements = 0;
+    /// SPT: the refine set also holds the face neighbours (in Halton box space) of boxes that
+    /// were productive in the previous batch, so a caustic's extent is found in a few batches.
+    /// Correctness does not depend on it (photon_map.cpp: the estimate is unbiased for any
+    /// refine set chosen before the batch); it trades yield for faster discovery.
+    bool sptDilate = true;
+    /// Spatial index of every set's map (PhotonTree). Needs a reset to change.
+    PhotonTree tree = PhotonTree::MiddleSplit;
+    /// Count only gathered photons visible from the query point (one shadow ray per photon of
+    /// the k found): no caustic light leaks through thin walls within the gather radius
+    /// (density.h), at the cost of k rays per estimate. Exact for planar receivers; on curved
+    /// ones a chord below the surface can hide a photon. Off by default (the paper's estimate).
+    bool gatherVisibility = false;
+};
+
+/// Image, interleaving, filter, eye-pass and photon settings of one rendering job.
+struct RenderSettings {
+    int width = 640;
+    int height = 480;
+    int interleave = 3;  ///< M: the image is split into M×M interleaving sets (DESIGN §3)
+    int filter = 0;      ///< F: caustic box filter size; 0 → F = M (every window holds each set once)
+    EyeSettings eye;
+    PhotonSettings photons;
+
+    int filterSize() const { return filter > 0 ? filter : interleave; }
+};
+
+/// Throws std::invalid_argument naming the setting when a value is absurd (zero or negative
+/// sizes, M larger than the image, F over 64, k = 0, a non-finite or negative radius, …).
+void validateSettings(const RenderSettings& settings);
+
+}  // namespace rtpm

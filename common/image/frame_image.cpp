@@ -1,0 +1,42 @@
+// Frame assembly: scatter interleaved sets, box-filter the caustic buffer, compose the final image.
+#include "common/image/frame_image.h"
+
+#include "common/core/check.h"
+
+namespace rtpm {
+
+FrameImage::FrameImage(int width, int height) : width_(width), height_(height) {
+    RTPM_CHECK(width > 0 && height > 0);
+    const size_t n = size_t(width) * size_t(height) * 3;
+    direct_.assign(n, 0.0f);
+    caustic_.assign(n, 0.0f);
+    causticFiltered_.assign(n, 0.0f);
+    final_.assign(n, 0.0f);
+}
+
+void FrameImage::scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels) {
+    RTPM_CHECK(pattern.width == width_ && pattern.height == height_);
+    RTPM_CHECK(pixels.size() == size_t(pattern.pixelCount(set)));
+    const int cols = pattern.setColumns(set);
+    const int rows = pattern.setRows(set);
+    const int x0 = set % pattern.m;
+    const int y0 = set / pattern.m;
+    for (int r = 0; r < rows; ++r) {
+        const size_t rowBase = size_t(y0 + r * pattern.m) * size_t(width_);
+        for (int c = 0; c < cols; ++c) {
+            const PixelRadiance& p = pixels[size_t(r) * size_t(cols) + size_t(c)];
+            const size_t o = (rowBase + size_t(x0 + c * pattern.m)) * 3;
+            for (int k = 0; k < 3; ++k) {
+                direct_[o + k] = p.direct[k];
+                caustic_[o + k] = p.caustic[k];
+            }
+        }
+    }
+}
+
+void FrameImage::filterAndCompose(int f) {
+    filter_.apply(caustic_, width_, height_, f, causticFiltered_);
+    for (size_t i = 0; i < final_.size(); ++i) final_[i] = direct_[i] + causticFiltered_[i];
+}
+
+}  // namespace rtpm

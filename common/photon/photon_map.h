@@ -1,0 +1,142 @@
+// Per-interleaving-set caustic photon maps: batch shooting (plain or SPT), accumulation, lookup.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string_view>
+#include <vector>
+
+#include "common/core/render_settings.h"
+#include "common/trace/caustic_estimator.h"
+#include "common/photon/kd_tree.h"
+#include "common/photon/median_kd_tree.h"
+#include "common/photon/photon_grid.h"
+#include "common/photon/photon_tracer.h"
+
+namespace rtpm {
+
+/// Uniform-grid resolution (cells along the photons' largest extent) for `photons` photons whose
+/// bounding box has sides `extent` (m), k photons per estimate and gather radius rMax (m):
+///  * cells no larger than rMax, so a query's initial search sphere overlaps at most 3 cells
+///    per axis (resolution ≥ extent / rMax);
+///  * and no larger than where a cell would hold about k photons if they covered one face of the
+///    bounds evenly (resolution ≥ √(photons / k)): caustic photons lie on surfaces, so a
+///    per-area count is the right measure, and k photons per cell keeps the scan near k;
+///  * at most PhotonGrid::kMaxResolution, and reduced until the cell table (4 B per cell) holds
+///    at most max(2 · photons, 4096) cells, so the table never costs more than 40 % of the
+///    photons' own memory (20 B each).
+/// Returns 1 … kMaxResolution. Pure function, O(kMaxResolution).
+uint32_t gridResolution(uint64_t photons, Vec3 extent, uint32_t k, float rMax);
+
+/// A set stops shooting after this many traced paths per capped photon (see capPhotons).
+inline constexpr uint64_t kCapPathsPerPhoton = 64;
+/// Upper bound on SPT refinements per cell and batch (bounds structured noise from few pilots).
+inline constexpr uint32_t kMaxSptRefinements = 64;
+
+/// Figures of one interleaving set's photon map since the last reset.
+struct PhotonSetStats {
+    uint32_t batches = 0;          ///< batches shot (the accumulation count)
+    uint64_t pathsTraced = 0;      ///< light paths traced: pilots, refinements, classification
+    uint64_t productivePaths = 0;  ///< paths that stored ≥ 1 caustic photon
+    uint64_t photonsStored = 0;    ///< photons in the map
+    uint64_t raysCast = 0;         ///< closest-hit queries issued while shooting
+    uint64_t anomalies = 0;        ///< paths dropped for a non-finite power or direction
+    uint64_t sptCells = 0;         ///< Σ over lights of N_g in the last batch (0 without SPT)
+    uint64_t sptRefinedCells = 0;  ///< boxes refined in the last batch (Σ over lights)
+    uint32_t sptRefinements = 0;   ///< R of the last batch (largest over lights)
+    /// Seconds, summed over batches. `trace*` split the tracing time as in paper Table 3
+    /// (light sampling / ray casting / surface interaction); estimated from timed sample paths
+    /// (1 in kTimedPathStride) scaled to the measured tracing wall time.
+    double traceSeconds = 0.0;
+    double samplingSeconds = 0.0;
+    double rayCastSeconds = 0.0;
+    double interactionSeconds = 0.0;
+    double insertSeconds = 0.0;    ///< kd-tree insertion (median tree, grid: the rebuild)
+    /// Caustic yield: productive paths / traced paths (paper Table 4).
+    double yield() const {
+        return pathsTraced ? static_cast<double>(productivePaths) / static_cast<double>(pathsTraced)
+                           : 0.0;
+    }
+};
+
+/// One caustic photon map per owned interleaving set, grown batch by batch.
+/// Photon powers are stored relative to one batch; `radiance` divides by the batch count
+/// (paper-notes §5.7), so the estimate is consistent at every accumulation stage.
+/// Stored powers are also in units of powerUnit() (not W): the RGB9E5 code has relative
+/// precision only over a fixed range (photon.cpp), and a photon's power in W scales with the
+/// scene (a 1 mm scene with the same irradiance has 10⁻⁶ × the flux). Relative to the unit,
+/// stored values are below 2 and only SPT weights, absorption and colour make them smaller.
+/// Read photon powers in W through powerWatts() / storedPowerPerBatch(), never powerRgb().
+/// Thread safety: `radiance` may be called concurrently; `shootBatch`, `reset` must not overlap
+/// any other call. `shootBatch` itself runs in parallel (TBB) and its result does not depend on
+/// the thread count.
+class PhotonMaps : public CausticEstimator {
+public:
+    /// `ownedSets`: interleaving set ids this process renders (distinct).
+    PhotonMaps(const PhotonSettings& settings, std::vector<uint32_t> ownedSets);
+    ~PhotonMaps() override;
+
+    /// Shoots the next batch of `set` (batch number = batches shot so far since the reset) into
+    /// its map. The first batch after a reset takes the lights and bounds from `scene`; the scene
+    /// must not change between batches without a reset. No-op when the set reached its cap.
+    /// Cost: O(photonsPerBatch · maxDepth) ray casts + O(stored · log) insertion.
+    void shootBatch(const EmbreeScene& scene, uint32_t set);
+    /// Forgets every photon and restarts every set's sequence (scene edit: geometry, light,
+    /// material). Settings changes other than k also need a reset.
+    void reset();
+    /// True when every owned set reached its cap: no more shooting, only queries.
+    bool walkthrough() const;
+    /// True when `set` reached its cap.
+    bool capped(uint32_t set) const;
+
+    /// Caustic radiance L_c = ρ/π · Σ Φ_p/(π r_k²) / batches at `hit` from `set`'s map
+    /// (density.h causticRadiance with powerScale = powerUnit() / batches; photons from behind
+    /// `normal` are ignored). Zero for a set that is not owned or has no batch yet. Thread-safe;
+    /// a thread_local heap avoids allocation.
+    Vec3 radiance(uint32_t set, const SurfaceHit& hit, Vec3 normal, Vec3 albedo) const override;
+
+    const PhotonSettings& settings() const { return settings_; }
+    /// Changes k (no reset needed: the stored photons do not depend on k).
+    void setK(uint32_t k) { settings_.k = k; }
+    const std::vector<uint32_t>& ownedSets() const { return ownedSets_; }
+    /// Stats of an owned set. Precondition: `set` is owned.
+    const PhotonSetStats& stats(uint32_t set) const;
+    /// The index of an owned set for the variant in use (settings().tree), or null before its
+    /// first batch or for the other variants. Precondition: `set` is owned.
+    /// Stored photon powers are in units of powerUnit().
+    const KdTree* tree(uint32_t set) const;
+    const MedianKdTree* medianTree(uint32_t set) const;
+    const PhotonGrid* grid(uint32_t set) const;
+    /// Copy of every photon of an owned set's map, any variant (powers in units of powerUnit()).
+    /// O(photons); for tests and tools.
+    std::vector<Photon> photons(uint32_t set) const;
+
+    /// W per unit of stored photon power: a power of two (so dividing by it is exact), fixed at
+    /// the first batch after a reset: the largest initial path power of any light's first batch
+    /// (Φ_l / P_l plain, Φ_l / N_g SPT; largest channel) rounded down to a power of two. 1 before.
+    float powerUnit() const { return powerUnit_; }
+    /// A stored photon's power in W (per batch, like the stored value).
+    Vec3 powerWatts(const Photon& p) const { return p.powerRgb() * powerUnit_; }
+    /// Σ stored photon power of an owned set in W divided by its batch count: the flux per batch
+    /// the density estimate integrates. 0 before the first batch. O(photons), double sums.
+    Vec3 storedPowerPerBatch(uint32_t set) const;
+    /// Gather radius in use (metres): settings.rMax or the automatic one of the last scene.
+    float gatherRadius() const { return rMax_; }
+
+private:
+    struct SetState;
+    SetState* find(uint32_t set);
+    const SetState* find(uint32_t set) const;
+
+    PhotonSettings settings_;
+    std::vector<uint32_t> ownedSets_;
+    std::vector<std::unique_ptr<SetState>> sets_;
+    std::vector<Emitter> emitters_;  ///< built at the first batch after a reset
+    bool emittersReady_ = false;
+    float rMax_ = 0.0f;
+    const EmbreeScene* scene_ = nullptr;  ///< of the last shootBatch, for gatherVisibility
+    float powerUnit_ = 1.0f;
+};
+
+}  // namespace rtpm

@@ -1,0 +1,575 @@
+// Photon emission (point, spot, directional, area) and path tracing that keeps caustic photons.
+#include "common/photon/photon_tracer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "common/core/check.h"
+#include "common/trace/optics.h"
+
+namespace rtpm {
+namespace {
+
+constexpr double kPiD = std::numbers::pi;
+
+// Purposes of hashed random numbers (the fifth hash key), so two uses at one bounce never share.
+enum Purpose : uint64_t { kFresnelChoice = 1, kRoulette = 2, kBounceU = 3, kBounceV = 4 };
+
+
+// Orthonormal basis around unit n (Duff et al. 2017, branchless and continuous except at n.z = -1).
+void basis(Vec3 n, Vec3& t, Vec3& b) {
+    const float sign = std::copysign(1.0f, n.z);
+    const float a = -1.0f / (sign + n.z);
+    const float bb = n.x * n.y * a;
+    t = Vec3(1.0f + sign * n.x * n.x * a, sign * bb, -sign * n.x);
+    b = Vec3(bb, sign + n.y * n.y * a, -n.y);
+}
+
+// Cosine-weighted direction about unit n (Malley: uniform disc lifted to the hemisphere).
+Vec3 cosineDirection(Vec3 n, float u0, float u1) {
+    const float r = std::sqrt(u0);
+    const float phi = 2.0f * kPi * u1;
+    const float z = std::sqrt(std::max(0.0f, 1.0f - u0));
+    Vec3 t, b;
+    basis(n, t, b);
+    return glm::normalize(r * std::cos(phi) * t + r * std::sin(phi) * b + z * n);
+}
+
+// Concentric square-to-disc mapping (Shirley–Chiu): stratification of (u0, u1) is kept.
+Vec2 concentricDisc(float u0, float u1) {
+    const float a = 2.0f * u0 - 1.0f;
+    const float b = 2.0f * u1 - 1.0f;
+    if (a == 0.0f && b == 0.0f) return Vec2(0.0f);
+    float r, phi;
+    if (std::abs(a) > std::abs(b)) {
+        r = a;
+        phi = (kPi / 4.0f) * (b / a);
+    } else {
+        r = b;
+        phi = (kPi / 2.0f) - (kPi / 4.0f) * (a / b);
+    }
+    return Vec2(r * std::cos(phi), r * std::sin(phi));
+}
+
+float channelSum(Vec3 v) { return v.x + v.y + v.z; }
+
+}  // namespace
+
+Vec3 lightFlux(const Light& light, const Bounds& bounds) {
+    switch (light.type) {
+        case LightType::Point:
+            return 4.0f * kPi * light.intensity;
+        case LightType::Spot:
+            return spotSolidAngle(light) * light.intensity;
+        case LightType::Directional: {
+            const float r = 0.5f * bounds.diagonal();
+            return kPi * r * r * light.intensity;
+        }
+    }
+    return Vec3(0.0f);
+}
+
+std::vector<Emitter> buildEmitters(const EmbreeScene& scene) {
+    std::vector<Emitter> out;
+    const Bounds& bounds = scene.bounds();
+    const std::vector<Light>& lights = scene.scene().lights;
+    for (uint32_t i = 0; i < lights.size(); ++i) {
+        const Light& l = lights[i];
+        Emitter e;
+        e.id = i;
+        e.flux = lightFlux(l, bounds);
+        if (!finite(e.flux) || !(channelSum(e.flux) > 0.0f)) continue;
+        if (l.intensity.x < 0.0f || l.intensity.y < 0.0f || l.intensity.z < 0.0f) continue;
+        e.position = l.position;
+        const float axisLen = glm::length(l.direction);
+        e.axis = axisLen > 0.0f && std::isfinite(axisLen) ? l.direction / axisLen : Vec3(0, -1, 0);
+        switch (l.type) {
+            case LightType::Point:
+                e.kind = EmitterKind::Point;
+                break;
+            case LightType::Spot: {
+                e.kind = EmitterKind::Spot;
+                const SpotShape s = spotShape(l);
+                e.cosOuter = static_cast<float>(s.cosOuter);
+                e.falloffScale = static_cast<float>(s.scale);
+                break;
+            }
+            case LightType::Directional: {
+                e.kind = EmitterKind::Directional;
+                // The disc is the bounding sphere's cross-section, placed just outside the sphere
+                // on the side the light comes from, so every scene point is reachable.
+                const float r = 0.5f * bounds.diagonal();
+                e.discRadius = r;
+                e.discCentre = bounds.centre() - e.axis * (r * 1.001f + scene.epsilon());
+                basis(e.axis, e.tangent, e.bitangent);
+                break;
+            }
+        }
+        out.push_back(std::move(e));
+    }
+    // Area lights: one emitter per distinct radiance, so every photon of a group carries the same
+    // power and the group's emitted power sums to π·L·ΣA exactly.
+    const std::vector<EmissiveTriangle>& tris = scene.emissiveTriangles();
+    const size_t firstArea = out.size();
+    std::vector<double> areaSum;
+    for (uint32_t t = 0; t < tris.size(); ++t) {
+        const EmissiveTriangle& tri = tris[t];
+        if (!(tri.area > 0.0f) || !std::isfinite(tri.area) || !finite(tri.radiance) ||
+            !finite(tri.normal) || !(channelSum(tri.radiance) > 0.0f))
+            continue;
+        size_t g = firstArea;
+        while (g < out.size() && out[g].radiance != tri.radiance) ++g;
+        if (g == out.size()) {
+            Emitter e;
+            e.kind = EmitterKind::Area;
+            e.id = static_cast<uint32_t>(g - firstArea);
+            e.radiance = tri.radiance;
+            out.push_back(std::move(e));
+            areaSum.push_back(0.0);
+        }
+        Emitter& e = out[g];
+        double& sum = areaSum[g - firstArea];
+        sum += tri.area;
+        e.triangles.push_back(t);
+        e.cdf.push_back(sum);
+    }
+    for (size_t g = firstArea; g < out.size(); ++g) {
+        Emitter& e = out[g];
+        const double total = areaSum[g - firstArea];
+        for (double& c : e.cdf) c /= total;
+        e.cdf.back() = 1.0;
+        e.flux = static_cast<float>(kPiD * total) * e.radiance;
+    }
+    return out;
+}
+
+std::vector<uint32_t> splitBudget(std::span<const Emitter> emitters, uint32_t total) {
+    const size_t n = emitters.size();
+    std::vector<uint32_t> out(n, 0);
+    if (n == 0 || total == 0) return out;
+    // One path for every emitter first (a light with a photon budget of 0 would lose its flux),
+    // the rest by largest remainder on Σ_rgb flux.
+    uint32_t rest = total;
+    if (total >= n) {
+        for (uint32_t& c : out) c = 1;
+        rest -= static_cast<uint32_t>(n);
+    }
+    double sum = 0.0;
+    for (const Emitter& e : emitters) sum += channelSum(e.flux);
+    if (!(sum > 0.0)) return out;
+    std::vector<double> remainder(n);
+    uint32_t given = 0;
+    for (size_t i = 0; i < n; ++i) {
+        const double share = rest * (channelSum(emitters[i].flux) / sum);
+        const uint32_t whole = static_cast<uint32_t>(std::floor(share));
+        out[i] += whole;
+        given += whole;
+        remainder[i] = share - whole;
+    }
+    std::vector<size_t> order(n);
+    for (size_t i = 0; i < n; ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t a, size_t b) { return remainder[a] > remainder[b]; });
+    for (size_t j = 0; given < rest; ++j, ++given) ++out[order[j % n]];
+    return out;
+}
+
+DimLayout dimLayout(EmitterKind kind, uint32_t diffuseBounces) {
+    DimLayout d;
+    d.direction = 0;
+    int next = 2;
+    if (kind == EmitterKind::Area) {
+        d.point = next;
+        next += 2;
+    }
+    if (diffuseBounces > 0) {
+        d.bounce = next;
+        next += 2;
+    }
+    d.count = next;
+    return d;
+}
+
+EmittedRay sampleEmission(const Emitter& e, const EmbreeScene& scene, Vec2 uDir, Vec2 uPoint) {
+    EmittedRay r;
+    switch (e.kind) {
+        case EmitterKind::Point: {
+            const float z = 1.0f - 2.0f * uDir.x;
+            const float s = std::sqrt(std::max(0.0f, 1.0f - z * z));
+            const float phi = 2.0f * kPi * uDir.y;
+            r.origin = e.position;
+            r.dir = Vec3(s * std::cos(phi), s * std::sin(phi), z);
+            break;
+        }
+        case EmitterKind::Spot: {
+            // cosθ from the exact inverse CDF of the falloff a(cosθ) on [cosO, 1]: the ramp
+            // (a = ((c − cosO)s)², CDF ∝ s²(c − cosO)³/3) then the flat top (a = 1).
+            const double cosO = e.cosOuter;
+            const double s = e.falloffScale;
+            const double c1 = std::min(1.0, cosO + 1.0 / s);
+            const double w = c1 - cosO;
+            const double ramp = s * s * w * w * w / 3.0;
+            const double target = uDir.x * (ramp + (1.0 - c1));
+            double c = target < ramp ? cosO + std::cbrt(3.0 * target / (s * s)) : c1 + (target - ramp);
+            c = std::clamp(c, -1.0, 1.0);
+            const float cosT = static_cast<float>(c);
+            const float sinT = std::sqrt(std::max(0.0f, 1.0f - cosT * cosT));
+            const float phi = 2.0f * kPi * uDir.y;
+            Vec3 t, b;
+            basis(e.axis, t, b);
+            r.origin = e.position;
+            r.dir = glm::normalize(sinT * std::cos(phi) * t + sinT * std::sin(phi) * b + cosT * e.axis);
+            break;
+        }
+        case EmitterKind::Directional: {
+            const Vec2 d = concentricDisc(uDir.x, uDir.y) * e.discRadius;
+            r.origin = e.discCentre + d.x * e.tangent + d.y * e.bitangent;
+            r.dir = e.axis;
+            break;
+        }
+        case EmitterKind::Area: {
+            // Triangle ∝ area by uPoint.x, then uPoint.x is stretched back to [0, 1) within the
+            // chosen triangle's CDF slot, so both numbers still steer the point continuously.
+            const auto it = std::upper_bound(e.cdf.begin(), e.cdf.end(), static_cast<double>(uPoint.x));
+            const size_t t = std::min<size_t>(static_cast<size_t>(it - e.cdf.begin()), e.cdf.size() - 1);
+            const double lo = t == 0 ? 0.0 : e.cdf[t - 1];
+            const double width = e.cdf[t] - lo;
+            float u0 = width > 0.0 ? static_cast<float>((uPoint.x - lo) / width) : 0.5f;
+            u0 = std::clamp(u0, 0.0f, kOneMinusEpsilon);
+            const EmissiveTriangle& tri = scene.emissiveTriangles()[e.triangles[t]];
+            const float su = std::sqrt(u0);
+            const float b0 = 1.0f - su;
+            const float b1 = uPoint.y * su;
+            r.origin = b0 * tri.p0 + b1 * tri.p1 + (1.0f - b0 - b1) * tri.p2;
+            r.normal = tri.normal;
+            r.dir = cosineDirection(tri.normal, uDir.x, uDir.y);
+            break;
+        }
+    }
+    return r;
+}
+
+void TraceStats::add(const TraceStats& o) {
+    paths += o.paths;
+    productivePaths += o.productivePaths;
+    stored += o.stored;
+    rays += o.rays;
+    anomalies += o.anomalies;
+    wallSeconds += o.wallSeconds;
+    samplingSeconds += o.samplingSeconds;
+    rayCastSeconds += o.rayCastSeconds;
+    interactionSeconds += o.interactionSeconds;
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds(Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double>(b - a).count();
+}
+
+}  // namespace
+
+int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const TraceSettings& ts,
+                    uint64_t index, std::vector<TracedPhoton>& out, TraceStats& stats, bool timed) {
+    RTPM_DCHECK(src.emitter && src.halton);
+    const Emitter& e = *src.emitter;
+    const Halton& h = *src.halton;
+    const Scene& model = scene.scene();
+    const size_t outStart = out.size();
+    Clock::time_point tStart, tMark;
+    if (timed) tStart = Clock::now();
+
+    const Vec2 uDir(h.sample(src.dims.direction, index), h.sample(src.dims.direction + 1, index));
+    Vec2 uPoint(0.0f);
+    if (src.dims.point >= 0)
+        uPoint = Vec2(h.sample(src.dims.point, index), h.sample(src.dims.point + 1, index));
+    const EmittedRay em = sampleEmission(e, scene, uDir, uPoint);
+    Ray ray;
+    ray.dir = em.dir;
+    ray.origin = e.kind == EmitterKind::Area ? scene.offsetOrigin(em.origin, em.normal, em.dir)
+                                             : em.origin;
+    Vec3 power = src.powerPerPath;
+    if (timed) {
+        tMark = Clock::now();
+        stats.samplingSeconds += seconds(tStart, tMark);
+    }
+    auto hashed = [&](uint32_t bounce, uint64_t purpose) {
+        return hashToUnit(hashKeys(ts.seed, src.hashStream, index, bounce, purpose));
+    };
+
+    bool specularSinceDiffuse = false;
+    uint32_t diffuseCount = 0;
+    int stored = 0;
+    bool anomaly = !finite(ray.origin) || !finite(ray.dir) || !finite(power);
+    for (uint32_t depth = 0; depth < ts.maxDepth && !anomaly; ++depth) {
+        SurfaceHit hit;
+        ++stats.rays;
+        bool found;
+        if (timed) {
+            const Clock::time_point t0 = Clock::now();
+            found = scene.intersect(ray, hit);
+            stats.rayCastSeconds += seconds(t0, Clock::now());
+        } else {
+            found = scene.intersect(ray, hit);
+        }
+        if (!found) break;
+        if (!finite(hit.position) || !finite(hit.geometricNormal) || !finite(hit.shadingNormal)) {
+            anomaly = true;
+            break;
+        }
+        const Vec3 dir = ray.dir;  // unit throughout
+        // Normals facing the side the photon arrives from.
+        const Vec3 ng = glm::dot(dir, hit.geometricNormal) <= 0.0f ? hit.geometricNormal
+                                                                    : -hit.geometricNormal;
+        Vec3 ns = glm::dot(hit.shadingNormal, ng) >= 0.0f ? hit.shadingNormal : -hit.shadingNormal;
+        if (!(glm::dot(ns, ns) > 0.5f)) ns = ng;
+        if (!(glm::dot(ng, ng) > 0.5f)) break;  // degenerate triangle: no usable side
+        if (hit.material >= model.materials.size()) break;
+        const Material& mat = model.materials[hit.material];
+        Vec3 next;
+        switch (mat.type) {
+            case MaterialType::Mirror: {
+                next = reflect(dir, ns);
+                // A shading normal can send the reflection below the surface; use the true one.
+                if (glm::dot(next, ng) <= 0.0f) next = reflect(dir, ng);
+                power *= mat.baseColor;
+                specularSinceDiffuse = true;
+                break;
+            }
+            case MaterialType::Dielectric: {
+                const DielectricInterface side = dielectricInterface(dir, hit.geometricNormal, mat.ior);
+                // A back-face hit ends a segment that ran inside this medium.
+                if (!side.entering) power *= beerLambert(mat.absorption, hit.t);
+                const float f = fresnelDielectric(side.cosI, side.etaI, side.etaT);
+                if (hashed(depth, kFresnelChoice) < f ||
+                    !refract(dir, ns, side.etaI / side.etaT, next)) {
+                    next = reflect(dir, ns);
+                    if (glm::dot(next, ng) <= 0.0f) next = reflect(dir, ng);
+                } else if (glm::dot(next, ng) >= 0.0f) {
+                    // Shading normal bent the refraction back out: refract about the true one.
+                    if (!refract(dir, ng, side.etaI / side.etaT, next)) next = reflect(dir, ng);
+                }
+                specularSinceDiffuse = true;
+                break;
+            }
+            case MaterialType::Diffuse: {
+                if (specularSinceDiffuse) {
+                    if (!finite(power)) {
+                        anomaly = true;
+                        break;
+                    }
+                    out.push_back(TracedPhoton{hit.position, power, dir});
+                    ++stored;
+                }
+                if (diffuseCount >= ts.diffuseBounces) {
+                    next = Vec3(0.0f);
+                    break;
+                }
+                Vec3 albedo = mat.baseColor;
+                if (mat.baseColorTexture >= 0 &&
+                    static_cast<size_t>(mat.baseColorTexture) < model.textures.size()) {
+                    const Texture& tex = model.textures[static_cast<size_t>(mat.baseColorTexture)];
+                    if (tex.width > 0 && tex.height > 0) albedo *= tex.sample(hit.uv);
+                }
+                const float survive = std::min(1.0f, std::max({albedo.x, albedo.y, albedo.z}));
+                if (!(survive > 0.0f) || hashed(depth, kRoulette) >= survive) {
+                    next = Vec3(0.0f);
+                    break;
+                }
+                power *= albedo / survive;
+                float u0, u1;
+                if (diffuseCount == 0 && src.dims.bounce >= 0) {
+                    u0 = h.sample(src.dims.bounce, index);
+                    u1 = h.sample(src.dims.bounce + 1, index);
+                } else {
+                    u0 = hashed(depth, kBounceU);
+                    u1 = hashed(depth, kBounceV);
+                }
+                next = cosineDirection(ns, u0, u1);
+                if (glm::dot(next, ng) <= 0.0f) next = cosineDirection(ng, u0, u1);
+                ++diffuseCount;
+                specularSinceDiffuse = false;
+                break;
+            }
+        }
+        if (anomaly) break;
+        if (next == Vec3(0.0f)) break;
+        if (!finite(power) || !finite(next)) {
+            anomaly = true;
+            break;
+        }
+        if (!(power.x > 0.0f || power.y > 0.0f || power.z > 0.0f)) break;
+        ray.origin = scene.offsetOrigin(hit.position, hit.geometricNormal, next);
+        ray.dir = next;
+        ray.tMin = 0.0f;
+        ray.tMax = 1e30f;
+    }
+    ++stats.paths;
+    if (anomaly) {
+        out.resize(outStart);
+        ++stats.anomalies;
+        return -1;
+    }
+    if (stored > 0) ++stats.productivePaths;
+    stats.stored += static_cast<uint64_t>(stored);
+    return stored;
+}
+
+void tracePhotons(const EmbreeScene& scene, const PhotonSource& source, const TraceSettings& ts,
+                  std::span<const uint64_t> indices, TraceOutput& out) {
+    // Fixed-size chunks, each with its own buffer, concatenated in chunk order: the output is
+    // the same for any thread count or schedule.
+    constexpr size_t kChunk = 256;
+    const size_t n = indices.size();
+    const size_t chunks = (n + kChunk - 1) / kChunk;
+    struct ChunkResult {
+        std::vector<TracedPhoton> photons;
+        std::vector<uint32_t> storedPerPath;
+        TraceStats stats;          // counters of every path
+        TraceStats timedStats;     // phase times of the timed sample paths
+        double timedTotal = 0.0;   // their total time
+    };
+    std::vector<ChunkResult> results(chunks);
+    const Clock::time_point start = Clock::now();
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t c = r.begin(); c != r.end(); ++c) {
+            ChunkResult& res = results[c];
+            const size_t lo = c * kChunk;
+            const size_t hi = std::min(n, lo + kChunk);
+            res.storedPerPath.resize(hi - lo);
+            for (size_t j = lo; j < hi; ++j) {
+                const uint64_t index = indices[j];
+                const bool timed = index % kTimedPathStride == 0;
+                int stored;
+                if (timed) {
+                    TraceStats t;
+                    const Clock::time_point t0 = Clock::now();
+                    stored = tracePhotonPath(scene, source, ts, index, res.photons, t, true);
+                    res.timedTotal += seconds(t0, Clock::now());
+                    res.timedStats.samplingSeconds += t.samplingSeconds;
+                    res.timedStats.rayCastSeconds += t.rayCastSeconds;
+                    t.samplingSeconds = t.rayCastSeconds = t.interactionSeconds = 0.0;
+                    res.stats.add(t);
+                } else {
+                    stored = tracePhotonPath(scene, source, ts, index, res.photons, res.stats, false);
+                }
+                res.storedPerPath[j - lo] = stored > 0 ? static_cast<uint32_t>(stored) : 0;
+            }
+        }
+    });
+    const double wall = seconds(start, Clock::now());
+
+    TraceStats total;
+    TraceStats timed;
+    double timedTotal = 0.0;
+    size_t photonCount = out.photons.size();
+    for (const ChunkResult& res : results) photonCount += res.photons.size();
+    out.photons.reserve(photonCount);
+    out.storedPerPath.reserve(out.storedPerPath.size() + n);
+    for (ChunkResult& res : results) {
+        out.photons.insert(out.photons.end(), res.photons.begin(), res.photons.end());
+        out.storedPerPath.insert(out.storedPerPath.end(), res.storedPerPath.begin(), res.storedPerPath.end());
+        total.add(res.stats);
+        timed.add(res.timedStats);
+        timedTotal += res.timedTotal;
+    }
+    // Table 3 split: the timed paths' phase fractions applied to the measured wall time.
+    total.wallSeconds = wall;
+    if (timedTotal > 0.0) {
+        const double fs = std::min(1.0, timed.samplingSeconds / timedTotal);
+        const double fr = std::min(1.0 - fs, timed.rayCastSeconds / timedTotal);
+        total.samplingSeconds = wall * fs;
+        total.rayCastSeconds = wall * fr;
+        total.interactionSeconds = wall * (1.0 - fs - fr);
+    } else {
+        total.interactionSeconds = wall;
+    }
+    out.stats.add(total);
+}
+
+SptGrid makeSptGrid(int steeringDims, uint64_t targetCells) {
+    RTPM_CHECK(steeringDims >= 1 && steeringDims <= kHaltonMaxDims);
+    SptGrid g;
+    g.dims = steeringDims;
+    for (int d = 0; d < steeringDims; ++d) g.cells[static_cast<size_t>(d)] = 1;
+    g.cellCount = 1;
+    for (;;) {
+        // Widest box side that can still take a digit.
+        int best = -1;
+        double bestWidth = 0.0;
+        for (int d = 0; d < steeringDims; ++d) {
+            const uint64_t b = kHaltonPrimes[static_cast<size_t>(d)];
+            if (g.cellCount > targetCells / b) continue;
+            const double width = 1.0 / static_cast<double>(g.cells[static_cast<size_t>(d)]);
+            if (width > bestWidth) {
+                bestWidth = width;
+                best = d;
+            }
+        }
+        if (best < 0) break;
+        const auto bd = static_cast<size_t>(best);
+        g.cells[bd] *= kHaltonPrimes[bd];
+        g.digits[bd] += 1;
+        g.cellCount *= kHaltonPrimes[bd];
+    }
+    return g;
+}
+
+uint64_t sptBoxCoordinate(const SptGrid& g, int dim, uint64_t index) {
+    const auto d = static_cast<size_t>(dim);
+    const uint64_t b = kHaltonPrimes[d];
+    uint64_t r = index % g.cells[d];
+    // Mirror the k lowest digits of r: they are the first k digits of Φ_b(index).
+    uint64_t c = 0;
+    for (uint32_t k = 0; k < g.digits[d]; ++k) {
+        c = c * b + r % b;
+        r /= b;
+    }
+    return c;
+}
+
+std::vector<uint32_t> sptNeighbours(const SptGrid& g) {
+    const uint64_t n = g.cellCount;
+    RTPM_CHECK(n < (uint64_t{1} << 32));
+    const auto dims = static_cast<size_t>(g.dims);
+    // Mixed-radix key of a cell's box coordinates → its pilot index (a bijection by the CRT).
+    std::vector<uint64_t> stride(dims);
+    uint64_t s = 1;
+    for (size_t d = 0; d < dims; ++d) {
+        stride[d] = s;
+        s *= g.cells[d];
+    }
+    std::vector<uint32_t> pilotOfKey(n);
+    std::vector<uint64_t> coords(n * dims);
+    for (uint64_t i = 0; i < n; ++i) {
+        uint64_t key = 0;
+        for (size_t d = 0; d < dims; ++d) {
+            const uint64_t c = sptBoxCoordinate(g, static_cast<int>(d), i);
+            coords[i * dims + d] = c;
+            key += c * stride[d];
+        }
+        pilotOfKey[key] = static_cast<uint32_t>(i);
+    }
+    std::vector<uint32_t> out(n * 2 * dims);
+    for (uint64_t i = 0; i < n; ++i) {
+        uint64_t key = 0;
+        for (size_t d = 0; d < dims; ++d) key += coords[i * dims + d] * stride[d];
+        for (size_t d = 0; d < dims; ++d) {
+            const uint64_t c = coords[i * dims + d];
+            const uint64_t m = g.cells[d];
+            const uint64_t down = (c + m - 1) % m;
+            const uint64_t up = (c + 1) % m;
+            out[(i * dims + d) * 2 + 0] = pilotOfKey[key - c * stride[d] + down * stride[d]];
+            out[(i * dims + d) * 2 + 1] = pilotOfKey[key - c * stride[d] + up * stride[d]];
+        }
+    }
+    return out;
+}
+
+}  // namespace rtpm

@@ -1,0 +1,58 @@
+// The rendering flags rtpm-render and rtpm-server share: same names, meanings and defaults.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <string>
+
+#include "common/core/render_settings.h"
+
+namespace rtpm {
+
+/// Adds every flag that decides what a frame looks like to `app`, bound to `settings`.
+/// `plainShooting` receives --no-spt; the caller sets settings.photons.selective = !plainShooting
+/// after parsing. `sceneName` receives --scene.
+inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string& sceneName,
+                           bool& plainShooting) {
+    RenderSettings& rs = settings;
+    app.add_option("--scene", sceneName,
+                   "built-in scene (RING GLASS EGG HEADLIGHT CORNELL) or .gltf/.glb/.obj file")
+        ->capture_default_str();
+    app.add_option("--width", rs.width, "image width in pixels")->capture_default_str();
+    app.add_option("--height", rs.height, "image height in pixels")->capture_default_str();
+    app.add_option("--photons,-P", rs.photons.photonsPerBatch, "P: photon paths traced per set per frame")
+        ->capture_default_str();
+    app.add_option("--k", rs.photons.k, "photons per density estimate")->capture_default_str();
+    app.add_option("--rmax", rs.photons.rMax,
+                   "maximum gather radius in metres (0 = 2% of the scene diagonal)")
+        ->capture_default_str();
+    app.add_option("--interleave,-M", rs.interleave, "M: M×M interleaving sets, one photon map each")
+        ->capture_default_str();
+    app.add_option("--filter,-F", rs.filter, "F: caustic box filter size in pixels (0 = M)")
+        ->capture_default_str();
+    app.add_flag("--no-spt", plainShooting,
+                 "plain QMC photon shooting instead of Selective Photon Tracing");
+    app.add_option("--diffuse-bounces", rs.photons.diffuseBounces,
+                   "diffuse bounces a photon may take (0 = only L S+ D caustics)")
+        ->capture_default_str();
+    app.add_option("--cap", rs.photons.capPhotons,
+                   "stored photons per set at which accumulation stops (0 = none)")
+        ->capture_default_str();
+    app.add_option("--depth", rs.eye.maxDepth, "specular depth limit of eye paths")->capture_default_str();
+    app.add_option("--photon-depth", rs.photons.maxDepth, "ray segments per photon path")
+        ->capture_default_str();
+    app.add_option("--area-samples", rs.eye.areaLightSamples, "shadow samples per emissive triangle")
+        ->capture_default_str();
+    app.add_option("--seed", rs.photons.seed, "seed of the Halton rotations")->capture_default_str();
+    // PhotonTree; every variant gives the same estimate, they differ in build/query cost.
+    app.add_option_function<std::string>(
+           "--tree", [&rs](const std::string& name) { rs.photons.tree = *parsePhotonTree(name); },
+           "photon map index: middle (incremental middle-split kd-tree), median (balanced "
+           "kd-tree rebuilt each frame) or grid (uniform grid rebuilt each frame); default middle")
+        ->check(CLI::IsMember({"middle", "median", "grid"}));
+    app.add_flag("--gather-visibility", rs.photons.gatherVisibility,
+                 "count only photons visible from the shaded point (a shadow ray per gathered "
+                 "photon): no caustic leaks through thin walls, k more rays per pixel");
+}
+
+}  // namespace rtpm

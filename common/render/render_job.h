@@ -1,0 +1,77 @@
+// One process's share of rendering: a scene, its Embree BVH and the photon maps of owned sets.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "common/trace/embree_scene.h"
+#include "common/photon/photon_map.h"
+#include "common/core/render_settings.h"
+#include "common/trace/eye_pass.h"
+
+namespace rtpm {
+
+/// The pixels of one interleaving set for one frame, row-major within the set.
+struct SetPixels {
+    int set = 0;
+    std::vector<PixelRadiance> pixels;
+};
+
+/// Figures of one renderFrame call.
+struct FrameStats {
+    double shootSeconds = 0.0;     ///< photon shooting + kd-tree insertion, all owned sets
+    double eyeSeconds = 0.0;       ///< eye pass (ray tracing + caustic lookups), all owned sets
+    uint64_t photonsStored = 0;    ///< Σ over owned sets of photons in their maps
+    uint64_t pathsTraced = 0;      ///< Σ over owned sets of paths traced since the last reset
+    uint64_t pathsThisFrame = 0;   ///< paths traced in this frame
+    bool walkthrough = false;      ///< every owned set reached its cap (no shooting)
+    EyeStats eye;
+};
+
+/// A scene edit applied between frames. Camera changes are not edits (photons are
+/// view-independent); every edit here resets the photon maps (DESIGN §2).
+struct SceneEdit {
+    enum class Kind { Light, Material, Transform } kind = Kind::Light;
+    uint32_t index = 0;  ///< light, material or instance index
+    Light light;
+    Material material;
+    Mat4 transform{1.0f};
+};
+
+/// Renders frames for a fixed list of interleaving sets. Used by rtpm-render (all sets) and by
+/// each cluster client (its assigned sets), so both compute bit-identical pixels for a set.
+/// Not thread-safe; each call uses every core through TBB.
+class RenderJob {
+public:
+    /// Throws std::invalid_argument for bad settings or set ids.
+    RenderJob(Scene scene, const RenderSettings& settings, std::vector<uint32_t> sets);
+    ~RenderJob();
+
+    /// Shoots one batch per owned set that has not reached its cap (unless `shoot` is false:
+    /// walkthrough forced), then traces the pixels of every owned set into `out` (one entry per
+    /// owned set, in ownership order; buffers are reused).
+    FrameStats renderFrame(const Camera& camera, bool shoot, std::vector<SetPixels>& out);
+
+    /// Applies an edit (throws SceneError if the index or a value is invalid; nothing changes then)
+    /// and resets the photon maps.
+    void applyEdit(const SceneEdit& edit);
+    /// Drops every photon; the next frame restarts accumulation.
+    void resetPhotons();
+
+    const Scene& scene() const { return *scene_; }
+    const RenderSettings& settings() const { return settings_; }
+    const PhotonMaps& photons() const { return *photons_; }
+    const EmbreeScene& embree() const { return *embree_; }
+    const std::vector<uint32_t>& sets() const { return sets_; }
+
+private:
+    std::unique_ptr<Scene> scene_;  // stable address: EmbreeScene keeps a pointer to it
+    RenderSettings settings_;
+    Interleave pattern_;
+    std::vector<uint32_t> sets_;
+    std::unique_ptr<EmbreeScene> embree_;
+    std::unique_ptr<PhotonMaps> photons_;
+};
+
+}  // namespace rtpm

@@ -1,0 +1,277 @@
+// GLB export of a Scene: the inverse of gltf_loader's mapping, built as a tinygltf::Model.
+#define TINYGLTF_NO_STB_IMAGE
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#include <tiny_gltf.h>
+
+#include "common/scene/gltf_export.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+#include <glm/gtc/type_ptr.hpp>
+#include <glm/gtx/quaternion.hpp>
+
+namespace rtpm {
+
+namespace {
+
+using tinygltf::Value;
+
+// Appends raw bytes to the single buffer, 4-byte aligned, and returns a new bufferView.
+int addView(tinygltf::Model& model, const void* data, size_t bytes, int target) {
+    auto& buf = model.buffers[0].data;
+    while (buf.size() % 4 != 0) buf.push_back(0);
+    tinygltf::BufferView view;
+    view.buffer = 0;
+    view.byteOffset = buf.size();
+    view.byteLength = bytes;
+    view.target = target;
+    const auto* p = static_cast<const unsigned char*>(data);
+    buf.insert(buf.end(), p, p + bytes);
+    model.bufferViews.push_back(view);
+    return int(model.bufferViews.size() - 1);
+}
+
+int addAccessor(tinygltf::Model& model, int view, int componentType, int type, size_t count) {
+    tinygltf::Accessor acc;
+    acc.bufferView = view;
+    acc.byteOffset = 0;
+    acc.componentType = componentType;
+    acc.type = type;
+    acc.count = count;
+    model.accessors.push_back(acc);
+    return int(model.accessors.size() - 1);
+}
+
+Value vec3Value(Vec3 v) {
+    return Value(Value::Array{Value(double(v.x)), Value(double(v.y)), Value(double(v.z))});
+}
+
+void useExtension(tinygltf::Model& model, const std::string& name) {
+    if (std::find(model.extensionsUsed.begin(), model.extensionsUsed.end(), name) == model.extensionsUsed.end())
+        model.extensionsUsed.push_back(name);
+}
+
+float linearToSrgb(float c) {
+    c = std::clamp(c, 0.0f, 1.0f);
+    return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+}
+
+std::vector<unsigned char> encodePng(const Texture& t, const std::string& name) {
+    std::vector<unsigned char> px(size_t(t.width) * size_t(t.height) * 3);
+    for (size_t i = 0; i < px.size(); ++i)
+        px[i] = (unsigned char)std::lround(255.0f * linearToSrgb(t.rgb[i]));
+    std::vector<unsigned char> png;
+    OIIO::Filesystem::IOVecOutput proxy(png);
+    auto out = OIIO::ImageOutput::create("texture.png");
+    OIIO::ImageSpec spec(t.width, t.height, 3, OIIO::TypeDesc::UINT8);
+    if (!out || !out->set_ioproxy(&proxy) || !out->open("texture.png", spec) ||
+        !out->write_image(OIIO::TypeDesc::UINT8, px.data()) || !out->close())
+        throw SceneError(name, "texture " + t.name, "cannot encode PNG: " + OIIO::geterror());
+    return png;
+}
+
+}  // namespace
+
+std::vector<uint8_t> encodeGlb(const Scene& scene) {
+    scene.validate(scene.name);
+    tinygltf::Model model;
+    model.asset.version = "2.0";
+    model.asset.generator = "rtpm";
+    model.buffers.emplace_back();
+    model.scenes.emplace_back();
+    model.scenes[0].name = scene.name;
+    model.defaultScene = 0;
+
+    for (size_t ti = 0; ti < scene.textures.size(); ++ti) {
+        std::vector<unsigned char> png = encodePng(scene.textures[ti], scene.name);
+        tinygltf::Image img;
+        img.name = scene.textures[ti].name;
+        img.mimeType = "image/png";
+        img.bufferView = addView(model, png.data(), png.size(), 0);
+        model.images.push_back(img);
+        tinygltf::Texture tex;
+        tex.source = int(ti);
+        model.textures.push_back(tex);
+    }
+
+    for (const Material& m : scene.materials) {
+        tinygltf::Material gm;
+        gm.name = m.name;
+        auto& pbr = gm.pbrMetallicRoughness;
+        pbr.baseColorFactor = {m.baseColor.x, m.baseColor.y, m.baseColor.z, 1.0};
+        pbr.metallicFactor = 0.0;
+        pbr.roughnessFactor = 1.0;
+        if (m.type == MaterialType::Mirror) {
+            pbr.metallicFactor = 1.0;
+            pbr.roughnessFactor = 0.0;
+        } else if (m.type == MaterialType::Dielectric) {
+            pbr.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
+            pbr.roughnessFactor = 0.0;
+            gm.extensions["KHR_materials_transmission"] =
+                Value(Value::Object{{"transmissionFactor", Value(1.0)}});
+            gm.extensions["KHR_materials_ior"] = Value(Value::Object{{"ior", Value(double(m.ior))}});
+            useExtension(model, "KHR_materials_transmission");
+            useExtension(model, "KHR_materials_ior");
+            if (glm::any(glm::greaterThan(m.absorption, Vec3(0.0f)))) {
+                // attenuationColor is the transmittance after attenuationDistance = 1 m.
+                Vec3 colour(std::exp(-double(m.absorption.x)), std::exp(-double(m.absorption.y)),
+                            std::exp(-double(m.absorption.z)));
+                double dist = 1.0;
+                // Keep the colour representable: for strong absorption use a shorter distance.
+                float maxSigma = std::max(m.absorption.x, std::max(m.absorption.y, m.absorption.z));
+                if (maxSigma > 20.0f) {
+                    dist = 20.0 / double(maxSigma);
+                    colour = Vec3(std::exp(-double(m.absorption.x) * dist), std::exp(-double(m.absorption.y) * dist),
+                                  std::exp(-double(m.absorption.z) * dist));
+                }
+                gm.extensions["KHR_materials_volume"] = Value(Value::Object{
+                    {"thicknessFactor", Value(1.0)},
+                    {"attenuationDistance", Value(dist)},
+                    {"attenuationColor", vec3Value(colour)}});
+                useExtension(model, "KHR_materials_volume");
+            }
+        } else if (m.baseColorTexture >= 0) {
+            pbr.baseColorTexture.index = m.baseColorTexture;
+        }
+        if (m.isEmissive()) {
+            float strength = std::max(m.emission.x, std::max(m.emission.y, m.emission.z));
+            Vec3 factor = m.emission / strength;
+            if (strength <= 1.0f) {
+                factor = m.emission;
+            } else {
+                gm.extensions["KHR_materials_emissive_strength"] =
+                    Value(Value::Object{{"emissiveStrength", Value(double(strength))}});
+                useExtension(model, "KHR_materials_emissive_strength");
+            }
+            gm.emissiveFactor = {factor.x, factor.y, factor.z};
+        } else {
+            gm.emissiveFactor = {0.0, 0.0, 0.0};
+        }
+        model.materials.push_back(gm);
+    }
+
+    for (const Mesh& mesh : scene.meshes) {
+        tinygltf::Primitive prim;
+        prim.mode = TINYGLTF_MODE_TRIANGLES;
+        prim.material = int(mesh.material);
+        int pv = addView(model, mesh.positions.data(), mesh.positions.size() * sizeof(Vec3),
+                         TINYGLTF_TARGET_ARRAY_BUFFER);
+        int pa = addAccessor(model, pv, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, mesh.positions.size());
+        // POSITION requires min/max.
+        Vec3 lo(1e30f), hi(-1e30f);
+        for (Vec3 p : mesh.positions) {
+            lo = glm::min(lo, p);
+            hi = glm::max(hi, p);
+        }
+        model.accessors[size_t(pa)].minValues = {lo.x, lo.y, lo.z};
+        model.accessors[size_t(pa)].maxValues = {hi.x, hi.y, hi.z};
+        prim.attributes["POSITION"] = pa;
+        if (!mesh.normals.empty()) {
+            int nv = addView(model, mesh.normals.data(), mesh.normals.size() * sizeof(Vec3),
+                             TINYGLTF_TARGET_ARRAY_BUFFER);
+            prim.attributes["NORMAL"] =
+                addAccessor(model, nv, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, mesh.normals.size());
+        }
+        if (!mesh.uvs.empty()) {
+            int uv = addView(model, mesh.uvs.data(), mesh.uvs.size() * sizeof(Vec2), TINYGLTF_TARGET_ARRAY_BUFFER);
+            prim.attributes["TEXCOORD_0"] =
+                addAccessor(model, uv, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, mesh.uvs.size());
+        }
+        int iv = addView(model, mesh.indices.data(), mesh.indices.size() * sizeof(uint32_t),
+                         TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+        prim.indices = addAccessor(model, iv, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR,
+                                   mesh.indices.size());
+        tinygltf::Mesh gmesh;
+        gmesh.name = mesh.name;
+        gmesh.primitives.push_back(prim);
+        model.meshes.push_back(gmesh);
+    }
+
+    auto addNode = [&](tinygltf::Node node) {
+        model.nodes.push_back(std::move(node));
+        model.scenes[0].nodes.push_back(int(model.nodes.size() - 1));
+    };
+    for (const Instance& inst : scene.instances) {
+        tinygltf::Node node;
+        node.name = inst.name;
+        node.mesh = int(inst.mesh);
+        bool identity = inst.transform == Mat4(1.0f);
+        if (!identity) {
+            const float* m = glm::value_ptr(inst.transform);  // column-major, as glTF
+            node.matrix.assign(m, m + 16);
+        }
+        addNode(std::move(node));
+    }
+
+    for (const Light& l : scene.lights) {
+        tinygltf::Light gl;
+        gl.name = l.name;
+        float peak = std::max(l.intensity.x, std::max(l.intensity.y, l.intensity.z));
+        gl.intensity = peak;
+        Vec3 colour = peak > 0.0f ? l.intensity / peak : Vec3(1.0f);
+        gl.color = {colour.x, colour.y, colour.z};
+        gl.type = l.type == LightType::Point ? "point" : l.type == LightType::Spot ? "spot" : "directional";
+        if (l.type == LightType::Spot) {
+            gl.spot.innerConeAngle = l.innerConeAngle;
+            gl.spot.outerConeAngle = l.outerConeAngle;
+        }
+        model.lights.push_back(gl);
+        tinygltf::Node node;
+        node.name = l.name;
+        node.translation = {l.position.x, l.position.y, l.position.z};
+        if (l.type != LightType::Point) {
+            // Rotation taking the light's local −Z onto its direction.
+            glm::quat q = glm::rotation(Vec3(0.0f, 0.0f, -1.0f), glm::normalize(l.direction));
+            node.rotation = {q.x, q.y, q.z, q.w};
+        }
+        node.extensions["KHR_lights_punctual"] =
+            Value(Value::Object{{"light", Value(int(model.lights.size() - 1))}});
+        addNode(std::move(node));
+    }
+    if (!model.lights.empty()) useExtension(model, "KHR_lights_punctual");
+
+    if (scene.camera) {
+        const Camera& c = *scene.camera;
+        tinygltf::Camera gc;
+        gc.type = "perspective";
+        gc.perspective.yfov = c.yfov;
+        gc.perspective.znear = 0.001;
+        gc.perspective.zfar = 1000.0;
+        model.cameras.push_back(gc);
+        // Columns: right, up, back (−forward), position: local −Z looks along `forward`.
+        Vec3 f = glm::normalize(c.forward);
+        Vec3 right = glm::normalize(glm::cross(f, c.up));
+        Vec3 up = glm::cross(right, f);
+        Mat4 m(glm::vec4(right, 0.0f), glm::vec4(up, 0.0f), glm::vec4(-f, 0.0f), glm::vec4(c.position, 1.0f));
+        tinygltf::Node node;
+        node.name = "camera";
+        node.camera = 0;
+        const float* mp = glm::value_ptr(m);
+        node.matrix.assign(mp, mp + 16);
+        addNode(std::move(node));
+    }
+
+    if (model.buffers[0].data.empty()) model.buffers.clear();
+    tinygltf::TinyGLTF writer;
+    std::ostringstream out;
+    if (!writer.WriteGltfSceneToStream(&model, out, false, true))
+        throw SceneError(scene.name, "file", "GLB serialisation failed");
+    std::string s = out.str();
+    return std::vector<uint8_t>(s.begin(), s.end());
+}
+
+void exportGlb(const Scene& scene, const std::string& path) {
+    std::vector<uint8_t> bytes = encodeGlb(scene);
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    if (!out) throw SceneError(path, "file", "cannot open for writing");
+    out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    if (!out) throw SceneError(path, "file", "write failed");
+}
+
+}  // namespace rtpm

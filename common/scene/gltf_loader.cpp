@@ -1,0 +1,878 @@
+// glTF 2.0 import: tinygltf parses, this file checks every index and byte range and maps to Scene.
+//
+// tinygltf is trusted only for JSON/GLB framing. Everything it leaves unchecked (accessor
+// ranges, strides, component types, node indices, image buffer views) is checked here before
+// a byte is read, so malformed files end in SceneError, never a crash or a huge allocation.
+#define TINYGLTF_IMPLEMENTATION
+#define TINYGLTF_NO_STB_IMAGE
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#include <tiny_gltf.h>
+
+#include "common/scene/gltf_loader.h"
+#include "common/scene/scene_loader.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <regex>
+#include <set>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
+namespace rtpm {
+
+namespace {
+
+// Largest scene file read whole into memory (also bounds every buffer it may reference).
+constexpr uint64_t kMaxFileBytes = uint64_t(4) << 30;
+// Deepest node hierarchy followed; deeper (or cyclic) hierarchies are errors.
+constexpr int kMaxNodeDepth = 1024;
+
+const std::set<std::string>& supportedExtensions() {
+    static const std::set<std::string> kSupported = {
+        "KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior",
+        "KHR_materials_volume", "KHR_materials_emissive_strength"};
+    return kSupported;
+}
+
+// ---- file system callbacks: no shell expansion (tinygltf's default uses wordexp), size cap,
+// and only files under the scene's own directory.
+struct FsContext {
+    std::string baseDir;  // absolute, empty: no external files at all
+};
+
+bool fsFileExists(const std::string& path, void* user) {
+    const auto* ctx = static_cast<const FsContext*>(user);
+    if (ctx->baseDir.empty() || path.rfind(ctx->baseDir, 0) != 0) return false;
+    std::error_code ec;
+    return std::filesystem::is_regular_file(path, ec);
+}
+
+std::string fsExpandPath(const std::string& path, void*) { return path; }
+
+bool readFileBytes(const std::string& path, std::vector<unsigned char>* out, std::string* err) {
+    std::error_code ec;
+    uint64_t size = std::filesystem::file_size(path, ec);
+    if (ec) {
+        *err = "cannot read file: " + ec.message();
+        return false;
+    }
+    if (size > kMaxFileBytes) {
+        *err = "file larger than " + std::to_string(kMaxFileBytes) + " bytes";
+        return false;
+    }
+    std::ifstream in(path, std::ios::binary);
+    if (!in) {
+        *err = "cannot open file";
+        return false;
+    }
+    out->resize(size_t(size));
+    if (size > 0 && !in.read(reinterpret_cast<char*>(out->data()), std::streamsize(size))) {
+        *err = "read error";
+        return false;
+    }
+    return true;
+}
+
+bool fsReadWholeFile(std::vector<unsigned char>* out, std::string* err, const std::string& path,
+                     void*) {
+    std::string why;
+    if (!readFileBytes(path, out, &why)) {
+        if (err) *err += path + ": " + why;
+        return false;
+    }
+    return true;
+}
+
+bool fsWriteWholeFile(std::string* err, const std::string&, const std::vector<unsigned char>&,
+                      void*) {
+    if (err) *err += "writing is not supported by the loader";
+    return false;
+}
+
+// Deferred image decoding: tinygltf hands buffer-view images over as a pointer computed from an
+// unchecked byteOffset/byteLength, so those bytes are never touched here; they are read later
+// from a checked range. Data-URI and external images arrive as a valid vector and are kept as is.
+bool keepEncodedImage(tinygltf::Image* image, const int, std::string*, std::string*, int, int,
+                      const unsigned char* bytes, int size, void*) {
+    image->as_is = true;
+    if (image->bufferView == -1 && bytes != nullptr && size > 0)
+        image->image.assign(bytes, bytes + size);
+    return true;
+}
+
+// tinygltf's error text names the place loosely; pick the glTF element it mentions.
+std::string elementFromTinygltfError(const std::string& err) {
+    static const std::regex kIndexed(
+        R"((buffers?|bufferViews?|accessors?|meshes|mesh|nodes?|scenes?|materials?|textures?|images?|samplers?|cameras?|skins?|animations?|lights?)\[(\d+)\])",
+        std::regex::icase);
+    std::smatch m;
+    if (std::regex_search(err, m, kIndexed)) {
+        std::string kind = m[1].str();
+        std::transform(kind.begin(), kind.end(), kind.begin(), ::tolower);
+        if (kind.back() != 's' && kind != "mesh") kind += "s";
+        if (kind == "mesh") kind = "meshes";
+        return kind + "[" + m[2].str() + "]";
+    }
+    static const std::regex kNamed(
+        R"(\b(buffers?|bufferViews?|accessors?|meshes|nodes|scenes|materials|textures|images|cameras|asset|extensionsRequired)\b)",
+        std::regex::icase);
+    if (std::regex_search(err, m, kNamed)) {
+        std::string kind = m[1].str();
+        if (kind == "Buffer" || kind == "buffer") kind = "buffers";
+        return kind;
+    }
+    if (err.find("File not found") != std::string::npos ||
+        err.find("File read error") != std::string::npos ||
+        err.find("File size mismatch") != std::string::npos ||
+        err.find("File is empty") != std::string::npos)
+        return "buffers (external file)";
+    if (err.find("JSON") != std::string::npos || err.find("json") != std::string::npos)
+        return "JSON";
+    if (err.find("glTF Binary") != std::string::npos || err.find("magic") != std::string::npos ||
+        err.find("Chunk") != std::string::npos || err.find("binary") != std::string::npos ||
+        err.find("GLB") != std::string::npos)
+        return "GLB container";
+    return "document";
+}
+
+// tinygltf converts `extras` and `extensions` recursively: a hostile file nesting arrays a
+// million deep would overflow the stack. Real glTF nests a handful of levels.
+constexpr int kMaxJsonDepth = 256;
+
+// Nesting depth of the JSON text in [p, p + n), ignoring brackets inside strings.
+int jsonDepth(const unsigned char* p, size_t n) {
+    int depth = 0, maxDepth = 0;
+    bool inString = false;
+    for (size_t i = 0; i < n; ++i) {
+        unsigned char c = p[i];
+        if (inString) {
+            if (c == '\\') ++i;
+            else if (c == '"') inString = false;
+        } else if (c == '"') {
+            inString = true;
+        } else if (c == '[' || c == '{') {
+            maxDepth = std::max(maxDepth, ++depth);
+        } else if (c == ']' || c == '}') {
+            --depth;
+        }
+    }
+    return maxDepth;
+}
+
+std::string trimmed(std::string s) {
+    while (!s.empty() && (s.back() == '\n' || s.back() == ' ' || s.back() == '\r')) s.pop_back();
+    return s;
+}
+
+bool finite3(Vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+// ---- accessor reading -----------------------------------------------------------------
+
+int componentBytes(int componentType) {
+    switch (componentType) {
+        case TINYGLTF_COMPONENT_TYPE_BYTE:
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+        case TINYGLTF_COMPONENT_TYPE_SHORT:
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+        default: return 0;
+    }
+}
+
+int componentCount(int type) {
+    switch (type) {
+        case TINYGLTF_TYPE_SCALAR: return 1;
+        case TINYGLTF_TYPE_VEC2: return 2;
+        case TINYGLTF_TYPE_VEC3: return 3;
+        case TINYGLTF_TYPE_VEC4: return 4;
+        case TINYGLTF_TYPE_MAT2: return 4;
+        case TINYGLTF_TYPE_MAT3: return 9;
+        case TINYGLTF_TYPE_MAT4: return 16;
+        default: return 0;
+    }
+}
+
+std::string componentTypeName(int componentType) {
+    switch (componentType) {
+        case TINYGLTF_COMPONENT_TYPE_BYTE: return "BYTE";
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return "UNSIGNED_BYTE";
+        case TINYGLTF_COMPONENT_TYPE_SHORT: return "SHORT";
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return "UNSIGNED_SHORT";
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return "UNSIGNED_INT";
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: return "FLOAT";
+        default: return std::to_string(componentType);
+    }
+}
+
+class GltfImporter {
+public:
+    GltfImporter(const tinygltf::Model& model, std::string fileName)
+        : model_(model), file_(std::move(fileName)) {}
+
+    Scene run();
+
+private:
+    [[noreturn]] void fail(const std::string& element, const std::string& message) const {
+        throw SceneError(file_, element, message);
+    }
+    void warn(const std::string& message) { scene_.warnings.push_back(file_ + ": " + message); }
+
+    // Byte range of accessor `index` after every bound is checked. Returns a pointer to the first
+    // element (nullptr for an accessor without bufferView, which reads as zeros) and its stride.
+    struct View {
+        const unsigned char* data = nullptr;
+        size_t stride = 0;
+        size_t count = 0;
+        int componentType = 0;
+        int components = 0;
+        bool normalized = false;
+    };
+    View checkedAccessor(int index, const std::string& element,
+                         std::initializer_list<int> allowedTypes,
+                         std::initializer_list<int> allowedComponents) const;
+    std::vector<float> readFloats(int index, const std::string& element, int type) const;
+    std::vector<uint32_t> readIndices(int index, const std::string& element) const;
+
+    void checkExtensions();
+    void convertMaterials();
+    int textureFor(int gltfTexture, const std::string& element);
+    std::vector<uint32_t> convertMesh(int meshIndex);
+    void visitNode(int node, const Mat4& parent, int depth);
+    Mat4 localTransform(const tinygltf::Node& node, const std::string& element) const;
+    uint32_t defaultMaterial();
+
+    const tinygltf::Model& model_;
+    std::string file_;
+    Scene scene_;
+    std::map<int, std::vector<uint32_t>> meshPrimitives_;  // glTF mesh → rtpm meshes
+    std::map<int, int32_t> imageTextures_;                  // glTF image → Scene::textures
+    std::vector<uint8_t> onPath_;                           // cycle detection in the hierarchy
+    int defaultMaterial_ = -1;
+};
+
+GltfImporter::View GltfImporter::checkedAccessor(int index, const std::string& element,
+                                                 std::initializer_list<int> allowedTypes,
+                                                 std::initializer_list<int> allowedComponents) const {
+    if (index < 0 || size_t(index) >= model_.accessors.size())
+        fail(element, "accessor index " + std::to_string(index) + " out of range (" +
+                          std::to_string(model_.accessors.size()) + " accessors)");
+    const tinygltf::Accessor& acc = model_.accessors[size_t(index)];
+    const std::string accName = "accessors[" + std::to_string(index) + "]";
+    if (std::find(allowedTypes.begin(), allowedTypes.end(), acc.type) == allowedTypes.end())
+        fail(element, accName + " has an unexpected type (" + std::to_string(acc.type) + ")");
+    if (std::find(allowedComponents.begin(), allowedComponents.end(), acc.componentType) ==
+        allowedComponents.end())
+        fail(element, accName + " has unsupported componentType " +
+                          componentTypeName(acc.componentType));
+    if (acc.sparse.isSparse) fail(element, accName + " is sparse (not supported)");
+    View v;
+    v.count = acc.count;
+    v.componentType = acc.componentType;
+    v.components = componentCount(acc.type);
+    v.normalized = acc.normalized;
+    const size_t elemBytes = size_t(componentBytes(acc.componentType)) * size_t(v.components);
+    if (acc.count == 0) fail(element, accName + " has count 0");
+    if (acc.count > (uint64_t(1) << 32))
+        fail(element, accName + " count " + std::to_string(acc.count) + " is absurd");
+    if (acc.bufferView < 0) {
+        // Spec: no bufferView means all zeros; still bound the count by the file size.
+        if (uint64_t(acc.count) * elemBytes > kMaxFileBytes)
+            fail(element, accName + " count " + std::to_string(acc.count) + " is absurd");
+        return v;
+    }
+    if (size_t(acc.bufferView) >= model_.bufferViews.size())
+        fail(element, accName + " bufferView " + std::to_string(acc.bufferView) + " out of range");
+    const tinygltf::BufferView& bv = model_.bufferViews[size_t(acc.bufferView)];
+    const std::string bvName = "bufferViews[" + std::to_string(acc.bufferView) + "]";
+    if (bv.buffer < 0 || size_t(bv.buffer) >= model_.buffers.size())
+        fail(element, bvName + " buffer " + std::to_string(bv.buffer) + " out of range");
+    const tinygltf::Buffer& buf = model_.buffers[size_t(bv.buffer)];
+    const uint64_t bufBytes = buf.data.size();
+    if (uint64_t(bv.byteOffset) > bufBytes || uint64_t(bv.byteLength) > bufBytes - bv.byteOffset)
+        fail(element, bvName + " range [" + std::to_string(bv.byteOffset) + ", +" +
+                          std::to_string(bv.byteLength) + ") exceeds buffer of " +
+                          std::to_string(bufBytes) + " bytes");
+    size_t stride = bv.byteStride == 0 ? elemBytes : bv.byteStride;
+    if (stride < elemBytes || stride > 252)
+        fail(element, bvName + " byteStride " + std::to_string(bv.byteStride) +
+                          " is invalid for elements of " + std::to_string(elemBytes) + " bytes");
+    if (acc.byteOffset % size_t(componentBytes(acc.componentType)) != 0)
+        fail(element, accName + " byteOffset " + std::to_string(acc.byteOffset) +
+                          " is not aligned to its component size");
+    // Bytes needed: offset + stride·(count−1) + element, all in 64 bits (count ≤ 2^32, stride ≤ 252).
+    const uint64_t need = uint64_t(acc.byteOffset) + uint64_t(stride) * (uint64_t(acc.count) - 1) +
+                          uint64_t(elemBytes);
+    if (uint64_t(acc.byteOffset) > uint64_t(bv.byteLength) || need > uint64_t(bv.byteLength))
+        fail(element, accName + " count " + std::to_string(acc.count) + " needs " +
+                          std::to_string(need) + " bytes but " + bvName + " has " +
+                          std::to_string(bv.byteLength));
+    v.data = buf.data.data() + bv.byteOffset + acc.byteOffset;
+    v.stride = stride;
+    return v;
+}
+
+float readComponent(const unsigned char* p, int componentType, bool normalized) {
+    switch (componentType) {
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+            float f;
+            std::memcpy(&f, p, 4);
+            return f;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? float(*p) / 255.0f : float(*p);
+        case TINYGLTF_COMPONENT_TYPE_BYTE: {
+            float f = float(int8_t(*p));
+            return normalized ? std::max(f / 127.0f, -1.0f) : f;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+            uint16_t s;
+            std::memcpy(&s, p, 2);
+            return normalized ? float(s) / 65535.0f : float(s);
+        }
+        case TINYGLTF_COMPONENT_TYPE_SHORT: {
+            int16_t s;
+            std::memcpy(&s, p, 2);
+            return normalized ? std::max(float(s) / 32767.0f, -1.0f) : float(s);
+        }
+        default: return 0.0f;
+    }
+}
+
+std::vector<float> GltfImporter::readFloats(int index, const std::string& element, int type) const {
+    View v = type == TINYGLTF_TYPE_VEC2
+                 ? checkedAccessor(index, element, {type},
+                                   {TINYGLTF_COMPONENT_TYPE_FLOAT,
+                                    TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                                    TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT})
+                 : checkedAccessor(index, element, {type}, {TINYGLTF_COMPONENT_TYPE_FLOAT});
+    if (v.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && !v.normalized)
+        fail(element, "integer texture coordinates must be normalized");
+    std::vector<float> out(v.count * size_t(v.components), 0.0f);
+    if (!v.data) return out;
+    const size_t cb = size_t(componentBytes(v.componentType));
+    for (size_t i = 0; i < v.count; ++i)
+        for (int c = 0; c < v.components; ++c) {
+            float f = readComponent(v.data + i * v.stride + size_t(c) * cb, v.componentType,
+                                    v.normalized);
+            if (!std::isfinite(f))
+                fail(element, "element " + std::to_string(i) + " is not finite (NaN or Inf)");
+            out[i * size_t(v.components) + size_t(c)] = f;
+        }
+    return out;
+}
+
+std::vector<uint32_t> GltfImporter::readIndices(int index, const std::string& element) const {
+    View v = checkedAccessor(index, element, {TINYGLTF_TYPE_SCALAR},
+                             {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                              TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+                              TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT});
+    std::vector<uint32_t> out(v.count, 0u);
+    if (!v.data) return out;
+    for (size_t i = 0; i < v.count; ++i) {
+        const unsigned char* p = v.data + i * v.stride;
+        switch (v.componentType) {
+            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: out[i] = *p; break;
+            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+                uint16_t s;
+                std::memcpy(&s, p, 2);
+                out[i] = s;
+                break;
+            }
+            default: std::memcpy(&out[i], p, 4); break;
+        }
+    }
+    return out;
+}
+
+// ---- extensions, materials, textures ----------------------------------------------------
+
+void GltfImporter::checkExtensions() {
+    for (const std::string& ext : model_.extensionsRequired)
+        if (!supportedExtensions().count(ext))
+            fail("extensionsRequired", "extension " + ext + " is required but not supported");
+    std::string unsupported;
+    for (const std::string& ext : model_.extensionsUsed)
+        if (!supportedExtensions().count(ext)) unsupported += (unsupported.empty() ? "" : ", ") + ext;
+    if (!unsupported.empty()) warn("extensionsUsed: ignored unsupported extensions: " + unsupported);
+}
+
+double numberOr(const tinygltf::Value& obj, const char* key, double fallback) {
+    if (!obj.IsObject() || !obj.Has(key)) return fallback;
+    const tinygltf::Value& v = obj.Get(key);
+    return v.IsNumber() ? v.GetNumberAsDouble() : fallback;
+}
+
+std::optional<Vec3> vec3Of(const tinygltf::Value& obj, const char* key) {
+    if (!obj.IsObject() || !obj.Has(key)) return std::nullopt;
+    const tinygltf::Value& v = obj.Get(key);
+    if (!v.IsArray() || v.ArrayLen() < 3) return std::nullopt;
+    Vec3 out;
+    for (int i = 0; i < 3; ++i) {
+        if (!v.Get(i).IsNumber()) return std::nullopt;
+        out[i] = float(v.Get(i).GetNumberAsDouble());
+    }
+    return out;
+}
+
+const tinygltf::Value* extension(const tinygltf::ExtensionMap& map, const char* name) {
+    auto it = map.find(name);
+    return it == map.end() ? nullptr : &it->second;
+}
+
+int GltfImporter::textureFor(int gltfTexture, const std::string& element) {
+    if (gltfTexture < 0 || size_t(gltfTexture) >= model_.textures.size())
+        fail(element, "texture index " + std::to_string(gltfTexture) + " out of range");
+    int source = model_.textures[size_t(gltfTexture)].source;
+    if (source < 0) {
+        warn(element + ": texture " + std::to_string(gltfTexture) +
+             " has no supported image source; ignored");
+        return -1;
+    }
+    if (size_t(source) >= model_.images.size())
+        fail("textures[" + std::to_string(gltfTexture) + "]",
+             "image index " + std::to_string(source) + " out of range");
+    auto found = imageTextures_.find(source);
+    if (found != imageTextures_.end()) return found->second;
+
+    const tinygltf::Image& img = model_.images[size_t(source)];
+    const std::string imgEl = "images[" + std::to_string(source) + "]";
+    std::vector<unsigned char> encoded;
+    if (img.bufferView >= 0) {
+        if (size_t(img.bufferView) >= model_.bufferViews.size())
+            fail(imgEl, "bufferView " + std::to_string(img.bufferView) + " out of range");
+        const tinygltf::BufferView& bv = model_.bufferViews[size_t(img.bufferView)];
+        if (bv.buffer < 0 || size_t(bv.buffer) >= model_.buffers.size())
+            fail(imgEl, "buffer of its bufferView out of range");
+        const auto& data = model_.buffers[size_t(bv.buffer)].data;
+        if (bv.byteOffset > data.size() || bv.byteLength > data.size() - bv.byteOffset)
+            fail(imgEl, "bufferView " + std::to_string(img.bufferView) + " exceeds its buffer");
+        encoded.assign(data.begin() + std::ptrdiff_t(bv.byteOffset),
+                       data.begin() + std::ptrdiff_t(bv.byteOffset + bv.byteLength));
+    } else {
+        encoded = img.image;
+    }
+    if (encoded.empty()) {
+        warn(imgEl + ": image data unavailable (missing file?); texture ignored");
+        imageTextures_[source] = -1;
+        return -1;
+    }
+
+    Texture tex = decodeSrgbTexture(encoded, img.mimeType == "image/jpeg" ? "jpg" : "png", file_, imgEl);
+    if (!img.name.empty()) tex.name = img.name;
+    int32_t id = int32_t(scene_.textures.size());
+    scene_.textures.push_back(std::move(tex));
+    imageTextures_[source] = id;
+    return id;
+}
+
+void GltfImporter::convertMaterials() {
+    for (size_t mi = 0; mi < model_.materials.size(); ++mi) {
+        const tinygltf::Material& gm = model_.materials[mi];
+        const std::string el = "materials[" + std::to_string(mi) + "]";
+        Material m;
+        m.name = gm.name.empty() ? el : gm.name;
+        const auto& pbr = gm.pbrMetallicRoughness;
+        Vec3 base(1.0f);
+        if (pbr.baseColorFactor.size() >= 3)
+            base = Vec3(float(pbr.baseColorFactor[0]), float(pbr.baseColorFactor[1]),
+                        float(pbr.baseColorFactor[2]));
+        if (!finite3(base)) fail(el + ".pbrMetallicRoughness.baseColorFactor", "not finite");
+        base = glm::clamp(base, Vec3(0.0f), Vec3(1.0f));
+        m.baseColor = base;
+
+        const tinygltf::Value* transmission = extension(gm.extensions, "KHR_materials_transmission");
+        double transmissionFactor =
+            transmission ? numberOr(*transmission, "transmissionFactor", 0.0) : 0.0;
+        if (transmissionFactor >= 0.99) {
+            m.type = MaterialType::Dielectric;
+            m.baseColor = Vec3(1.0f);
+            const tinygltf::Value* iorExt = extension(gm.extensions, "KHR_materials_ior");
+            m.ior = float(iorExt ? numberOr(*iorExt, "ior", 1.5) : 1.5);
+            if (!std::isfinite(m.ior) || m.ior < 1.0f || m.ior > 4.0f)
+                fail(el + ".extensions.KHR_materials_ior", "ior " + std::to_string(m.ior) +
+                                                                " outside [1, 4]");
+            if (const tinygltf::Value* vol = extension(gm.extensions, "KHR_materials_volume")) {
+                double dist = numberOr(*vol, "attenuationDistance",
+                                       std::numeric_limits<double>::infinity());
+                Vec3 color = vec3Of(*vol, "attenuationColor").value_or(Vec3(1.0f));
+                if (!(dist > 0.0) || !finite3(color))
+                    fail(el + ".extensions.KHR_materials_volume",
+                         "attenuationDistance must be > 0 and attenuationColor finite");
+                if (std::isfinite(dist)) {
+                    // Beer–Lambert: transmittance after `dist` metres is attenuationColor.
+                    for (int c = 0; c < 3; ++c) {
+                        float col = std::clamp(color[c], 1e-30f, 1.0f);
+                        m.absorption[c] = float(-std::log(double(col)) / dist);
+                    }
+                }
+            }
+        } else {
+            if (transmissionFactor > 0.0)
+                warn(el + ": partial transmission " + std::to_string(transmissionFactor) +
+                     " unsupported; treated as opaque");
+            if (pbr.metallicFactor >= 0.99 && pbr.roughnessFactor <= 0.01) {
+                m.type = MaterialType::Mirror;
+            } else {
+                m.type = MaterialType::Diffuse;
+                if (pbr.baseColorTexture.index >= 0) {
+                    m.baseColorTexture =
+                        textureFor(pbr.baseColorTexture.index, el + ".pbrMetallicRoughness.baseColorTexture");
+                    if (pbr.baseColorTexture.texCoord != 0)
+                        warn(el + ": baseColorTexture uses TEXCOORD_" +
+                             std::to_string(pbr.baseColorTexture.texCoord) +
+                             "; TEXCOORD_0 is used instead");
+                }
+            }
+        }
+        if (gm.emissiveFactor.size() >= 3) {
+            Vec3 e(float(gm.emissiveFactor[0]), float(gm.emissiveFactor[1]),
+                   float(gm.emissiveFactor[2]));
+            double strength = 1.0;
+            if (const tinygltf::Value* es = extension(gm.extensions, "KHR_materials_emissive_strength"))
+                strength = numberOr(*es, "emissiveStrength", 1.0);
+            e *= float(strength);
+            if (!finite3(e) || glm::any(glm::lessThan(e, Vec3(0.0f))))
+                fail(el + ".emissiveFactor", "emission must be finite and non-negative");
+            m.emission = e;
+        }
+        if (gm.emissiveTexture.index >= 0)
+            warn(el + ": emissiveTexture ignored (emission is emissiveFactor only)");
+        scene_.materials.push_back(std::move(m));
+    }
+}
+
+uint32_t GltfImporter::defaultMaterial() {
+    if (defaultMaterial_ < 0) {
+        Material m;
+        m.name = "default";
+        m.baseColor = Vec3(0.8f);
+        defaultMaterial_ = int(scene_.materials.size());
+        scene_.materials.push_back(m);
+    }
+    return uint32_t(defaultMaterial_);
+}
+
+// ---- meshes -------------------------------------------------------------------------------
+
+std::vector<uint32_t> GltfImporter::convertMesh(int meshIndex) {
+    auto found = meshPrimitives_.find(meshIndex);
+    if (found != meshPrimitives_.end()) return found->second;
+    const std::string meshEl = "meshes[" + std::to_string(meshIndex) + "]";
+    if (meshIndex < 0 || size_t(meshIndex) >= model_.meshes.size())
+        fail(meshEl, "mesh index out of range (" + std::to_string(model_.meshes.size()) + " meshes)");
+    const tinygltf::Mesh& gmesh = model_.meshes[size_t(meshIndex)];
+    std::vector<uint32_t> result;
+    for (size_t pi = 0; pi < gmesh.primitives.size(); ++pi) {
+        const tinygltf::Primitive& prim = gmesh.primitives[pi];
+        const std::string el = meshEl + ".primitives[" + std::to_string(pi) + "]";
+        if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != -1) {
+            warn(el + ": mode " + std::to_string(prim.mode) + " is not TRIANGLES; primitive skipped");
+            continue;
+        }
+        if (!prim.targets.empty()) warn(el + ": morph targets ignored");
+        auto posIt = prim.attributes.find("POSITION");
+        if (posIt == prim.attributes.end()) fail(el + ".attributes", "no POSITION attribute");
+        Mesh mesh;
+        mesh.name = (gmesh.name.empty() ? meshEl : gmesh.name) +
+                    (gmesh.primitives.size() > 1 ? "/" + std::to_string(pi) : "");
+        std::vector<float> p = readFloats(posIt->second, el + ".attributes.POSITION", TINYGLTF_TYPE_VEC3);
+        size_t nv = p.size() / 3;
+        mesh.positions.resize(nv);
+        for (size_t i = 0; i < nv; ++i) mesh.positions[i] = Vec3(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+
+        if (prim.indices >= 0) {
+            mesh.indices = readIndices(prim.indices, el + ".indices");
+            for (size_t i = 0; i < mesh.indices.size(); ++i)
+                if (mesh.indices[i] >= nv)
+                    fail(el + ".indices", "index " + std::to_string(mesh.indices[i]) + " at position " +
+                                              std::to_string(i) + " out of range (" +
+                                              std::to_string(nv) + " vertices)");
+        } else {
+            mesh.indices.resize(nv);
+            for (size_t i = 0; i < nv; ++i) mesh.indices[i] = uint32_t(i);
+        }
+        if (mesh.indices.size() % 3 != 0) {
+            warn(el + ": index count " + std::to_string(mesh.indices.size()) +
+                 " not a multiple of 3; trailing indices dropped");
+            mesh.indices.resize(mesh.indices.size() / 3 * 3);
+        }
+        if (mesh.indices.empty()) {
+            warn(el + ": no triangles; primitive skipped");
+            continue;
+        }
+
+        auto nIt = prim.attributes.find("NORMAL");
+        bool needNormals = true;
+        if (nIt != prim.attributes.end()) {
+            std::vector<float> n = readFloats(nIt->second, el + ".attributes.NORMAL", TINYGLTF_TYPE_VEC3);
+            if (n.size() != p.size())
+                fail(el + ".attributes.NORMAL", "count differs from POSITION count");
+            mesh.normals.resize(nv);
+            needNormals = false;
+            for (size_t i = 0; i < nv; ++i) {
+                Vec3 v(n[3 * i], n[3 * i + 1], n[3 * i + 2]);
+                float len = glm::length(v);
+                if (!(len > 1e-12f)) {
+                    needNormals = true;
+                    break;
+                }
+                mesh.normals[i] = v / len;
+            }
+            if (needNormals) warn(el + ".attributes.NORMAL: zero-length normals; recomputed");
+        }
+        if (needNormals) mesh.normals = smoothVertexNormals(mesh.positions, mesh.indices);
+
+        auto uvIt = prim.attributes.find("TEXCOORD_0");
+        if (uvIt != prim.attributes.end()) {
+            std::vector<float> uv = readFloats(uvIt->second, el + ".attributes.TEXCOORD_0", TINYGLTF_TYPE_VEC2);
+            if (uv.size() / 2 != nv)
+                fail(el + ".attributes.TEXCOORD_0", "count differs from POSITION count");
+            mesh.uvs.resize(nv);
+            for (size_t i = 0; i < nv; ++i) mesh.uvs[i] = Vec2(uv[2 * i], uv[2 * i + 1]);
+        }
+
+        if (prim.material >= 0) {
+            if (size_t(prim.material) >= model_.materials.size())
+                fail(el + ".material", "material index " + std::to_string(prim.material) + " out of range");
+            mesh.material = uint32_t(prim.material);
+        } else {
+            mesh.material = defaultMaterial();
+        }
+        result.push_back(uint32_t(scene_.meshes.size()));
+        scene_.meshes.push_back(std::move(mesh));
+    }
+    meshPrimitives_[meshIndex] = result;
+    return result;
+}
+
+// ---- node hierarchy -------------------------------------------------------------------------
+
+Mat4 GltfImporter::localTransform(const tinygltf::Node& node, const std::string& el) const {
+    auto check = [&](const std::vector<double>& v, size_t n, const char* what) {
+        if (!v.empty() && v.size() != n)
+            fail(el + "." + what, "must have " + std::to_string(n) + " numbers");
+        for (double d : v)
+            if (!std::isfinite(d)) fail(el + "." + what, "not finite");
+    };
+    check(node.matrix, 16, "matrix");
+    check(node.translation, 3, "translation");
+    check(node.rotation, 4, "rotation");
+    check(node.scale, 3, "scale");
+    if (node.matrix.size() == 16) {
+        Mat4 m;
+        for (int i = 0; i < 16; ++i) glm::value_ptr(m)[i] = float(node.matrix[size_t(i)]);  // column-major
+        return m;
+    }
+    Mat4 t(1.0f), r(1.0f), s(1.0f);
+    if (node.translation.size() == 3)
+        t = glm::translate(Mat4(1.0f), Vec3(float(node.translation[0]), float(node.translation[1]),
+                                            float(node.translation[2])));
+    if (node.rotation.size() == 4) {
+        // glTF stores (x, y, z, w); glm::quat's constructor takes (w, x, y, z).
+        glm::quat q(float(node.rotation[3]), float(node.rotation[0]), float(node.rotation[1]),
+                    float(node.rotation[2]));
+        float len = glm::length(q);
+        if (!(len > 1e-12f)) fail(el + ".rotation", "zero quaternion");
+        r = glm::mat4_cast(q / len);
+    }
+    if (node.scale.size() == 3)
+        s = glm::scale(Mat4(1.0f), Vec3(float(node.scale[0]), float(node.scale[1]), float(node.scale[2])));
+    return t * r * s;
+}
+
+void GltfImporter::visitNode(int nodeIndex, const Mat4& parent, int depth) {
+    const std::string el = "nodes[" + std::to_string(nodeIndex) + "]";
+    if (nodeIndex < 0 || size_t(nodeIndex) >= model_.nodes.size())
+        fail(el, "node index out of range (" + std::to_string(model_.nodes.size()) + " nodes)");
+    if (depth > kMaxNodeDepth) fail(el, "node hierarchy deeper than " + std::to_string(kMaxNodeDepth));
+    if (onPath_[size_t(nodeIndex)]) fail(el, "node hierarchy has a cycle");
+    onPath_[size_t(nodeIndex)] = 1;
+    const tinygltf::Node& node = model_.nodes[size_t(nodeIndex)];
+    const Mat4 world = parent * localTransform(node, el);
+    const std::string name = node.name.empty() ? el : node.name;
+
+    if (node.mesh >= 0) {
+        if (node.skin >= 0) warn(el + ": skin ignored (mesh used in its bind pose)");
+        for (uint32_t meshId : convertMesh(node.mesh)) {
+            Instance inst;
+            inst.name = name;
+            inst.mesh = meshId;
+            inst.transform = world;
+            scene_.instances.push_back(inst);
+        }
+    }
+    Vec3 origin = Vec3(world * glm::vec4(0, 0, 0, 1));
+    glm::mat3 lin(world);
+    if (node.camera >= 0) {
+        if (size_t(node.camera) >= model_.cameras.size())
+            fail(el + ".camera", "camera index " + std::to_string(node.camera) + " out of range");
+        const tinygltf::Camera& gc = model_.cameras[size_t(node.camera)];
+        const std::string camEl = "cameras[" + std::to_string(node.camera) + "]";
+        if (gc.type != "perspective") {
+            warn(camEl + ": camera type '" + gc.type + "' unsupported; ignored");
+        } else if (!scene_.camera) {
+            Vec3 fwd = lin * Vec3(0, 0, -1);
+            Vec3 up = lin * Vec3(0, 1, 0);
+            double yfov = gc.perspective.yfov;
+            if (!(yfov > 1e-4 && yfov < 3.1)) fail(camEl + ".perspective.yfov", "outside (0, pi)");
+            if (!finite3(fwd) || glm::length(fwd) < 1e-12f || glm::length(glm::cross(fwd, up)) < 1e-12f)
+                fail(el, "camera node transform is degenerate");
+            scene_.camera = Camera::lookAt(origin, origin + glm::normalize(fwd), glm::normalize(up),
+                                           float(yfov));
+        }
+    }
+    if (const tinygltf::Value* lp = extension(node.extensions, "KHR_lights_punctual")) {
+        const std::string lightEl = el + ".extensions.KHR_lights_punctual";
+        if (!lp->IsObject() || !lp->Has("light") || !lp->Get("light").IsNumber())
+            fail(lightEl, "missing light index");
+        int li = lp->Get("light").GetNumberAsInt();
+        if (li < 0 || size_t(li) >= model_.lights.size())
+            fail(lightEl, "light index " + std::to_string(li) + " out of range");
+        const tinygltf::Light& gl = model_.lights[size_t(li)];
+        const std::string glEl = "extensions.KHR_lights_punctual.lights[" + std::to_string(li) + "]";
+        Light l;
+        l.name = gl.name.empty() ? glEl : gl.name;
+        Vec3 color(1.0f);
+        if (gl.color.size() >= 3) color = Vec3(float(gl.color[0]), float(gl.color[1]), float(gl.color[2]));
+        l.intensity = color * float(gl.intensity);
+        if (!finite3(l.intensity) || glm::any(glm::lessThan(l.intensity, Vec3(0.0f))))
+            fail(glEl, "intensity and color must be finite and non-negative");
+        l.position = origin;
+        Vec3 dir = lin * Vec3(0, 0, -1);
+        if (gl.type != "point") {
+            if (!finite3(dir) || !(glm::length(dir) > 1e-12f)) fail(el, "light node transform is degenerate");
+            l.direction = glm::normalize(dir);
+        }
+        if (gl.type == "point") {
+            l.type = LightType::Point;
+        } else if (gl.type == "directional") {
+            l.type = LightType::Directional;
+        } else if (gl.type == "spot") {
+            l.type = LightType::Spot;
+            float inner = float(gl.spot.innerConeAngle), outer = float(gl.spot.outerConeAngle);
+            if (!std::isfinite(inner) || !std::isfinite(outer) || outer <= 0.0f)
+                fail(glEl + ".spot", "cone angles must be finite and outer > 0");
+            outer = std::min(outer, 1.5707964f);
+            inner = std::clamp(inner, 0.0f, outer);
+            if (inner >= outer) {
+                warn(glEl + ".spot: innerConeAngle >= outerConeAngle; inner set just below outer");
+                inner = outer * 0.999f;
+            }
+            l.innerConeAngle = inner;
+            l.outerConeAngle = outer;
+        } else {
+            fail(glEl + ".type", "unknown light type '" + gl.type + "'");
+        }
+        if (gl.range > 0.0) warn(glEl + ": range ignored (physical inverse-square falloff)");
+        scene_.lights.push_back(l);
+    }
+    for (int child : node.children) visitNode(child, world, depth + 1);
+    onPath_[size_t(nodeIndex)] = 0;
+}
+
+Scene GltfImporter::run() {
+    checkExtensions();
+    convertMaterials();
+    onPath_.assign(model_.nodes.size(), 0);
+    std::vector<int> roots;
+    if (!model_.scenes.empty()) {
+        int s = model_.defaultScene >= 0 ? model_.defaultScene : 0;
+        if (size_t(s) >= model_.scenes.size())
+            fail("scene", "default scene " + std::to_string(s) + " out of range");
+        roots = model_.scenes[size_t(s)].nodes;
+        scene_.name = model_.scenes[size_t(s)].name;
+    } else {
+        // No scenes: every node that is nobody's child is a root.
+        std::vector<uint8_t> isChild(model_.nodes.size(), 0);
+        for (const auto& n : model_.nodes)
+            for (int c : n.children)
+                if (c >= 0 && size_t(c) < isChild.size()) isChild[size_t(c)] = 1;
+        for (size_t i = 0; i < model_.nodes.size(); ++i)
+            if (!isChild[i]) roots.push_back(int(i));
+    }
+    for (int r : roots) visitNode(r, Mat4(1.0f), 0);
+    if (scene_.name.empty()) scene_.name = std::filesystem::path(file_).stem().string();
+    if (!model_.animations.empty()) warn("animations ignored");
+    return std::move(scene_);
+}
+
+}  // namespace
+
+Scene loadGltfFromMemory(const std::vector<uint8_t>& bytes, const std::string& fileName,
+                         const std::string& baseDir) {
+    if (bytes.empty()) throw SceneError(fileName, "file", "file is empty (0 bytes)");
+    FsContext ctx;
+    if (!baseDir.empty()) {
+        std::error_code ec;
+        auto abs = std::filesystem::absolute(baseDir, ec);
+        ctx.baseDir = ec ? baseDir : abs.lexically_normal().string();
+        if (!ctx.baseDir.empty() && ctx.baseDir.back() != '/') ctx.baseDir += '/';
+    }
+    tinygltf::TinyGLTF loader;
+    loader.SetFsCallbacks(
+        tinygltf::FsCallbacks{&fsFileExists, &fsExpandPath, &fsReadWholeFile, &fsWriteWholeFile, &ctx});
+    loader.SetImageLoader(&keepEncodedImage, nullptr);
+    tinygltf::Model model;
+    std::string err, warn;
+    bool ok = false;
+    const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    {
+        // The JSON text: the whole file, or a GLB's first chunk (bounds checked; tinygltf
+        // rejects a malformed header itself).
+        const unsigned char* json = bytes.data();
+        size_t jsonBytes = bytes.size();
+        if (binary) {
+            uint32_t chunkLength = 0;
+            if (bytes.size() >= 20) std::memcpy(&chunkLength, bytes.data() + 12, 4);
+            json = bytes.data() + std::min<size_t>(20, bytes.size());
+            jsonBytes = std::min<size_t>(chunkLength, bytes.size() - std::min<size_t>(20, bytes.size()));
+        }
+        if (jsonDepth(json, jsonBytes) > kMaxJsonDepth)
+            throw SceneError(fileName, "JSON", "nesting deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    }
+    try {
+        if (binary) {
+            ok = loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(),
+                                             unsigned(std::min<size_t>(bytes.size(), UINT32_MAX)),
+                                             ctx.baseDir);
+        } else {
+            ok = loader.LoadASCIIFromString(&model, &err, &warn,
+                                            reinterpret_cast<const char*>(bytes.data()),
+                                            unsigned(std::min<size_t>(bytes.size(), UINT32_MAX)),
+                                            ctx.baseDir);
+        }
+    } catch (const std::exception& e) {
+        ok = false;
+        err += e.what();
+    }
+    if (!ok) {
+        if (err.empty()) err = "cannot parse glTF";
+        err = trimmed(err);
+        if (!binary && bytes[0] != '{' && bytes[0] != ' ' && bytes[0] != '\n' && bytes[0] != '\t' &&
+            bytes[0] != '\r')
+            throw SceneError(fileName, "JSON", "not a glTF file (neither JSON nor GLB): " + err);
+        throw SceneError(fileName, elementFromTinygltfError(err), err);
+    }
+    GltfImporter importer(model, fileName);
+    Scene scene = importer.run();
+    if (!warn.empty()) scene.warnings.insert(scene.warnings.begin(), fileName + ": " + trimmed(warn));
+    return scene;
+}
+
+Scene loadGltf(const std::string& path) {
+    std::vector<unsigned char> bytes;
+    std::string why;
+    if (!readFileBytes(path, &bytes, &why)) throw SceneError(path, "file", why);
+    std::filesystem::path p(path);
+    std::string dir = p.has_parent_path() ? p.parent_path().string() : std::string(".");
+    return loadGltfFromMemory(bytes, path, dir);
+}
+
+}  // namespace rtpm

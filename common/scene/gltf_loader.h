@@ -1,0 +1,38 @@
+// glTF 2.0 (.gltf / .glb) import into the rtpm Scene model, hardened against malformed files.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/scene/scene.h"
+
+namespace rtpm {
+
+/// Loads a glTF 2.0 file (`.gltf` JSON with embedded or external buffers, or `.glb`).
+/// Mapping (DESIGN §6): every primitive of a glTF mesh becomes one rtpm Mesh; every node that
+/// uses the mesh adds one Instance per primitive with the node's world transform (matrix or TRS).
+/// Cameras: the first perspective camera met in a depth-first traversal of the default scene
+/// (glTF cameras look down local −Z with +Y up). KHR_lights_punctual: point/spot intensity in
+/// W/sr, directional in W/m², times colour; spot cone angles; direction = the node's local −Z.
+/// Materials: metallic ≥ 0.99 and roughness ≤ 0.01 → Mirror (reflectance baseColorFactor);
+/// KHR_materials_transmission ≥ 0.99 → Dielectric (KHR_materials_ior, default 1.5; absorption
+/// σ = −ln(attenuationColor)/attenuationDistance from KHR_materials_volume, read whatever the
+/// thicknessFactor, because rtpm traces the real geometry); emissiveFactor ×
+/// KHR_materials_emissive_strength → emission; otherwise Diffuse with baseColorFactor times the
+/// sRGB-decoded baseColorTexture. Primitives other than TRIANGLES are skipped with a warning;
+/// missing normals are computed (area-weighted smooth). Unsupported required extensions are
+/// errors, unsupported used ones warnings (Scene::warnings).
+/// Throws SceneError{file, element, message} for any malformed input (bad JSON or GLB framing,
+/// missing buffers, out-of-range indices, accessor bounds, wrong component types, NaN/Inf
+/// vertices). Never reads outside a buffer and never allocates more than the file justifies.
+/// Thread-safe. Cost: O(file size + triangles).
+Scene loadGltf(const std::string& path);
+
+/// Same as loadGltf for bytes already in memory. `fileName` names the source in errors;
+/// `baseDir` resolves external buffer and image URIs (empty: external URIs are not resolvable
+/// from the current directory either, they are errors). Used by the fuzz target.
+Scene loadGltfFromMemory(const std::vector<uint8_t>& bytes, const std::string& fileName,
+                         const std::string& baseDir);
+
+}  // namespace rtpm

@@ -1,0 +1,31 @@
+// Wavefront OBJ + MTL import into the rtpm Scene model (tinyobjloader), with line-accurate errors.
+//
+// MTL → rtpm material mapping (OBJ has no physically based convention, so this is ours):
+//   * emission: Ke (radiance W/(m²·sr)) on any material makes it an area light.
+//   * Mirror when illum is 3 or 5, or when Ks ≈ 1 (max ≥ 0.99) and Kd ≈ 0 (max ≤ 0.01), or when
+//     the PBR extension says Pm ≥ 0.99 and Pr ≤ 0.01; reflectance = Ks (Kd for the PBR case).
+//   * Dielectric when illum is 4, 6, 7 or 9, or when d < 1 (dissolve) and Ni > 1; ior = Ni when
+//     Ni > 1, otherwise 1.5 with a warning. Tf (transmission filter), when not black, is read as
+//     the transmittance through 1 m of the medium: absorption σ = −ln(Tf) per metre (Tf clamped
+//     to ≥ 1e-4); a black or absent Tf means no absorption.
+//   * Otherwise Diffuse with albedo Kd (clamped to [0, 1]) times map_Kd (decoded through
+//     OpenImageIO, sRGB → linear). Other maps (bump, map_Ks, …) are ignored with a warning.
+// OBJ carries no camera and no punctual light: the caller (loadScene) supplies defaults.
+// Faces are triangulated (fan); missing normals are computed per OBJ vertex (area-weighted).
+#pragma once
+
+#include <string>
+
+#include "common/scene/scene.h"
+
+namespace rtpm {
+
+/// Loads `path` (.obj) and the MTL libraries it names (relative to its directory).
+/// One rtpm Mesh per (object/group, material) pair, each with one identity Instance.
+/// Throws SceneError{file, element, message}; element is "line N" where the fault has a line
+/// (bad number, face index out of range, NaN/Inf vertex), or the MTL material's name.
+/// A missing MTL file or texture is a warning (Scene::warnings), not an error.
+/// Thread-safe. Cost: O(file size).
+Scene loadObj(const std::string& path);
+
+}  // namespace rtpm

@@ -1,0 +1,167 @@
+// Scene model helpers: bounds, texture lookup, camera rays and validation.
+#include "common/scene/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+namespace rtpm {
+
+namespace {
+
+
+bool finiteMatrix(const Mat4& m) {
+    for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r)
+            if (!std::isfinite(m[c][r])) return false;
+    return true;
+}
+
+
+}  // namespace
+
+Vec3 Texture::sample(Vec2 uv) const {
+    // Repeat wrapping, texel centres at half-integers, bilinear.
+    float x = (uv.x - std::floor(uv.x)) * float(width) - 0.5f;
+    float y = (uv.y - std::floor(uv.y)) * float(height) - 0.5f;
+    if (!std::isfinite(x) || !std::isfinite(y)) return Vec3(0.0f);
+    float fx = std::floor(x), fy = std::floor(y);
+    float tx = x - fx, ty = y - fy;
+    auto wrap = [](int v, int n) { return ((v % n) + n) % n; };
+    int x0 = wrap(int(fx), width), x1 = wrap(int(fx) + 1, width);
+    int y0 = wrap(int(fy), height), y1 = wrap(int(fy) + 1, height);
+    auto texel = [&](int xi, int yi) {
+        const float* p = &rgb[(size_t(yi) * size_t(width) + size_t(xi)) * 3];
+        return Vec3(p[0], p[1], p[2]);
+    };
+    return (1 - ty) * ((1 - tx) * texel(x0, y0) + tx * texel(x1, y0)) +
+           ty * ((1 - tx) * texel(x0, y1) + tx * texel(x1, y1));
+}
+
+Camera Camera::lookAt(Vec3 eye, Vec3 target, Vec3 upHint, float yfovRadians) {
+    Camera c;
+    c.position = eye;
+    c.forward = glm::normalize(target - eye);
+    Vec3 right = glm::cross(c.forward, upHint);
+    if (glm::length(right) < 1e-6f) right = glm::cross(c.forward, Vec3(1, 0, 0));
+    if (glm::length(right) < 1e-6f) right = glm::cross(c.forward, Vec3(0, 0, 1));
+    right = glm::normalize(right);
+    c.up = glm::normalize(glm::cross(right, c.forward));
+    c.yfov = yfovRadians;
+    return c;
+}
+
+Vec3 Camera::rayDirection(int i, int j, int width, int height) const {
+    // Image plane at distance 1: half height tan(yfov/2), aspect from the image size.
+    float halfH = std::tan(0.5f * yfov);
+    float halfW = halfH * float(width) / float(height);
+    float sx = (2.0f * (float(i) + 0.5f) / float(width) - 1.0f) * halfW;
+    float sy = (1.0f - 2.0f * (float(j) + 0.5f) / float(height)) * halfH;
+    Vec3 right = glm::cross(forward, up);
+    return glm::normalize(forward + sx * right + sy * up);
+}
+
+Bounds Scene::bounds() const {
+    Bounds b;
+    for (const Instance& inst : instances) {
+        if (inst.mesh >= meshes.size()) continue;
+        for (Vec3 p : meshes[inst.mesh].positions) b.extend(Vec3(inst.transform * glm::vec4(p, 1.0f)));
+    }
+    for (const Light& l : lights)
+        if (l.type != LightType::Directional) b.extend(l.position);
+    return b;
+}
+
+size_t Scene::triangleCount() const {
+    size_t n = 0;
+    for (const Instance& inst : instances)
+        if (inst.mesh < meshes.size()) n += meshes[inst.mesh].triangleCount();
+    return n;
+}
+
+void Scene::validate(const std::string& fileName) const {
+    for (size_t mi = 0; mi < meshes.size(); ++mi) {
+        const Mesh& m = meshes[mi];
+        std::string el = "mesh " + std::to_string(mi) + " (" + m.name + ")";
+        if (m.indices.size() % 3 != 0) throw SceneError(fileName, el, "index count not a multiple of 3");
+        for (uint32_t idx : m.indices)
+            if (idx >= m.positions.size())
+                throw SceneError(fileName, el, "vertex index " + std::to_string(idx) + " out of range");
+        for (Vec3 p : m.positions)
+            if (!finite(p)) throw SceneError(fileName, el, "non-finite vertex position");
+        if (!m.normals.empty() && m.normals.size() != m.positions.size())
+            throw SceneError(fileName, el, "normal count differs from vertex count");
+        for (Vec3 n : m.normals)
+            if (!finite(n)) throw SceneError(fileName, el, "non-finite vertex normal");
+        if (!m.uvs.empty() && m.uvs.size() != m.positions.size())
+            throw SceneError(fileName, el, "uv count differs from vertex count");
+        if (m.material >= materials.size()) throw SceneError(fileName, el, "material index out of range");
+    }
+    for (size_t ii = 0; ii < instances.size(); ++ii) {
+        std::string el = "instance " + std::to_string(ii) + " (" + instances[ii].name + ")";
+        if (instances[ii].mesh >= meshes.size()) throw SceneError(fileName, el, "mesh index out of range");
+        if (!finiteMatrix(instances[ii].transform)) throw SceneError(fileName, el, "non-finite transform");
+    }
+    for (size_t mi = 0; mi < materials.size(); ++mi) {
+        const Material& m = materials[mi];
+        std::string el = "material " + std::to_string(mi) + " (" + m.name + ")";
+        if (!finite(m.baseColor) || !finite(m.emission) || !finite(m.absorption) || !std::isfinite(m.ior))
+            throw SceneError(fileName, el, "non-finite value");
+        if (glm::any(glm::lessThan(m.emission, Vec3(0.0f))) || glm::any(glm::lessThan(m.absorption, Vec3(0.0f))))
+            throw SceneError(fileName, el, "negative emission or absorption");
+        if (m.type == MaterialType::Dielectric && !(m.ior >= 1.0f && m.ior <= 4.0f))
+            throw SceneError(fileName, el, "ior " + std::to_string(m.ior) + " outside [1, 4]");
+        if (m.baseColorTexture >= int32_t(textures.size()))
+            throw SceneError(fileName, el, "texture index out of range");
+    }
+    for (size_t li = 0; li < lights.size(); ++li) {
+        const Light& l = lights[li];
+        std::string el = "light " + std::to_string(li) + " (" + l.name + ")";
+        if (!finite(l.position) || !finite(l.direction) || !finite(l.intensity))
+            throw SceneError(fileName, el, "non-finite value");
+        if (glm::any(glm::lessThan(l.intensity, Vec3(0.0f))))
+            throw SceneError(fileName, el, "negative intensity");
+        if (l.type != LightType::Point && std::abs(glm::length(l.direction) - 1.0f) > 1e-3f)
+            throw SceneError(fileName, el, "direction is not a unit vector");
+        if (l.type == LightType::Spot &&
+            !(l.innerConeAngle >= 0.0f && l.innerConeAngle < l.outerConeAngle && l.outerConeAngle <= 1.5707964f))
+            throw SceneError(fileName, el, "spot cone angles must satisfy 0 <= inner < outer <= pi/2");
+    }
+    if (camera) {
+        const Camera& c = *camera;
+        if (!finite(c.position) || !finite(c.forward) || !finite(c.up))
+            throw SceneError(fileName, "camera", "non-finite value");
+        if (!(c.yfov > 1e-4f && c.yfov < 3.1f)) throw SceneError(fileName, "camera", "yfov outside (0, pi)");
+    }
+    for (size_t ti = 0; ti < textures.size(); ++ti) {
+        const Texture& t = textures[ti];
+        if (t.width <= 0 || t.height <= 0 || t.rgb.size() != size_t(t.width) * size_t(t.height) * 3)
+            throw SceneError(fileName, "texture " + std::to_string(ti) + " (" + t.name + ")", "bad size");
+    }
+}
+
+SpotShape spotShape(const Light& light) {
+    SpotShape s;
+    s.cosOuter = std::cos(static_cast<double>(light.outerConeAngle));
+    const double cosInner = std::cos(static_cast<double>(light.innerConeAngle));
+    s.scale = 1.0 / std::max(0.001, cosInner - s.cosOuter);
+    s.c1 = std::min(1.0, s.cosOuter + 1.0 / s.scale);
+    const double w = s.c1 - s.cosOuter;
+    s.ramp = s.scale * s.scale * w * w * w / 3.0;
+    s.flat = 1.0 - s.c1;
+    return s;
+}
+
+float spotFalloff(const Light& light, float cosTheta) {
+    const SpotShape s = spotShape(light);
+    const double a = std::clamp((static_cast<double>(cosTheta) - s.cosOuter) * s.scale, 0.0, 1.0);
+    return static_cast<float>(a * a);
+}
+
+float spotSolidAngle(const Light& light) {
+    const SpotShape s = spotShape(light);
+    return static_cast<float>(2.0 * std::numbers::pi * (s.ramp + s.flat));
+}
+
+}  // namespace rtpm

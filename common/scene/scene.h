@@ -1,0 +1,146 @@
+// The scene model shared by every process: meshes, instances, materials, lights, camera.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "common/core/math.h"
+
+namespace rtpm {
+
+/// A scene file, setting or edit that cannot be used. `file` and `element` name the place.
+struct SceneError : std::runtime_error {
+    SceneError(std::string fileName, std::string elementName, const std::string& message)
+        : std::runtime_error(fileName + ": " + elementName + ": " + message),
+          file(std::move(fileName)),
+          element(std::move(elementName)) {}
+    std::string file;
+    std::string element;
+};
+
+/// Axis-aligned box in world space (metres). Empty when lo > hi.
+struct Bounds {
+    Vec3 lo{1e30f};
+    Vec3 hi{-1e30f};
+    void extend(Vec3 p) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    bool empty() const { return lo.x > hi.x; }
+    Vec3 extent() const { return empty() ? Vec3(0.0f) : hi - lo; }
+    Vec3 centre() const { return 0.5f * (lo + hi); }
+    float diagonal() const { return glm::length(extent()); }
+};
+
+/// Linear RGB texture, row 0 at the top (glTF/image convention, uv (0,0) = top-left).
+struct Texture {
+    std::string name;
+    int width = 0;
+    int height = 0;
+    std::vector<float> rgb;  // width * height * 3, linear (sRGB decoded on load)
+    /// Bilinear lookup with repeat wrapping. Precondition: width, height > 0.
+    Vec3 sample(Vec2 uv) const;
+};
+
+enum class MaterialType : uint8_t {
+    Diffuse,     ///< Lambertian, albedo baseColor (times texture)
+    Mirror,      ///< perfect specular reflector, reflectance baseColor
+    Dielectric,  ///< smooth glass/liquid: exact Fresnel, refraction, Beer–Lambert inside
+};
+
+/// DESIGN §6 mapping from glTF metallic-roughness. Emission makes any material an area light.
+struct Material {
+    std::string name;
+    MaterialType type = MaterialType::Diffuse;
+    Vec3 baseColor{0.8f};       ///< albedo (Diffuse) or reflectance (Mirror); tint is ignored for Dielectric
+    int32_t baseColorTexture = -1;  ///< index into Scene::textures, -1 for none
+    float ior = 1.5f;           ///< Dielectric: index of refraction inside the surface
+    Vec3 absorption{0.0f};      ///< Dielectric: Beer–Lambert coefficient σ_a per metre inside
+    Vec3 emission{0.0f};        ///< emitted radiance W/(m²·sr) from the front face; > 0 → area light
+    bool isEmissive() const { return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f; }
+    bool isSpecular() const { return type != MaterialType::Diffuse; }
+};
+
+/// Triangle mesh in object space. `normals` and `uvs` are per vertex and may be empty.
+struct Mesh {
+    std::string name;
+    std::vector<Vec3> positions;
+    std::vector<Vec3> normals;
+    std::vector<Vec2> uvs;
+    std::vector<uint32_t> indices;  ///< 3 per triangle
+    uint32_t material = 0;          ///< index into Scene::materials
+    size_t triangleCount() const { return indices.size() / 3; }
+};
+
+/// One placement of a mesh in the world; several instances may share a mesh.
+struct Instance {
+    std::string name;
+    uint32_t mesh = 0;
+    Mat4 transform{1.0f};  ///< object → world
+};
+
+enum class LightType : uint8_t { Point, Spot, Directional };
+
+/// Punctual light (area lights are emissive triangles, see Material::emission).
+/// DESIGN §6: point/spot intensity is radiant intensity W/sr; directional is irradiance W/m².
+struct Light {
+    std::string name;
+    LightType type = LightType::Point;
+    Vec3 position{0.0f};           ///< world, metres (point, spot)
+    Vec3 direction{0.0f, -1.0f, 0.0f};  ///< unit, the direction light travels (spot, directional)
+    Vec3 intensity{1.0f};          ///< W/sr (point, spot) or W/m² (directional), colour included
+    float innerConeAngle = 0.0f;   ///< spot: full intensity inside (radians from the axis)
+    float outerConeAngle = 0.785398f;  ///< spot: zero outside; smooth falloff between (glTF)
+};
+
+/// Pinhole camera, glTF convention: looks down −Z of its frame with +Y up.
+/// Pixel (i, j), column i from the left, row j from the top, is sampled at its centre.
+struct Camera {
+    Vec3 position{0.0f};
+    Vec3 forward{0.0f, 0.0f, -1.0f};  ///< unit
+    Vec3 up{0.0f, 1.0f, 0.0f};        ///< unit, orthogonal to forward
+    float yfov = 0.8f;                ///< vertical field of view, radians
+    /// Camera at `eye` looking at `target`, `upHint` roughly up.
+    static Camera lookAt(Vec3 eye, Vec3 target, Vec3 upHint, float yfovRadians);
+    /// Unit world-space direction through the centre of pixel (i, j) of a width × height image.
+    Vec3 rayDirection(int i, int j, int width, int height) const;
+};
+
+/// A whole scene. Owned by value; loaders and builders fill it, everything else reads it.
+struct Scene {
+    std::string name;
+    std::vector<Mesh> meshes;
+    std::vector<Instance> instances;
+    std::vector<Material> materials;
+    std::vector<Texture> textures;
+    std::vector<Light> lights;
+    std::optional<Camera> camera;
+    std::vector<std::string> warnings;  ///< unsupported features met while loading
+
+    /// World bounds of every instance (empty scene → empty bounds). Cost O(vertices).
+    Bounds bounds() const;
+    size_t triangleCount() const;
+    /// Throws SceneError naming the element if an index is out of range or a value is not finite.
+    void validate(const std::string& fileName) const;
+};
+
+/// A spot light's cone in the form its falloff and solid angle use: s = 1 / max(0.001, cosI − cosO),
+/// c₁ = min(1, cosO + 1/s), ramp = ∫_{cosO}^{c₁} falloff dc, flat = 1 − c₁.
+struct SpotShape {
+    double cosOuter, scale, c1, ramp, flat;  // ramp = ∫_{cosO}^{c1} a dc, flat = 1 − c1
+};
+/// The shape of `light`'s cone (spot lights; other types give a meaningless shape). Pure, O(1).
+SpotShape spotShape(const Light& light);
+
+
+/// glTF KHR_lights_punctual spot attenuation (the spec's reference implementation):
+/// clamp((cosθ − cosO)·s, 0, 1)² with s = 1 / max(0.001, cosI − cosO). Pure, O(1).
+float spotFalloff(const Light& light, float cosTheta);
+/// ∫ spotFalloff dω over the sphere (sr), exact closed form:
+/// 2π·[(1 − c₁) + s²(c₁ − cosO)³/3] with c₁ = min(1, cosO + 1/s).
+float spotSolidAngle(const Light& light);
+
+}  // namespace rtpm

@@ -1,0 +1,157 @@
+// loadScene: dispatch by built-in name or file extension, apply overrides, add defaults, validate.
+#include "common/scene/scene_loader.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+
+#include "common/scene/builtin_scenes.h"
+#include "common/scene/gltf_loader.h"
+#include "common/scene/obj_loader.h"
+
+namespace rtpm {
+
+namespace {
+
+constexpr uint64_t kMaxTexels = uint64_t(1) << 26;
+
+std::string lower(std::string s) {
+    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return s;
+}
+
+std::string upper(std::string s) {
+    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::toupper(c)); });
+    return s;
+}
+
+float srgbToLinear(float c) {
+    c = std::clamp(std::isfinite(c) ? c : 0.0f, 0.0f, 1.0f);
+    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+
+// A camera that sees the whole scene: from the +Z side, slightly above, bounding sphere in view.
+Camera defaultCamera(const Bounds& b) {
+    Vec3 centre = b.empty() ? Vec3(0.0f) : b.centre();
+    float radius = std::max(0.5f * (b.empty() ? 1.0f : b.diagonal()), 1e-3f);
+    const float yfov = 0.8f;
+    float dist = radius / std::sin(0.5f * yfov);
+    Vec3 eye = centre + glm::normalize(Vec3(0.0f, 0.35f, 1.0f)) * dist;
+    return Camera::lookAt(eye, centre, Vec3(0, 1, 0), yfov);
+}
+
+bool hasLightOrEmitter(const Scene& s) {
+    if (!s.lights.empty()) return true;
+    for (const Instance& inst : s.instances)
+        if (inst.mesh < s.meshes.size() && s.meshes[inst.mesh].material < s.materials.size() &&
+            s.materials[s.meshes[inst.mesh].material].isEmissive())
+            return true;
+    return false;
+}
+
+}  // namespace
+
+std::vector<std::string> builtinSceneNames() { return {"RING", "GLASS", "EGG", "HEADLIGHT", "CORNELL"}; }
+
+Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides) {
+    Scene scene;
+    const std::string name = upper(nameOrPath);
+    const auto names = builtinSceneNames();
+    if (std::find(names.begin(), names.end(), name) != names.end()) {
+        scene = buildBuiltinScene(name);
+    } else {
+        const std::string ext = lower(std::filesystem::path(nameOrPath).extension().string());
+        if (ext == ".gltf" || ext == ".glb") {
+            scene = loadGltf(nameOrPath);
+        } else if (ext == ".obj") {
+            scene = loadObj(nameOrPath);
+        } else {
+            std::string known;
+            for (const auto& n : names) known += n + " ";
+            throw SceneError(nameOrPath, "scene",
+                             "neither a built-in scene (" + known +
+                                 ") nor a file with extension .gltf, .glb or .obj");
+        }
+    }
+    if (overrides.camera) {
+        const CameraOverride& c = *overrides.camera;
+        if (glm::length(c.target - c.eye) < 1e-9f)
+            throw SceneError(nameOrPath, "camera override", "eye and target coincide");
+        scene.camera = Camera::lookAt(c.eye, c.target, c.up, c.yfov);
+    }
+    if (overrides.light) {
+        Light l;
+        l.name = "override point light";
+        l.type = LightType::Point;
+        l.position = overrides.light->position;
+        l.intensity = overrides.light->intensity;
+        scene.lights.push_back(l);
+    }
+    if (scene.triangleCount() == 0) throw SceneError(nameOrPath, "meshes", "scene has no triangles");
+    if (!hasLightOrEmitter(scene))
+        throw SceneError(nameOrPath, "lights",
+                         "scene has no light and no emissive material; give one (e.g. a point "
+                         "light override)");
+    if (!scene.camera) scene.camera = defaultCamera(scene.bounds());
+    scene.validate(nameOrPath);
+    return scene;
+}
+
+std::vector<Vec3> smoothVertexNormals(const std::vector<Vec3>& positions,
+                                      const std::vector<uint32_t>& indices) {
+    std::vector<Vec3> n(positions.size(), Vec3(0.0f));
+    for (size_t t = 0; t + 2 < indices.size(); t += 3) {
+        Vec3 a = positions[indices[t]], b = positions[indices[t + 1]], c = positions[indices[t + 2]];
+        Vec3 g = glm::cross(b - a, c - a);
+        n[indices[t]] += g;
+        n[indices[t + 1]] += g;
+        n[indices[t + 2]] += g;
+    }
+    for (Vec3& v : n) {
+        float len = glm::length(v);
+        v = len > 0.0f && std::isfinite(len) ? v / len : Vec3(0.0f, 0.0f, 1.0f);
+    }
+    return n;
+}
+
+Texture decodeSrgbTexture(const std::vector<uint8_t>& encoded, const std::string& formatHint,
+                          const std::string& file, const std::string& element) {
+    if (encoded.empty()) throw SceneError(file, element, "image data is empty");
+    // The pseudo file name only picks the reader plugin; a recognised signature wins over the hint.
+    std::string ext = lower(std::filesystem::path(formatHint).extension().string());
+    if (ext.empty()) ext = "." + lower(formatHint);
+    if (encoded.size() >= 4 && encoded[0] == 0x89 && encoded[1] == 'P' && encoded[2] == 'N' &&
+        encoded[3] == 'G')
+        ext = ".png";
+    else if (encoded.size() >= 3 && encoded[0] == 0xFF && encoded[1] == 0xD8 && encoded[2] == 0xFF)
+        ext = ".jpg";
+    OIIO::Filesystem::IOMemReader reader(encoded.data(), encoded.size());
+    auto in = OIIO::ImageInput::open("image" + ext, nullptr, &reader);
+    if (!in) throw SceneError(file, element, "cannot decode image: " + OIIO::geterror());
+    const OIIO::ImageSpec& spec = in->spec();
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 ||
+        uint64_t(spec.width) * uint64_t(spec.height) > kMaxTexels)
+        throw SceneError(file, element,
+                         "image size " + std::to_string(spec.width) + "x" +
+                             std::to_string(spec.height) + " unsupported");
+    const int nch = spec.nchannels;
+    std::vector<float> pixels(size_t(spec.width) * size_t(spec.height) * size_t(nch));
+    if (!in->read_image(0, 0, 0, nch, OIIO::TypeDesc::FLOAT, pixels.data()))
+        throw SceneError(file, element, "cannot decode image: " + in->geterror());
+    Texture tex;
+    tex.name = element;
+    tex.width = spec.width;
+    tex.height = spec.height;
+    const size_t texels = size_t(tex.width) * size_t(tex.height);
+    tex.rgb.resize(texels * 3);
+    for (size_t p = 0; p < texels; ++p)
+        for (size_t c = 0; c < 3; ++c)
+            tex.rgb[p * 3 + c] = srgbToLinear(pixels[p * size_t(nch) + (nch >= 3 ? c : 0)]);
+    return tex;
+}
+
+}  // namespace rtpm

@@ -1,0 +1,64 @@
+// One entry point that turns a built-in scene name or a scene file path into a validated Scene.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/scene/scene.h"
+
+namespace rtpm {
+
+/// Camera given on the command line; replaces the scene's own camera.
+struct CameraOverride {
+    Vec3 eye{0.0f, 1.0f, 3.0f};     ///< world, metres
+    Vec3 target{0.0f};              ///< world, metres
+    Vec3 up{0.0f, 1.0f, 0.0f};      ///< rough up hint
+    float yfov = 0.8f;              ///< vertical field of view, radians
+};
+
+/// Extra point light added to the scene (for OBJ files, which carry no punctual lights).
+struct PointLightOverride {
+    Vec3 position{0.0f, 2.0f, 0.0f};  ///< world, metres
+    Vec3 intensity{10.0f};            ///< radiant intensity W/sr per channel (flux = 4π·intensity)
+};
+
+/// Changes applied after a scene is loaded or built.
+struct SceneOverrides {
+    std::optional<CameraOverride> camera;     ///< replaces the scene's camera when set
+    std::optional<PointLightOverride> light;  ///< appended to Scene::lights when set
+};
+
+/// Names accepted by loadScene as built-in scenes, upper case: RING, GLASS, EGG, HEADLIGHT, CORNELL.
+std::vector<std::string> builtinSceneNames();
+
+/// Loads a scene.
+/// `nameOrPath` is a built-in name (case-insensitive, see builtinSceneNames()) or a file path
+/// chosen by extension (case-insensitive): `.gltf`, `.glb` (glTF 2.0) or `.obj` (with its MTL).
+/// Overrides are applied after loading. A scene without a camera gets a default one looking at
+/// the centre of its bounds from the +Z side (so every returned scene has a camera).
+/// A scene with no light and no emissive material is an error (SceneError naming the file)
+/// unless `overrides.light` supplies one. Warnings (unsupported features) are in Scene::warnings.
+/// Throws SceneError{file, element, message} on any bad input; never crashes on malformed files.
+/// The returned scene passes Scene::validate. Thread-safe (no shared state). Cost: O(file size)
+/// for files, O(triangles) for built-ins.
+Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides = {});
+
+}  // namespace rtpm
+
+namespace rtpm {
+
+/// Area-weighted smooth vertex normals: every triangle adds its unnormalised geometric normal
+/// (so its area) to its three vertices; vertices touched by no non-degenerate triangle get +Z.
+/// Used by every loader and builder. Cost O(vertices + indices). Precondition: indices valid.
+std::vector<Vec3> smoothVertexNormals(const std::vector<Vec3>& positions,
+                                      const std::vector<uint32_t>& indices);
+
+/// Decodes an encoded image (PNG, JPEG, … any format OpenImageIO reads) holding sRGB colour to
+/// a linear RGB Texture (grey replicated, alpha dropped). `formatHint` is a file name or
+/// extension that picks the reader when the bytes have no recognised signature.
+/// Throws SceneError{file, element, …} for undecodable or absurdly large (> 2^26 texels) images.
+Texture decodeSrgbTexture(const std::vector<uint8_t>& encoded, const std::string& formatHint,
+                          const std::string& file, const std::string& element);
+
+}  // namespace rtpm

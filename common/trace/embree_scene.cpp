@@ -1,0 +1,428 @@
+// Embree 3 acceleration structure over a Scene: two-level BVH (one BLAS per mesh, one instance per
+// Instance), world-space surface hits, robust origin offsets and the emissive-triangle list.
+#include "common/trace/embree_scene.h"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+
+#include <glm/gtc/matrix_inverse.hpp>
+
+#include "common/core/check.h"
+
+namespace rtpm {
+
+namespace {
+
+const char* rtcErrorName(RTCError code) {
+    switch (code) {
+        case RTC_ERROR_NONE: return "none";
+        case RTC_ERROR_UNKNOWN: return "unknown error";
+        case RTC_ERROR_INVALID_ARGUMENT: return "invalid argument";
+        case RTC_ERROR_INVALID_OPERATION: return "invalid operation";
+        case RTC_ERROR_OUT_OF_MEMORY: return "out of memory";
+        case RTC_ERROR_UNSUPPORTED_CPU: return "unsupported CPU";
+        case RTC_ERROR_CANCELLED: return "cancelled";
+    }
+    return "unrecognised error";
+}
+
+
+float maxAbs(Vec3 v) { return std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)}); }
+
+}  // namespace
+
+// Why copies of the meshes and instance transforms: setMesh/setTransform may be called with data
+// that is not (yet) in the Scene the caller passed, and shading must use the same vertices Embree
+// intersects. Materials, by contrast, are read live from the Scene (edits need no rebuild).
+struct EmbreeScene::Impl {
+    RTCDevice device = nullptr;
+    RTCScene top = nullptr;
+    std::vector<RTCScene> meshScenes;      // one per mesh, each holding geometry 0
+    std::vector<RTCGeometry> instanceGeoms;  // one per instance, geomID == instance index
+    std::vector<Mesh> meshes;
+    std::vector<Mat4> transforms;          // object → world
+    std::vector<glm::mat3> normalMatrices;  // inverse transpose of the upper 3×3
+    std::vector<uint8_t> identityLinear;    // upper 3×3 is exactly the identity: skip nm · n per hit
+    std::vector<uint32_t> instanceMesh;
+
+    std::mutex errorMutex;
+    std::string lastError;
+
+    ~Impl() {
+        for (RTCGeometry g : instanceGeoms)
+            if (g) rtcReleaseGeometry(g);
+        for (RTCScene s : meshScenes)
+            if (s) rtcReleaseScene(s);
+        if (top) rtcReleaseScene(top);
+        if (device) rtcReleaseDevice(device);
+    }
+
+    static void onError(void* user, RTCError code, const char* message) {
+        auto* self = static_cast<Impl*>(user);
+        std::lock_guard<std::mutex> lock(self->errorMutex);
+        self->lastError = std::string(rtcErrorName(code)) + (message ? std::string(": ") + message : "");
+    }
+
+    /// Throws std::runtime_error naming `what` if Embree reported an error since the last check.
+    void throwOnError(const std::string& what) {
+        const RTCError code = rtcGetDeviceError(device);
+        std::string message;
+        {
+            std::lock_guard<std::mutex> lock(errorMutex);
+            message.swap(lastError);
+        }
+        if (code != RTC_ERROR_NONE || !message.empty())
+            throw std::runtime_error("Embree error during " + what + ": " +
+                                     (message.empty() ? rtcErrorName(code) : message));
+    }
+
+    RTCGeometry buildTriangleGeometry(const Mesh& mesh, uint32_t meshIndex) {
+        const size_t vertexCount = mesh.positions.size();
+        const size_t triCount = mesh.indices.size() / 3;
+        if (mesh.indices.size() % 3 != 0)
+            throw SceneError("<embree>", "mesh " + std::to_string(meshIndex) + " '" + mesh.name + "'",
+                             "index count " + std::to_string(mesh.indices.size()) +
+                                 " is not a multiple of 3");
+        for (uint32_t idx : mesh.indices)
+            if (idx >= vertexCount)
+                throw SceneError("<embree>", "mesh " + std::to_string(meshIndex) + " '" + mesh.name + "'",
+                                 "vertex index " + std::to_string(idx) + " out of range (" +
+                                     std::to_string(vertexCount) + " vertices)");
+        for (const Vec3& p : mesh.positions)
+            if (!finite(p))
+                throw SceneError("<embree>", "mesh " + std::to_string(meshIndex) + " '" + mesh.name + "'",
+                                 "vertex position is not finite");
+        RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+        if (!geom) throwOnError("rtcNewGeometry(triangle)");
+        // Embree allocates with the padding its SIMD loads need; an empty mesh gets one dummy
+        // vertex so the buffer is valid (no triangles reference it).
+        const size_t vtxAlloc = std::max<size_t>(vertexCount, 1);
+        auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                               RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                               vtxAlloc));
+        auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0,
+                                                                  RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
+                                                                  triCount));
+        if (!vb || (!ib && triCount > 0)) {
+            rtcReleaseGeometry(geom);
+            throwOnError("rtcSetNewGeometryBuffer");
+            throw std::runtime_error("Embree could not allocate geometry buffers");
+        }
+        for (size_t i = 0; i < vertexCount; ++i) {
+            vb[3 * i + 0] = mesh.positions[i].x;
+            vb[3 * i + 1] = mesh.positions[i].y;
+            vb[3 * i + 2] = mesh.positions[i].z;
+        }
+        if (vertexCount == 0) vb[0] = vb[1] = vb[2] = 0.0f;
+        std::copy(mesh.indices.begin(), mesh.indices.end(), ib);
+        rtcCommitGeometry(geom);
+        return geom;
+    }
+
+    void buildMeshScene(uint32_t meshIndex) {
+        // The geometry first: it validates the mesh and may throw, and nothing else is held yet.
+        RTCGeometry geom = buildTriangleGeometry(meshes[meshIndex], meshIndex);
+        RTCScene s = rtcNewScene(device);
+        rtcSetSceneFlags(s, RTC_SCENE_FLAG_ROBUST);
+        rtcSetSceneBuildQuality(s, RTC_BUILD_QUALITY_HIGH);
+        rtcAttachGeometryByID(s, geom, 0);
+        rtcReleaseGeometry(geom);
+        rtcCommitScene(s);
+        if (meshScenes[meshIndex]) rtcReleaseScene(meshScenes[meshIndex]);
+        meshScenes[meshIndex] = s;
+        throwOnError("building mesh " + std::to_string(meshIndex));
+    }
+
+    void setInstanceTransform(uint32_t index, const Mat4& m, const std::string& name) {
+        const glm::mat3 linear(m);
+        const float det = glm::determinant(linear);
+        bool ok = std::isfinite(det) && det != 0.0f;
+        for (int c = 0; c < 4 && ok; ++c)
+            for (int r = 0; r < 4 && ok; ++r) ok = std::isfinite(m[c][r]);
+        if (!ok)
+            throw SceneError("<embree>", "instance " + std::to_string(index) + " '" + name + "'",
+                             "transform is singular or not finite");
+        transforms[index] = m;
+        // glTF: a negative determinant flips the winding so front faces stay front faces; the
+        // inverse transpose keeps the object-space normal's side, which is what that rule wants.
+        normalMatrices[index] = glm::inverseTranspose(linear);
+        identityLinear[index] = linear == glm::mat3(1.0f) ? 1 : 0;
+        rtcSetGeometryTransform(instanceGeoms[index], 0, RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, &m[0][0]);
+        rtcCommitGeometry(instanceGeoms[index]);
+    }
+};
+
+EmbreeScene::EmbreeScene(const Scene& scene) : impl_(std::make_unique<Impl>()), scene_(&scene) {
+    Impl& s = *impl_;
+    s.device = rtcNewDevice(nullptr);
+    if (!s.device)
+        throw std::runtime_error(std::string("Embree device creation failed: ") +
+                                 rtcErrorName(rtcGetDeviceError(nullptr)));
+    rtcSetDeviceErrorFunction(s.device, &Impl::onError, &s);
+
+    s.meshes = scene.meshes;
+    s.meshScenes.assign(s.meshes.size(), nullptr);
+    for (uint32_t i = 0; i < s.meshes.size(); ++i) {
+        if (s.meshes[i].material >= scene.materials.size())
+            throw SceneError("<embree>", "mesh " + std::to_string(i) + " '" + s.meshes[i].name + "'",
+                             "material index " + std::to_string(s.meshes[i].material) +
+                                 " out of range (" + std::to_string(scene.materials.size()) +
+                                 " materials)");
+        s.buildMeshScene(i);
+    }
+
+    s.top = rtcNewScene(s.device);
+    // The top level is rebuilt whenever an instance moves: favour build speed there.
+    rtcSetSceneFlags(s.top, RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_DYNAMIC);
+    rtcSetSceneBuildQuality(s.top, RTC_BUILD_QUALITY_LOW);
+    const size_t n = scene.instances.size();
+    s.instanceGeoms.assign(n, nullptr);
+    s.transforms.assign(n, Mat4(1.0f));
+    s.normalMatrices.assign(n, glm::mat3(1.0f));
+    s.identityLinear.assign(n, 1);
+    s.instanceMesh.assign(n, 0);
+    for (uint32_t i = 0; i < n; ++i) {
+        const Instance& inst = scene.instances[i];
+        if (inst.mesh >= s.meshes.size())
+            throw SceneError("<embree>", "instance " + std::to_string(i) + " '" + inst.name + "'",
+                             "mesh index " + std::to_string(inst.mesh) + " out of range (" +
+                                 std::to_string(s.meshes.size()) + " meshes)");
+        s.instanceMesh[i] = inst.mesh;
+        RTCGeometry g = rtcNewGeometry(s.device, RTC_GEOMETRY_TYPE_INSTANCE);
+        if (!g) s.throwOnError("rtcNewGeometry(instance)");
+        rtcSetGeometryInstancedScene(g, s.meshScenes[inst.mesh]);
+        s.instanceGeoms[i] = g;
+        s.setInstanceTransform(i, inst.transform, inst.name);
+        rtcAttachGeometryByID(s.top, g, i);
+    }
+    rtcCommitScene(s.top);
+    s.throwOnError("building the top-level scene");
+    refreshDerived();
+}
+
+EmbreeScene::~EmbreeScene() = default;
+
+void EmbreeScene::refreshDerived() {
+    const Impl& s = *impl_;
+    bounds_ = Bounds{};
+    emissive_.clear();
+    for (uint32_t i = 0; i < s.transforms.size(); ++i) {
+        const Mesh& mesh = s.meshes[s.instanceMesh[i]];
+        const Mat4& m = s.transforms[i];
+        for (const Vec3& p : mesh.positions) bounds_.extend(Vec3(m * glm::vec4(p, 1.0f)));
+        if (mesh.material >= scene_->materials.size()) continue;
+        const Material& mat = scene_->materials[mesh.material];
+        if (!mat.isEmissive()) continue;
+        for (uint32_t t = 0; t < mesh.triangleCount(); ++t) {
+            const Vec3 o0 = mesh.positions[mesh.indices[3 * t + 0]];
+            const Vec3 o1 = mesh.positions[mesh.indices[3 * t + 1]];
+            const Vec3 o2 = mesh.positions[mesh.indices[3 * t + 2]];
+            EmissiveTriangle e;
+            e.p0 = Vec3(m * glm::vec4(o0, 1.0f));
+            e.p1 = Vec3(m * glm::vec4(o1, 1.0f));
+            e.p2 = Vec3(m * glm::vec4(o2, 1.0f));
+            const Vec3 worldCross = glm::cross(e.p1 - e.p0, e.p2 - e.p0);
+            e.area = 0.5f * glm::length(worldCross);
+            const Vec3 n = s.normalMatrices[i] * glm::cross(o1 - o0, o2 - o0);
+            const float len = glm::length(n);
+            // Zero-area triangles emit nothing and would give NaN normals: skip them.
+            if (!(e.area > 0.0f) || !(len > 0.0f) || !std::isfinite(e.area)) continue;
+            e.normal = n / len;
+            e.radiance = mat.emission;
+            e.instance = i;
+            e.triangle = t;
+            emissive_.push_back(e);
+        }
+    }
+    // Scene-size floor of the offset: 1e-6 of the diagonal is far above float rounding at the
+    // scene's scale (2^-24 ≈ 6e-8) and far below any feature size a scene meaningfully has.
+    const float diag = bounds_.diagonal();
+    epsilon_ = diag > 0.0f && std::isfinite(diag) ? 1e-6f * diag : 1e-6f;
+}
+
+void EmbreeScene::refreshEmissive() { refreshDerived(); }
+
+RTCScene EmbreeScene::rtcScene() const { return impl_->top; }
+
+bool EmbreeScene::intersect(const Ray& ray, SurfaceHit& hit) const {
+    const Impl& s = *impl_;
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh;
+    rh.ray.org_x = ray.origin.x;
+    rh.ray.org_y = ray.origin.y;
+    rh.ray.org_z = ray.origin.z;
+    rh.ray.dir_x = ray.dir.x;
+    rh.ray.dir_y = ray.dir.y;
+    rh.ray.dir_z = ray.dir.z;
+    rh.ray.tnear = ray.tMin;
+    rh.ray.tfar = ray.tMax;
+    rh.ray.time = 0.0f;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(s.top, &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID || rh.hit.instID[0] == RTC_INVALID_GEOMETRY_ID)
+        return false;
+
+    const uint32_t inst = rh.hit.instID[0];
+    const uint32_t tri = rh.hit.primID;
+    const Mesh& mesh = s.meshes[s.instanceMesh[inst]];
+    const uint32_t i0 = mesh.indices[3 * tri + 0];
+    const uint32_t i1 = mesh.indices[3 * tri + 1];
+    const uint32_t i2 = mesh.indices[3 * tri + 2];
+    const float u = rh.hit.u, v = rh.hit.v, w = 1.0f - u - v;
+    // Most instances are not rotated or scaled; their normals need no matrix product.
+    const glm::mat3& nm = s.normalMatrices[inst];
+    const bool identity = s.identityLinear[inst] != 0;
+
+    hit.t = rh.ray.tfar;
+    hit.position = ray.origin + hit.t * ray.dir;
+    hit.instance = inst;
+    hit.triangle = tri;
+    hit.material = mesh.material;
+
+    // Geometric normal from the winding (counter-clockwise seen from the front), recomputed from
+    // the mesh so it does not depend on Embree's Ng convention; degenerate triangles (which a
+    // robust traversal may still report) fall back to facing the ray instead of producing NaN.
+    const Vec3 p0 = mesh.positions[i0], p1 = mesh.positions[i1], p2 = mesh.positions[i2];
+    Vec3 ng = glm::cross(p1 - p0, p2 - p0);
+    if (!identity) ng = nm * ng;
+    float len2 = glm::dot(ng, ng);
+    if (len2 > 0.0f && std::isfinite(len2)) {
+        ng *= 1.0f / std::sqrt(len2);
+    } else {
+        const float dl = glm::length(ray.dir);
+        ng = dl > 0.0f ? -ray.dir / dl : Vec3(0.0f, 0.0f, 1.0f);
+    }
+    hit.geometricNormal = ng;
+
+    Vec3 ns = ng;
+    if (mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty()) {
+        Vec3 interp = w * mesh.normals[i0] + u * mesh.normals[i1] + v * mesh.normals[i2];
+        if (!identity) interp = nm * interp;
+        const float l2 = glm::dot(interp, interp);
+        if (l2 > 0.0f && std::isfinite(l2)) {
+            interp *= 1.0f / std::sqrt(l2);
+            ns = glm::dot(interp, ng) < 0.0f ? -interp : interp;
+        }
+    }
+    hit.shadingNormal = ns;
+
+    if (mesh.uvs.size() == mesh.positions.size() && !mesh.uvs.empty())
+        hit.uv = w * mesh.uvs[i0] + u * mesh.uvs[i1] + v * mesh.uvs[i2];
+    else
+        hit.uv = Vec2(0.0f);
+    return true;
+}
+
+bool EmbreeScene::occluded(const Ray& ray) const {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRay r;
+    r.org_x = ray.origin.x;
+    r.org_y = ray.origin.y;
+    r.org_z = ray.origin.z;
+    r.dir_x = ray.dir.x;
+    r.dir_y = ray.dir.y;
+    r.dir_z = ray.dir.z;
+    r.tnear = ray.tMin;
+    r.tfar = ray.tMax;
+    r.time = 0.0f;
+    r.mask = 0xFFFFFFFFu;
+    r.id = 0;
+    r.flags = 0;
+    rtcOccluded1(impl_->top, &ctx, &r);
+    // Embree sets tfar to -inf when an occluder is found.
+    return r.tfar < 0.0f;
+}
+
+uint32_t EmbreeScene::occluded8(const Ray* rays, int count) const {
+    RTPM_DCHECK(count >= 0 && count <= 8);
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    alignas(32) int valid[8];
+    alignas(32) RTCRay8 r;
+    for (int i = 0; i < 8; ++i) {
+        // Inactive lanes repeat ray 0 so every lane holds finite values.
+        const Ray& ray = rays[i < count ? i : 0];
+        valid[i] = i < count ? -1 : 0;
+        r.org_x[i] = ray.origin.x;
+        r.org_y[i] = ray.origin.y;
+        r.org_z[i] = ray.origin.z;
+        r.dir_x[i] = ray.dir.x;
+        r.dir_y[i] = ray.dir.y;
+        r.dir_z[i] = ray.dir.z;
+        r.tnear[i] = ray.tMin;
+        r.tfar[i] = ray.tMax;
+        r.time[i] = 0.0f;
+        r.mask[i] = 0xFFFFFFFFu;
+        r.id[i] = 0;
+        r.flags[i] = 0;
+    }
+    if (count <= 0) return 0;
+    rtcOccluded8(valid, impl_->top, &ctx, &r);
+    uint32_t bits = 0;
+    for (int i = 0; i < count; ++i)
+        if (r.tfar[i] < 0.0f) bits |= 1u << i;  // Embree sets tfar to −inf on an occluder
+    return bits;
+}
+
+void EmbreeScene::setTransform(uint32_t index, const Mat4& transform) {
+    Impl& s = *impl_;
+    if (index >= s.instanceGeoms.size())
+        throw SceneError("<edit>", "instance " + std::to_string(index),
+                         "index out of range (" + std::to_string(s.instanceGeoms.size()) +
+                             " instances)");
+    s.setInstanceTransform(index, transform, "");
+    rtcCommitScene(s.top);
+    s.throwOnError("setTransform");
+    refreshDerived();
+}
+
+void EmbreeScene::setMesh(uint32_t index, const Mesh& mesh) {
+    Impl& s = *impl_;
+    if (index >= s.meshes.size())
+        throw SceneError("<edit>", "mesh " + std::to_string(index),
+                         "index out of range (" + std::to_string(s.meshes.size()) + " meshes)");
+    if (mesh.material >= scene_->materials.size())
+        throw SceneError("<edit>", "mesh " + std::to_string(index) + " '" + mesh.name + "'",
+                         "material index " + std::to_string(mesh.material) + " out of range");
+    Mesh old = std::move(s.meshes[index]);
+    s.meshes[index] = mesh;
+    try {
+        s.buildMeshScene(index);
+    } catch (...) {
+        s.meshes[index] = std::move(old);  // the previous BLAS is still in place
+        throw;
+    }
+    // Instances hold a reference to the old scene object: point them at the new one.
+    for (uint32_t i = 0; i < s.instanceGeoms.size(); ++i) {
+        if (s.instanceMesh[i] != index) continue;
+        rtcSetGeometryInstancedScene(s.instanceGeoms[i], s.meshScenes[index]);
+        rtcCommitGeometry(s.instanceGeoms[i]);
+    }
+    rtcCommitScene(s.top);
+    s.throwOnError("setMesh");
+    refreshDerived();
+}
+
+Vec3 EmbreeScene::offsetOrigin(Vec3 p, Vec3 geometricNormal, Vec3 towards) const {
+    // The hit point carries a rounding error of a few ulps of its largest coordinate (from
+    // origin + t·dir and from the BVH's own arithmetic); 2^-18 ≈ 32 ulps of max|p| covers that
+    // with margin, and epsilon_ covers points near the world origin of a large scene.
+    const float magnitude = epsilon_ + maxAbs(p) * 0x1p-18f;
+    const Vec3 n = glm::dot(geometricNormal, towards) >= 0.0f ? geometricNormal : -geometricNormal;
+    return p + magnitude * n;
+}
+
+}  // namespace rtpm

@@ -1,0 +1,341 @@
+// The eye pass: per pixel, a primary ray, deterministic splitting along specular chains, and at
+// each diffuse end point direct light by shadow rays plus the caustic estimate (paper §4.2).
+//
+// Choices (DESIGN leaves them to us):
+// * Dielectrics split the path deterministically: both the reflected (×F) and the refracted
+//   (×(1−F)) branch are traced with a small explicit stack, branches whose throughput falls below
+//   kMinThroughput are dropped. One pixel is then noise-free through glass and the image does not
+//   depend on any random choice. Refraction does not scale radiance by (ηt/ηi)²: an eye path that
+//   enters a dielectric leaves it again through as many interfaces, so the factors cancel.
+// * Beer–Lambert: a segment that ends on the back face of a dielectric (dot(dir, Ng) > 0) ran
+//   inside that dielectric, and is attenuated by its absorption over the segment length. Nested
+//   media are modelled as separate closed surfaces (liquid inside glass), each handled this way.
+// * Shadow rays are blocked by every surface, dielectrics included: light focused or refracted by
+//   glass is caustic light and comes from the photon map, never from the direct term.
+// * Area lights (emissive triangles): with at most kMaxTrianglesSampledEach triangles, each gets
+//   `areaLightSamples` stratified samples (a Cranley–Patterson rotated Hammersley set). With more,
+//   a fixed total of kMaxTrianglesSampledEach·areaLightSamples samples picks triangles in
+//   proportion to their power (area × radiance sum) through a stratified CDF inversion, so the
+//   cost per pixel stays bounded for finely tessellated emitters.
+// * Sample rotations are hashed from the pixel's image coordinates and the path vertex number,
+//   never from thread or set order: the image is identical for any thread count or set split.
+// * Mirrors reflect with baseColor (no texture); diffuse albedo is baseColor × texture(uv).
+#include "common/trace/eye_pass.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "common/core/check.h"
+#include "common/trace/optics.h"
+#include "common/core/halton.h"
+#include "common/core/math.h"
+
+namespace rtpm {
+
+namespace {
+
+constexpr float kMinThroughput = 1e-3f;
+constexpr int kMaxTrianglesSampledEach = 16;
+constexpr int kStackSize = 64;
+
+
+float wrap01(float x) {
+    x -= std::floor(x);
+    return x < 1.0f ? x : 0.0f;
+}
+
+/// Per-renderSet data shared by all pixels (read-only inside the parallel loop).
+struct Context {
+    const EmbreeScene& es;
+    const Scene& scene;
+    const EyeSettings& settings;
+    const CausticEstimator* caustics;
+    int set;
+    int areaSamples;
+    bool sampleEach;          // every emissive triangle gets areaSamples samples
+    int totalAreaSamples;     // power-proportional mode
+    std::vector<float> cdf;   // power-proportional mode: cumulative, last = 1
+};
+
+struct Counters {
+    uint64_t primary = 0, secondary = 0, shadow = 0, nonFinite = 0, stackOverflow = 0;
+};
+
+/// Radiance reflected toward the viewer by a Lambertian point from every light (shadow rays).
+/// `n` shading normal and `ng` geometric normal, both facing the viewer. `rot` the pixel's
+/// Cranley–Patterson rotation.
+Vec3 directLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
+                 const std::array<float, 3>& rot, Counters& count) {
+    const EmbreeScene& es = ctx.es;
+    Vec3 sum(0.0f);
+    const Vec3 brdf = albedo * kInvPi;
+    if (maxComponent(albedo) <= 0.0f) return sum;
+
+    for (const Light& light : ctx.scene.lights) {
+        Vec3 wi;
+        Vec3 irradiance;  // W/m² perpendicular to wi, before the cosine
+        Vec3 target(0.0f);
+        bool toInfinity = false;
+        if (light.type == LightType::Directional) {
+            wi = -glm::normalize(light.direction);
+            irradiance = light.intensity;
+            toInfinity = true;
+        } else {
+            const Vec3 d = light.position - hit.position;
+            const float dist2 = glm::dot(d, d);
+            if (!(dist2 > 0.0f)) continue;
+            wi = d / std::sqrt(dist2);
+            irradiance = light.intensity / dist2;
+            if (light.type == LightType::Spot) {
+                const float att = spotFalloff(light, glm::dot(glm::normalize(light.direction), -wi));
+                if (!(att > 0.0f)) continue;
+                irradiance *= att;
+            }
+            target = light.position;
+        }
+        // The light must be on the viewer's side of the true surface, or the offset would put the
+        // shadow ray's origin through the surface.
+        if (glm::dot(wi, ng) <= 0.0f) continue;
+        const float cosS = glm::dot(wi, n);
+        if (cosS <= 0.0f) continue;
+        const Vec3 origin = es.offsetOrigin(hit.position, ng, wi);
+        Ray shadow = toInfinity ? Ray{origin, wi, 0.0f, std::numeric_limits<float>::infinity()}
+                                : Ray{origin, target - origin, 0.0f, 1.0f};
+        ++count.shadow;
+        if (es.occluded(shadow)) continue;
+        sum += brdf * irradiance * cosS;
+    }
+
+    const auto& tris = es.emissiveTriangles();
+    if (tris.empty()) return sum;
+    // Shadow rays toward the emitters go to Embree in packets of 8 (one origin, one small light:
+    // coherent); contributions are added in sample order, so the sum is the one of single rays.
+    Ray pendingRay[8];
+    Vec3 pendingValue[8];
+    int pending = 0;
+    auto flush = [&] {
+        const uint32_t blocked = es.occluded8(pendingRay, pending);
+        for (int i = 0; i < pending; ++i)
+            if (!(blocked & (1u << i))) sum += pendingValue[i];
+        pending = 0;
+    };
+    auto sampleTriangle = [&](const EmissiveTriangle& e, float u1, float u2, float weight) {
+        // Uniform point on the triangle (Turk's square-root parametrisation).
+        const float su = std::sqrt(u1);
+        const Vec3 q = (1.0f - su) * e.p0 + (su * (1.0f - u2)) * e.p1 + (su * u2) * e.p2;
+        const Vec3 d = q - hit.position;
+        const float dist2 = glm::dot(d, d);
+        if (!(dist2 > 0.0f)) return;
+        const Vec3 wi = d / std::sqrt(dist2);
+        const float cosL = -glm::dot(wi, e.normal);
+        if (cosL <= 0.0f || glm::dot(wi, ng) <= 0.0f) return;
+        const float cosS = glm::dot(wi, n);
+        if (cosS <= 0.0f) return;
+        const Vec3 origin = es.offsetOrigin(hit.position, ng, wi);
+        const Vec3 end = es.offsetOrigin(q, e.normal, -wi);
+        ++count.shadow;
+        pendingRay[pending] = Ray{origin, end - origin, 0.0f, 1.0f};
+        pendingValue[pending] = brdf * e.radiance * (cosS * cosL / dist2 * weight);
+        if (++pending == 8) flush();
+    };
+
+    if (ctx.sampleEach) {
+        const int ns = ctx.areaSamples;
+        for (const EmissiveTriangle& e : tris) {
+            const float weight = e.area / float(ns);
+            for (int k = 0; k < ns; ++k)
+                sampleTriangle(e, wrap01((float(k) + 0.5f) / float(ns) + rot[0]),
+                               wrap01(static_cast<float>(radicalInverseBase2(uint64_t(k))) + rot[1]), weight);
+        }
+    } else {
+        const int ns = ctx.totalAreaSamples;
+        for (int k = 0; k < ns; ++k) {
+            const float uSel = wrap01((float(k) + 0.5f) / float(ns) + rot[0]);
+            const size_t t = std::min<size_t>(
+                size_t(std::upper_bound(ctx.cdf.begin(), ctx.cdf.end(), uSel) - ctx.cdf.begin()),
+                tris.size() - 1);
+            const float p = ctx.cdf[t] - (t > 0 ? ctx.cdf[t - 1] : 0.0f);
+            if (!(p > 0.0f)) continue;
+            sampleTriangle(tris[t], wrap01(static_cast<float>(radicalInverseBase2(uint64_t(k))) + rot[1]),
+                           wrap01(radicalInverseBase3f(uint32_t(k)) + rot[2]),
+                           tris[t].area / (p * float(ns)));
+        }
+    }
+    if (pending > 0) flush();
+    return sum;
+}
+
+struct PathState {
+    Ray ray;
+    Vec3 throughput;
+    int depth;
+};
+
+/// `stack` is kStackSize entries of scratch owned by the calling task: constructing the split
+/// stack per pixel (64 rays with their default values) cost more than a typical pixel's shading.
+PixelRadiance shadePixel(const Context& ctx, int x, int y, int width, const Camera& camera,
+                         int height, PathState* stack, Counters& count) {
+    const EmbreeScene& es = ctx.es;
+    const Scene& scene = ctx.scene;
+    PixelRadiance result;
+    int top = 0;
+    stack[top++] = PathState{Ray{camera.position, camera.rayDirection(x, y, width, height)},
+                             Vec3(1.0f), 0};
+    const uint64_t pixelKey = (uint64_t(uint32_t(y)) << 32) | uint32_t(x);
+    uint32_t diffuseVertex = 0;
+    bool primary = true;
+
+    while (top > 0) {
+        PathState path = stack[--top];
+        for (;;) {  // follow one branch; dielectric splits push the reflected branch
+            SurfaceHit hit;
+            if (primary) {
+                ++count.primary;
+                primary = false;
+            } else {
+                ++count.secondary;
+            }
+            if (!es.intersect(path.ray, hit)) break;  // no environment light
+            const Material& mat = scene.materials[hit.material];
+            const Vec3 dir = path.ray.dir;
+            const float cosGeo = glm::dot(dir, hit.geometricNormal);
+
+            // A clear medium (σ = 0) attenuates by exp(−0) = 1 exactly: skip the three exp calls.
+            if (mat.type == MaterialType::Dielectric && cosGeo > 0.0f && mat.absorption != Vec3(0.0f))
+                path.throughput *= beerLambert(mat.absorption, hit.t * glm::length(dir));
+            if (mat.isEmissive() && cosGeo < 0.0f) result.direct += path.throughput * mat.emission;
+
+            // Normals facing the viewer.
+            const Vec3 ng = cosGeo > 0.0f ? -hit.geometricNormal : hit.geometricNormal;
+            const Vec3 ns = cosGeo > 0.0f ? -hit.shadingNormal : hit.shadingNormal;
+
+            if (mat.type == MaterialType::Diffuse) {
+                Vec3 albedo = mat.baseColor;
+                if (mat.baseColorTexture >= 0 && size_t(mat.baseColorTexture) < scene.textures.size()) {
+                    const Texture& tex = scene.textures[size_t(mat.baseColorTexture)];
+                    if (tex.width > 0 && tex.height > 0) albedo *= tex.sample(hit.uv);
+                }
+                const uint64_t h = splitMix64(pixelKey ^ splitMix64(diffuseVertex++));
+                const std::array<float, 3> rot{hashToUnit(h), hashToUnit(splitMix64(h + 1)), hashToUnit(splitMix64(h + 2))};
+                result.direct += path.throughput * directLight(ctx, hit, ns, ng, albedo, rot, count);
+                if (ctx.caustics)
+                    result.caustic += path.throughput * ctx.caustics->radiance(uint32_t(ctx.set), hit, ns, albedo);
+                break;
+            }
+            if (path.depth >= ctx.settings.maxDepth) break;
+
+            if (mat.type == MaterialType::Mirror) {
+                // Reflect about the shading normal; if that sends the ray into the surface (strong
+                // normal interpolation at grazing angles) use the geometric normal instead.
+                Vec3 r = glm::normalize(reflect(dir, ns));
+                if (glm::dot(r, ng) <= 0.0f) r = glm::normalize(reflect(dir, ng));
+                path.throughput *= mat.baseColor;
+                path.ray = Ray{es.offsetOrigin(hit.position, ng, r), r};
+                ++path.depth;
+                if (maxComponent(path.throughput) < kMinThroughput) break;
+                continue;
+            }
+
+            // Dielectric: the side is decided by the geometric normal, the angles by the shading one.
+            const DielectricInterface side = dielectricInterface(dir, hit.geometricNormal, mat.ior);
+            const Vec3 nFace = ns;  // faces the incident side
+            const float cosI = std::clamp(-glm::dot(dir, nFace), 0.0f, 1.0f);
+            Vec3 t;
+            const bool canRefract = refract(dir, nFace, side.etaI / side.etaT, t) &&
+                                    glm::dot(t, ng) < 0.0f;
+            const float fr = canRefract ? fresnelDielectric(cosI, side.etaI, side.etaT) : 1.0f;
+            Vec3 r = glm::normalize(reflect(dir, nFace));
+            if (glm::dot(r, ng) <= 0.0f) r = glm::normalize(reflect(dir, ng));
+            const Vec3 reflThroughput = path.throughput * fr;
+            const Vec3 transThroughput = path.throughput * (1.0f - fr);
+            const int depth = path.depth + 1;
+            const bool keepRefl = maxComponent(reflThroughput) >= kMinThroughput;
+            const bool keepTrans = canRefract && maxComponent(transThroughput) >= kMinThroughput;
+            if (keepRefl && keepTrans) {
+                if (top < kStackSize)
+                    stack[top++] = PathState{Ray{es.offsetOrigin(hit.position, ng, r), r}, reflThroughput, depth};
+                else
+                    ++count.stackOverflow;
+            }
+            if (keepTrans) {
+                path = PathState{Ray{es.offsetOrigin(hit.position, ng, t), t}, transThroughput, depth};
+                continue;
+            }
+            if (keepRefl) {
+                path = PathState{Ray{es.offsetOrigin(hit.position, ng, r), r}, reflThroughput, depth};
+                continue;
+            }
+            break;
+        }
+    }
+    if (!finite(result.direct)) {
+        result.direct = Vec3(0.0f);
+        ++count.nonFinite;
+    }
+    if (!finite(result.caustic)) {
+        result.caustic = Vec3(0.0f);
+        ++count.nonFinite;
+    }
+    return result;
+}
+
+}  // namespace
+
+void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings& settings,
+               const Interleave& pattern, int set, const CausticEstimator* caustics,
+               std::span<PixelRadiance> out, EyeStats* stats) {
+    RTPM_CHECK(set >= 0 && set < pattern.setCount());
+    RTPM_CHECK(out.size() == size_t(pattern.pixelCount(set)));
+    Context ctx{scene, scene.scene(), settings, caustics, set, std::max(1, settings.areaLightSamples),
+                true, 0, {}};
+    const auto& tris = scene.emissiveTriangles();
+    if (int(tris.size()) > kMaxTrianglesSampledEach) {
+        ctx.sampleEach = false;
+        ctx.totalAreaSamples = kMaxTrianglesSampledEach * ctx.areaSamples;
+        ctx.cdf.resize(tris.size());
+        double acc = 0.0;
+        for (size_t i = 0; i < tris.size(); ++i) {
+            const Vec3 rad = tris[i].radiance;
+            const double power = double(tris[i].area) * double(std::max(0.0f, rad.x + rad.y + rad.z));
+            acc += std::isfinite(power) ? power : 0.0;
+            ctx.cdf[i] = float(acc);
+        }
+        for (float& c : ctx.cdf) c = acc > 0.0 ? float(c / acc) : 1.0f;
+        ctx.cdf.back() = 1.0f;
+    }
+
+    const int rows = pattern.setRows(set);
+    const int cols = pattern.setColumns(set);
+    std::atomic<uint64_t> primary{0}, secondary{0}, shadow{0}, nonFinite{0}, overflow{0};
+    tbb::parallel_for(tbb::blocked_range<int>(0, rows), [&](const tbb::blocked_range<int>& range) {
+        Counters count;
+        std::vector<PathState> stack(kStackSize);
+        for (int r = range.begin(); r < range.end(); ++r)
+            for (int c = 0; c < cols; ++c) {
+                const int n = r * cols + c;
+                out[size_t(n)] = shadePixel(ctx, pattern.pixelX(set, n), pattern.pixelY(set, n),
+                                            pattern.width, camera, pattern.height, stack.data(), count);
+            }
+        primary += count.primary;
+        secondary += count.secondary;
+        shadow += count.shadow;
+        nonFinite += count.nonFinite;
+        overflow += count.stackOverflow;
+    });
+    if (stats) {
+        stats->primaryRays += primary;
+        stats->secondaryRays += secondary;
+        stats->shadowRays += shadow;
+        stats->nonFinite += nonFinite;
+        stats->stackOverflows += overflow;
+    }
+}
+
+}  // namespace rtpm
