@@ -15,7 +15,7 @@
 #include "common/image/image_io.h"
 #include "common/photon/photon_map.h"
 #include "common/render/render_job.h"
-#include "tests/accuracy/test_scenes.h"
+#include "tests/support/test_scenes.h"
 
 namespace rtpm {
 namespace {

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "common/photon/photon_map.h"
-#include "tests/accuracy/test_scenes.h"
+#include "tests/support/test_scenes.h"
 
 namespace rtpm {
 namespace {

@@ -7,7 +7,7 @@
 
 #include "client/frame_renderer.h"
 #include "client/worker.h"
-#include "cluster_util.h"
+#include "tests/support/cluster_util.h"
 #include "common/render/render_job.h"
 #include "common/scene/scene_loader.h"
 

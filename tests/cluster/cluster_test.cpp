@@ -10,7 +10,7 @@
 #include <map>
 
 #include "client/worker.h"
-#include "cluster_util.h"
+#include "tests/support/cluster_util.h"
 #include "common/image/image_io.h"
 #include "common/core/interleave.h"
 

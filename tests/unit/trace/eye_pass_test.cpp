@@ -10,7 +10,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "tests/accuracy/test_scenes.h"
+#include "tests/support/test_scenes.h"
 
 namespace rtpm {
 namespace {

@@ -26,7 +26,7 @@
 #include "common/photon/photon_tracer.h"
 #include "common/render/render_job.h"
 #include "common/scene/scene_loader.h"
-#include "tests/accuracy/test_scenes.h"
+#include "tests/support/test_scenes.h"
 
 namespace rtpm {
 namespace {

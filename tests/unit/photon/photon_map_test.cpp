@@ -11,7 +11,7 @@
 #include "common/photon/density.h"
 #include "common/trace/embree_scene.h"
 #include "common/photon/photon_map.h"
-#include "tests/accuracy/test_scenes.h"
+#include "tests/support/test_scenes.h"
 
 namespace rtpm {
 namespace {
