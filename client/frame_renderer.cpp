@@ -1,5 +1,6 @@
 // FrameRenderer: the client's scene, settings, edits and per-set-group RenderJobs, no sockets.
 #include "client/frame_renderer.h"
+#include "common/core/strings.h"
 
 #include <algorithm>
 #include <cctype>
@@ -10,160 +11,54 @@
 #include "common/scene/gltf_loader.h"
 #include "common/photon/photon.h"
 #include "common/scene/scene_loader.h"
+#include "proto/bridge/bridge.h"
 #include "proto/pixel_codec.h"
 
 namespace rtpm::client {
 
 namespace {
 
-Vec3 toVec3(const proto::Vec3f& v) { return Vec3(v.x, v.y, v.z); }
-
 double msSince(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-std::string upper(std::string s) {
-    for (char& c : s) c = char(std::toupper(static_cast<unsigned char>(c)));
-    return s;
-}
 
 // Only the protocol fields that change what a set's photons or pixels are; f (server-side
 // filter) and the encoding (how pixels travel) do not.
-bool sameRendering(const proto::Settings& a, const proto::Settings& b) {
-    return a.width == b.width && a.height == b.height && a.m == b.m &&
-           a.photonsPerSetPerFrame == b.photonsPerSetPerFrame && a.k == b.k && a.rMax == b.rMax &&
-           a.maxDepth == b.maxDepth && a.diffuseBounces == b.diffuseBounces &&
-           a.capPhotonsPerSet == b.capPhotonsPerSet && a.spt == b.spt && a.tree == b.tree && a.seed == b.seed &&
-           a.photonMaxDepth == b.photonMaxDepth && a.areaLightSamples == b.areaLightSamples &&
-           a.gatherVisibility == b.gatherVisibility;
+bool sameRendering(proto::Settings a, const proto::Settings& b) {
+    a.f = b.f;
+    a.encoding = b.encoding;
+    return a == b;
 }
 
 }  // namespace
 
 RenderSettings toRenderSettings(const proto::Settings& s) {
-    RenderSettings rs;
-    rs.width = int(s.width);
-    rs.height = int(s.height);
-    rs.interleave = int(s.m);
-    rs.filter = int(s.f);
-    rs.eye.maxDepth = int(s.maxDepth);
-    rs.eye.areaLightSamples = int(s.areaLightSamples);
-    rs.photons.maxDepth = s.photonMaxDepth;
-    rs.photons.seed = s.seed;
-    rs.photons.photonsPerBatch = s.photonsPerSetPerFrame;
-    rs.photons.k = s.k;
-    rs.photons.rMax = s.rMax;
-    rs.photons.diffuseBounces = s.diffuseBounces;
-    rs.photons.capPhotons = s.capPhotonsPerSet;
-    rs.photons.selective = s.spt;
-    rs.photons.gatherVisibility = s.gatherVisibility;
-    switch (s.tree) {  // the decoder refuses values above kMaxTreeVariant
-        case proto::TreeVariant::MiddleSplitKdTree: rs.photons.tree = PhotonTree::MiddleSplit; break;
-        case proto::TreeVariant::BalancedKdTree: rs.photons.tree = PhotonTree::MedianBalanced; break;
-        case proto::TreeVariant::UniformGrid: rs.photons.tree = PhotonTree::UniformGrid; break;
-        default: throw ProtocolViolation("settings.tree " + std::to_string(int(s.tree)) + " is not a tree variant");
-    }
     try {
-        validateSettings(rs);
+        return bridge::fromWire(s);
     } catch (const std::invalid_argument& e) {
         throw ProtocolViolation(std::string("settings refused: ") + e.what());
     }
-    return rs;
 }
 
 Camera toCamera(const proto::CameraState& c) {
-    Camera cam;
-    cam.position = toVec3(c.position);
-    cam.forward = toVec3(c.forward);
-    cam.up = toVec3(c.up);
-    cam.yfov = c.yfov;
-    // The decoder guarantees finite values; these would still give NaN rays or a mirrored image.
-    const float fl = glm::length(cam.forward), ul = glm::length(cam.up);
-    if (!(fl > 1e-6f) || !(ul > 1e-6f))
-        throw ProtocolViolation("camera: forward and up must be non-zero vectors");
-    if (glm::length(glm::cross(cam.forward, cam.up)) <= 1e-6f * fl * ul)
-        throw ProtocolViolation("camera: up is parallel to forward");
-    if (!(cam.yfov > 0.0f && cam.yfov < 3.14159f))
-        throw ProtocolViolation("camera: yfov " + std::to_string(cam.yfov) + " rad not in (0, pi)");
-    return cam;
+    try {
+        return bridge::fromWire(c);
+    } catch (const std::invalid_argument& e) {
+        throw ProtocolViolation(e.what());
+    }
 }
 
 std::optional<SceneEdit> applyWireEdit(Scene& scene, const proto::SceneEdit& wire) {
-    SceneEdit edit;
-    if (std::holds_alternative<proto::CameraEdit>(wire)) return std::nullopt;
-    if (auto* l = std::get_if<proto::LightEdit>(&wire)) {
-        if (l->index >= scene.lights.size())
-            throw ProtocolViolation("edit: light " + std::to_string(l->index) + " does not exist (scene has " +
-                                    std::to_string(scene.lights.size()) + ")");
-        edit.kind = SceneEdit::Kind::Light;
-        edit.index = l->index;
-        edit.light = scene.lights[l->index];  // type, cone angles and name are not on the wire
-        edit.light.position = toVec3(l->position);
-        edit.light.direction = toVec3(l->direction);
-        edit.light.intensity = toVec3(l->intensity);
-    } else if (auto* m = std::get_if<proto::MaterialEdit>(&wire)) {
-        if (m->index >= scene.materials.size())
-            throw ProtocolViolation("edit: material " + std::to_string(m->index) + " does not exist (scene has " +
-                                    std::to_string(scene.materials.size()) + ")");
-        edit.kind = SceneEdit::Kind::Material;
-        edit.index = m->index;
-        edit.material = scene.materials[m->index];  // name and texture are not on the wire
-        switch (m->kind) {
-            case proto::MaterialKind::Diffuse: edit.material.type = MaterialType::Diffuse; break;
-            case proto::MaterialKind::Mirror: edit.material.type = MaterialType::Mirror; break;
-            case proto::MaterialKind::Dielectric: edit.material.type = MaterialType::Dielectric; break;
-        }
-        edit.material.baseColor = toVec3(m->baseColor);
-        edit.material.ior = m->ior;
-        edit.material.absorption = toVec3(m->absorption);
-        edit.material.emission = toVec3(m->emission);
-    } else {
-        const auto& t = std::get<proto::TransformEdit>(wire);
-        if (t.instance >= scene.instances.size())
-            throw ProtocolViolation("edit: instance " + std::to_string(t.instance) + " does not exist (scene has " +
-                                    std::to_string(scene.instances.size()) + ")");
-        edit.kind = SceneEdit::Kind::Transform;
-        edit.index = t.instance;
-        edit.transform = glm::make_mat4(t.matrix.data());
+    try {
+        std::optional<SceneEdit> edit = bridge::fromWire(scene, wire);
+        if (edit) applyEdit(scene, *edit);  // validates; leaves the scene unchanged if refused
+        return edit;
+    } catch (const std::invalid_argument& e) {
+        throw ProtocolViolation(e.what());
+    } catch (const SceneError& e) {
+        throw ProtocolViolation(e.what());
     }
-
-    // Same validate-then-roll-back rule as RenderJob::applyEdit, on the client's master copy.
-    switch (edit.kind) {
-        case SceneEdit::Kind::Light: {
-            Light old = scene.lights[edit.index];
-            scene.lights[edit.index] = edit.light;
-            try {
-                scene.validate("edit");
-            } catch (const SceneError& e) {
-                scene.lights[edit.index] = old;
-                throw ProtocolViolation(e.what());
-            }
-            break;
-        }
-        case SceneEdit::Kind::Material: {
-            Material old = scene.materials[edit.index];
-            scene.materials[edit.index] = edit.material;
-            try {
-                scene.validate("edit");
-            } catch (const SceneError& e) {
-                scene.materials[edit.index] = old;
-                throw ProtocolViolation(e.what());
-            }
-            break;
-        }
-        case SceneEdit::Kind::Transform: {
-            Mat4 old = scene.instances[edit.index].transform;
-            scene.instances[edit.index].transform = edit.transform;
-            try {
-                scene.validate("edit");
-            } catch (const SceneError& e) {
-                scene.instances[edit.index].transform = old;
-                throw ProtocolViolation(e.what());
-            }
-            break;
-        }
-    }
-    return edit;
 }
 
 struct FrameRenderer::Group {
@@ -187,8 +82,7 @@ void FrameRenderer::setScene(const proto::Scene& msg) {
         if (msg.source == proto::Scene::Source::Builtin) {
             // Only built-in names: loadScene would also open a path, and a server must not make a
             // client read its own files.
-            const std::vector<std::string> names = builtinSceneNames();
-            if (std::find(names.begin(), names.end(), upper(msg.builtinName)) == names.end())
+            if (!isBuiltinScene(msg.builtinName))
                 throw ProtocolViolation("scene: \"" + msg.builtinName + "\" is not a built-in scene");
             scene = loadScene(msg.builtinName);
         } else {
@@ -298,21 +192,16 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
 
     const auto te = std::chrono::steady_clock::now();
     const Interleave pattern{settings_.width, settings_.height, settings_.interleave};
-    std::vector<proto::PixelPair> pairs;
     for (uint32_t s : fb.sets) {
         const SetPixels* sp = bySet[s];
         RTPM_CHECK(sp != nullptr && sp->pixels.size() == size_t(pattern.pixelCount(int(s))));
-        pairs.resize(sp->pixels.size());
-        for (size_t i = 0; i < pairs.size(); ++i) {
-            const PixelRadiance& p = sp->pixels[i];
-            pairs[i] = proto::PixelPair{{p.direct.x, p.direct.y, p.direct.z}, {p.caustic.x, p.caustic.y, p.caustic.z}};
-        }
-        proto::EncodedPixels enc = proto::encodePixels(pairs, wire_->encoding);
+        // Encoded straight from the renderer's buffer (no intermediate copy).
+        proto::EncodedPixels enc = proto::encodePixels(bridge::pixelView(std::span(sp->pixels)), wire_->encoding);
         proto::FrameData fd;
         fd.frame = fb.frame;
         fd.set = s;
         fd.encoding = enc.encoding;
-        fd.pixelCount = uint32_t(pairs.size());
+        fd.pixelCount = uint32_t(sp->pixels.size());
         fd.pixels = std::move(enc.bytes);
         out.data.push_back(std::move(fd));
     }

@@ -24,22 +24,16 @@ struct ProtocolViolation : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-/// The wire settings as the renderer's settings: maxDepth → eye.maxDepth (rtpm-render --depth),
-/// photonMaxDepth → photons.maxDepth (--photon-depth), seed, areaLightSamples, and the photon
-/// settings one to one; what the wire does not carry (SPT tuning) keeps RenderSettings' defaults,
-/// which are rtpm-render's. rMax 0 = automatic.
-/// Throws ProtocolViolation for settings the renderer refuses (validateSettings) or a photon-map
-/// structure other than the middle-split kd-tree (the only one RenderJob builds).
+/// bridge::fromWire, with its refusals (validateSettings, an unknown tree id) as ProtocolViolation.
 RenderSettings toRenderSettings(const proto::Settings& settings);
 
-/// The renderer's camera for a wire camera (fields copied bit for bit, so the cluster traces the
-/// rays rtpm-render traces). Throws ProtocolViolation for a degenerate camera (zero forward,
-/// up parallel to forward, yfov outside (0, π)).
+/// bridge::fromWire for the camera (bit for bit, so the cluster traces the rays rtpm-render
+/// traces), with its refusal of a degenerate camera as ProtocolViolation.
 Camera toCamera(const proto::CameraState& camera);
 
-/// Applies one wire edit to `scene` (camera edits change nothing: FrameBegin carries the camera).
-/// Validates the index and the resulting scene; on failure throws ProtocolViolation naming the
-/// edit and leaves `scene` unchanged. Returns the equivalent RenderJob edit (nullopt for camera).
+/// Applies one wire edit to `scene` (bridge::fromWire, then applyEdit; camera edits change
+/// nothing: FrameBegin carries the camera). On failure throws ProtocolViolation naming the edit
+/// and leaves `scene` unchanged. Returns the equivalent RenderJob edit (nullopt for camera).
 std::optional<SceneEdit> applyWireEdit(Scene& scene, const proto::SceneEdit& edit);
 
 /// What to send back for one frame: one FrameData per set in FrameBegin.sets order, then Stats.

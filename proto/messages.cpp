@@ -87,7 +87,7 @@ void putPayload(Writer& w, const Settings& m) {
     w.u32(m.height);
     w.u32(m.m);
     w.u32(m.f);
-    w.u32(m.photonsPerSetPerFrame);
+    w.u32(m.photonsPerBatch);
     w.u32(m.k);
     w.f32(m.rMax);
     w.u32(m.maxDepth);
@@ -306,7 +306,7 @@ void get(Reader& r, Settings& m) {
     r.u32(m.height);
     r.u32(m.m);
     r.u32(m.f);
-    r.u32(m.photonsPerSetPerFrame);
+    r.u32(m.photonsPerBatch);
     r.u32(m.k);
     r.f32Finite(m.rMax, "settings.rMax");
     r.u32(m.maxDepth);
@@ -325,7 +325,7 @@ void get(Reader& r, Settings& m) {
     inRange(r, m.height, 1, kMaxImageSide, "settings.height");
     inRange(r, m.m, 1, kMaxInterleave, "settings.m");
     inRange(r, m.f, 1, kMaxFilterWidth, "settings.f");
-    inRange(r, m.photonsPerSetPerFrame, 0, kMaxPhotonsPerSetPerFrame, "settings.photonsPerSetPerFrame");
+    inRange(r, m.photonsPerBatch, 0, kMaxPhotonsPerSetPerFrame, "settings.photonsPerBatch");
     inRange(r, m.k, 1, kMaxK, "settings.k");
     inRange(r, m.maxDepth, 0, kMaxDepthLimit, "settings.maxDepth");
     inRange(r, m.diffuseBounces, 0, kMaxDiffuseBounces, "settings.diffuseBounces");

@@ -128,15 +128,17 @@ inline constexpr uint8_t kMaxTreeVariant = 2;
 /// Server → client: render settings. Takes effect at the next FrameBegin; a change resets photon
 /// maps unless only width/height/f changed (PROTOCOL.md §5.5).
 struct Settings {
+    // Defaults equal bridge::toWire(RenderSettings{}, encoding) (tests/unit/proto/bridge_test.cpp):
+    // one default per knob, from flag to wire to client.
     uint32_t width = 640, height = 480;  ///< image, pixels, each in [1, kMaxImageSide]
-    uint32_t m = 4;               ///< interleaving: M×M sets, in [1, kMaxInterleave]
-    uint32_t f = 4;               ///< server's box filter width, in [1, kMaxFilterWidth]
-    uint32_t photonsPerSetPerFrame = 1000;  ///< P
-    uint32_t k = 50;              ///< photons per density estimate, in [1, kMaxK]
-    float rMax = 0.1f;            ///< max search radius, metres, finite ≥ 0 (0 = automatic)
+    uint32_t m = 3;               ///< interleaving: M×M sets, in [1, kMaxInterleave]
+    uint32_t f = 3;               ///< server's box filter width, in [1, kMaxFilterWidth]
+    uint32_t photonsPerBatch = 20000;  ///< P: light paths per set per frame (PhotonSettings::photonsPerBatch)
+    uint32_t k = 64;              ///< photons per density estimate, in [1, kMaxK]
+    float rMax = 0.0f;            ///< max search radius, metres, finite ≥ 0 (0 = automatic)
     uint32_t maxDepth = 16;       ///< specular bounces, ≤ kMaxDepthLimit
     uint32_t diffuseBounces = 1;  ///< photon diffuse bounces before storing, ≤ kMaxDiffuseBounces
-    uint32_t capPhotonsPerSet = 100000;  ///< stop shooting when a set's map holds this many
+    uint32_t capPhotonsPerSet = 2'000'000;  ///< stop shooting when a set's map holds this many
     bool spt = true;              ///< Selective Photon Tracing on
     TreeVariant tree = TreeVariant::MiddleSplitKdTree;
     PixelEncoding encoding = PixelEncoding::Rgb9e5Zstd;  ///< what clients send FrameData in

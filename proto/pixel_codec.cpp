@@ -116,7 +116,7 @@ size_t bytesPerPixel(PixelEncoding encoding) {
     return 0;
 }
 
-EncodedPixels encodePixels(std::span<const PixelPair> pixels, PixelEncoding requested) {
+EncodedPixels encodePixels(ConstPixelView pixels, PixelEncoding requested) {
     const size_t n = pixels.size();
     EncodedPixels out;
     out.encoding = requested;
@@ -124,18 +124,18 @@ EncodedPixels encodePixels(std::span<const PixelPair> pixels, PixelEncoding requ
         case PixelEncoding::Float32: {
             out.bytes.resize(n * 24);
             uint8_t* p = out.bytes.data();
-            for (const PixelPair& px : pixels) {
-                for (float v : px.direct) putU32(p, std::bit_cast<uint32_t>(sanitize(v))), p += 4;
-                for (float v : px.caustic) putU32(p, std::bit_cast<uint32_t>(sanitize(v))), p += 4;
+            for (size_t i = 0; i < n; ++i) {
+                const float* px = pixels.direct(i);  // direct then caustic: six floats
+                for (int c = 0; c < 6; ++c) putU32(p, std::bit_cast<uint32_t>(sanitize(px[c]))), p += 4;
             }
             return out;
         }
         case PixelEncoding::Rgb8: {
             out.bytes.resize(n * 6);
             uint8_t* p = out.bytes.data();
-            for (const PixelPair& px : pixels) {
-                for (float v : px.direct) *p++ = toByte(v);
-                for (float v : px.caustic) *p++ = toByte(v);
+            for (size_t i = 0; i < n; ++i) {
+                const float* px = pixels.direct(i);
+                for (int c = 0; c < 6; ++c) *p++ = toByte(px[c]);
             }
             return out;
         }
@@ -150,9 +150,10 @@ EncodedPixels encodePixels(std::span<const PixelPair> pixels, PixelEncoding requ
     uint8_t* caustic = direct + n * 4;
     size_t zeros = 0;
     for (size_t i = 0; i < n; ++i) {
-        const PixelPair& px = pixels[i];
-        putU32(direct + 4 * i, packRgb9e5(px.direct[0], px.direct[1], px.direct[2]));
-        uint32_t c = packRgb9e5(px.caustic[0], px.caustic[1], px.caustic[2]);
+        const float* d = pixels.direct(i);
+        const float* k = pixels.caustic(i);
+        putU32(direct + 4 * i, packRgb9e5(d[0], d[1], d[2]));
+        uint32_t c = packRgb9e5(k[0], k[1], k[2]);
         zeros += (c & 0x07FFFFFFu) == 0;
         // Canonical zero (exponent 0 too) so every zero word is identical for the compressor.
         putU32(caustic + 4 * i, (c & 0x07FFFFFFu) ? c : 0u);
@@ -197,33 +198,32 @@ Status checkPixelPayloadSize(PixelEncoding encoding, uint64_t pixelCount, size_t
     return okStatus();
 }
 
-Status decodePixels(PixelEncoding encoding, std::span<const uint8_t> payload,
-                    std::span<PixelPair> out) {
+Status decodePixels(PixelEncoding encoding, std::span<const uint8_t> payload, PixelView out) {
     const size_t n = out.size();
     if (Status s = checkPixelPayloadSize(encoding, n, payload.size()); !s) return s;
     const uint8_t* p = payload.data();
     switch (encoding) {
         case PixelEncoding::Float32:
-            for (PixelPair& px : out) {
-                for (float& v : px.direct) v = sanitize(std::bit_cast<float>(getU32(p))), p += 4;
-                for (float& v : px.caustic) v = sanitize(std::bit_cast<float>(getU32(p))), p += 4;
+            for (size_t i = 0; i < n; ++i) {
+                float* px = out.direct(i);
+                for (int c = 0; c < 6; ++c) px[c] = sanitize(std::bit_cast<float>(getU32(p))), p += 4;
             }
             return okStatus();
         case PixelEncoding::Rgb8:
-            for (PixelPair& px : out) {
-                for (float& v : px.direct) v = static_cast<float>(*p++) * (1.0f / 255.0f);
-                for (float& v : px.caustic) v = static_cast<float>(*p++) * (1.0f / 255.0f);
+            for (size_t i = 0; i < n; ++i) {
+                float* px = out.direct(i);
+                for (int c = 0; c < 6; ++c) px[c] = static_cast<float>(*p++) * (1.0f / 255.0f);
             }
             return okStatus();
         case PixelEncoding::Rgb9e5:
             for (size_t i = 0; i < n; ++i) {
-                unpackRgb9e5(getU32(p + 4 * i), out[i].direct);
-                unpackRgb9e5(getU32(p + 4 * (n + i)), out[i].caustic);
+                unpackRgb9e5(getU32(p + 4 * i), out.direct(i));
+                unpackRgb9e5(getU32(p + 4 * (n + i)), out.caustic(i));
             }
             return okStatus();
         case PixelEncoding::Rgb9e5Zstd: break;
     }
-    for (size_t i = 0; i < n; ++i) unpackRgb9e5(getU32(p + 4 * i), out[i].direct);
+    for (size_t i = 0; i < n; ++i) unpackRgb9e5(getU32(p + 4 * i), out.direct(i));
     if (n == 0) return okStatus();
     std::span<const uint8_t> frame = payload.subspan(n * 4);
     // The frame must announce exactly the caustic plane and fill the rest of the payload: a
@@ -244,7 +244,7 @@ Status decodePixels(PixelEncoding encoding, std::span<const uint8_t> payload,
         return Error{ErrorCode::Corrupt,
                      std::string("zstd caustic plane: ") +
                          (ZSTD_isError(got) ? ZSTD_getErrorName(got) : "short output")};
-    for (size_t i = 0; i < n; ++i) unpackRgb9e5(getU32(plane.data() + 4 * i), out[i].caustic);
+    for (size_t i = 0; i < n; ++i) unpackRgb9e5(getU32(plane.data() + 4 * i), out.caustic(i));
     return okStatus();
 }
 

@@ -27,6 +27,27 @@ struct PixelPair {
 };
 static_assert(sizeof(PixelPair) == 24, "PixelPair is six packed floats");
 
+/// Pixels in the caller's own memory, so the codec reads the renderer's buffer and writes the
+/// master's without an intermediate copy: pixel i's direct RGB is the three floats at
+/// base + i·stride, its caustic RGB the three floats after them. `F` is float or const float.
+/// proto/bridge builds views over common's PixelRadiance; pixelView() over PixelPair.
+template <class F>
+struct BasicPixelView {
+    F* base = nullptr;
+    size_t count = 0;
+    size_t stride = 6;  ///< floats from one pixel to the next, ≥ 6
+    size_t size() const { return count; }
+    F* direct(size_t i) const { return base + i * stride; }
+    F* caustic(size_t i) const { return base + i * stride + 3; }
+};
+using PixelView = BasicPixelView<float>;
+using ConstPixelView = BasicPixelView<const float>;
+
+inline PixelView pixelView(std::span<PixelPair> p) { return {p.empty() ? nullptr : p[0].direct, p.size(), 6}; }
+inline ConstPixelView pixelView(std::span<const PixelPair> p) {
+    return {p.empty() ? nullptr : p[0].direct, p.size(), 6};
+}
+
 /// Largest value RGB9E5 represents: (511/512)·2^16. Larger inputs are clamped to it.
 inline constexpr float kRgb9e5Max = 65408.0f;
 
@@ -49,7 +70,10 @@ struct EncodedPixels {
 /// and compression saves bytes"; otherwise the result is plain Rgb9e5. Other encodings are used
 /// as requested. Negative and non-finite inputs are encoded as 0 in every encoding.
 /// Thread-safe (zstd contexts are per thread). Cost: O(pixels); zstd level 1 on the caustic plane.
-EncodedPixels encodePixels(std::span<const PixelPair> pixels, PixelEncoding requested);
+EncodedPixels encodePixels(ConstPixelView pixels, PixelEncoding requested);
+inline EncodedPixels encodePixels(std::span<const PixelPair> pixels, PixelEncoding requested) {
+    return encodePixels(pixelView(pixels), requested);
+}
 
 /// Checks that a payload of `payloadBytes` can hold `pixelCount` pixels in `encoding`: exact size
 /// for the fixed-size encodings, for Rgb9e5Zstd at least the direct plane plus a minimal zstd
@@ -60,8 +84,11 @@ Status checkPixelPayloadSize(PixelEncoding encoding, uint64_t pixelCount, size_t
 /// on a size mismatch or a zstd frame that is corrupt or does not hold exactly the caustic plane.
 /// Every decoded value is finite and ≥ 0 (non-finite Float32 inputs become 0). On error `out`
 /// is left in an unspecified but finite state. Thread-safe. Cost: O(pixels).
-Status decodePixels(PixelEncoding encoding, std::span<const uint8_t> payload,
-                    std::span<PixelPair> out);
+Status decodePixels(PixelEncoding encoding, std::span<const uint8_t> payload, PixelView out);
+inline Status decodePixels(PixelEncoding encoding, std::span<const uint8_t> payload,
+                           std::span<PixelPair> out) {
+    return decodePixels(encoding, payload, pixelView(out));
+}
 
 /// Bytes per pixel of the fixed-size encodings (Rgb9e5Zstd: the uncompressed bound, 8).
 size_t bytesPerPixel(PixelEncoding encoding);

@@ -1,6 +1,8 @@
 // Edit-script parsing, the server's live scene state, and the --animate presets.
 #include "server/edit_script.h"
 
+#include "proto/bridge/bridge.h"
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -14,7 +16,6 @@ namespace rtpm::server {
 namespace {
 
 
-proto::Vec3f toProto(Vec3 v) { return {v.x, v.y, v.z}; }
 
 // Tokenised line with positions for error messages.
 class LineParser {
@@ -224,34 +225,6 @@ LiveScene::LiveScene(Scene loaded) : loaded_(std::move(loaded)), scene_(loaded_)
     camera_ = *scene_.camera;
 }
 
-proto::LightEdit LiveScene::lightEdit(uint32_t index) const {
-    const Light& l = scene_.lights.at(index);
-    return proto::LightEdit{index, toProto(l.position), toProto(l.direction), toProto(l.intensity)};
-}
-
-proto::MaterialEdit LiveScene::materialEdit(uint32_t index) const {
-    const Material& m = scene_.materials.at(index);
-    proto::MaterialEdit e;
-    e.index = index;
-    e.kind = m.type == MaterialType::Mirror       ? proto::MaterialKind::Mirror
-             : m.type == MaterialType::Dielectric ? proto::MaterialKind::Dielectric
-                                                  : proto::MaterialKind::Diffuse;
-    e.baseColor = toProto(m.baseColor);
-    e.ior = m.ior;
-    e.absorption = toProto(m.absorption);
-    e.emission = toProto(m.emission);
-    return e;
-}
-
-proto::TransformEdit LiveScene::transformEdit(uint32_t instance) const {
-    const Mat4& m = scene_.instances.at(instance).transform;
-    proto::TransformEdit e;
-    e.instance = instance;
-    for (int c = 0; c < 4; ++c)
-        for (int r = 0; r < 4; ++r) e.matrix[size_t(c * 4 + r)] = m[c][r];
-    return e;
-}
-
 void LiveScene::record(const proto::SceneEdit& e) {
     uint64_t key = editKey(e);
     for (proto::SceneEdit& old : compacted_)
@@ -291,7 +264,7 @@ void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<
                 l.intensity = *e.intensity;
             }
             scene_.lights[e.index] = l;
-            out.emplace_back(lightEdit(e.index));
+            out.emplace_back(bridge::lightToWire(scene_, e.index));
             return;
         }
         case K::Material: {
@@ -317,7 +290,7 @@ void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<
                 m.emission = *e.emission;
             }
             scene_.materials[e.index] = m;
-            out.emplace_back(materialEdit(e.index));
+            out.emplace_back(bridge::materialToWire(scene_, e.index));
             return;
         }
         case K::Transform: {
@@ -335,7 +308,7 @@ void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<
                 m = t * loaded_.instances[e.index].transform;
             }
             scene_.instances[e.index].transform = m;
-            out.emplace_back(transformEdit(e.index));
+            out.emplace_back(bridge::transformToWire(scene_, e.index));
             return;
         }
     }
@@ -425,8 +398,5 @@ void animate(Animation a, uint64_t frame, LiveScene& live, std::vector<proto::Sc
     }
 }
 
-proto::CameraState toCameraState(const Camera& c) {
-    return proto::CameraState{toProto(c.position), toProto(c.forward), toProto(c.up), c.yfov};
-}
 
 }  // namespace rtpm::server

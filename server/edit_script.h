@@ -73,11 +73,6 @@ public:
     const Camera& camera() const { return camera_; }
     void setCamera(const Camera& c) { camera_ = c; }
 
-    /// Light / material / instance edits in protocol form, with their current values.
-    proto::LightEdit lightEdit(uint32_t index) const;
-    proto::MaterialEdit materialEdit(uint32_t index) const;
-    proto::TransformEdit transformEdit(uint32_t instance) const;
-
     /// Records that `e` was sent (for the compacted list late joiners receive).
     void record(const proto::SceneEdit& e);
     /// Every scene edit so far, compacted to the latest one per light, material and instance, in
@@ -115,7 +110,5 @@ void checkAnimation(Animation a, const Scene& scene);
 /// Frame 0 is the scene as loaded: nothing happens. Precondition: checkAnimation passed.
 void animate(Animation a, uint64_t frame, LiveScene& live, std::vector<proto::SceneEdit>& out);
 
-/// Bit-exact conversion of the camera (FrameBegin carries it; clients convert it back).
-proto::CameraState toCameraState(const Camera& c);
 
 }  // namespace rtpm::server

@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "common/render/render_flags.h"
+#include "common/core/strings.h"
 #include "common/scene/scene_loader.h"
 #include "server/edit_script.h"
 #include "server/master.h"
@@ -15,14 +16,6 @@ namespace {
 
 using namespace rtpm;
 
-std::string lower(std::string s) {
-    for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
-    return s;
-}
-std::string upper(std::string s) {
-    for (char& c : s) c = char(std::toupper(static_cast<unsigned char>(c)));
-    return s;
-}
 
 int run(int argc, char** argv) {
     server::MasterOptions o;
@@ -84,16 +77,15 @@ int run(int argc, char** argv) {
     else throw std::invalid_argument("--encoding must be float32, rgb9e5, rgb9e5-zstd or rgb8, got '" + encoding + "'");
     validateSettings(rs);
 
-    auto names = builtinSceneNames();
-    o.builtin = std::find(names.begin(), names.end(), upper(o.sceneName)) != names.end();
-    if (o.builtin) o.sceneName = upper(o.sceneName);
+    o.builtin = isBuiltinScene(o.sceneName);
+    if (o.builtin) o.sceneName = toUpper(o.sceneName);
     Scene scene = loadScene(o.sceneName);
     for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     if (!editScript.empty()) {
         o.script = server::loadEditScript(editScript);
         o.scriptFile = editScript;
     }
-    if (o.out.empty()) o.out = "out/" + lower(std::filesystem::path(o.sceneName).stem().string()) + ".exr";
+    if (o.out.empty()) o.out = "out/" + toLower(std::filesystem::path(o.sceneName).stem().string()) + ".exr";
 
     server::Master master(std::move(o), std::move(scene));
     return master.run();

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "common/image/frame_image.h"
+#include "common/core/strings.h"
 #include "common/scene/gltf_export.h"
 #include "common/image/image_io.h"
 #include "common/render/render_flags.h"
@@ -35,10 +36,6 @@ struct Options {
     bool exposureSet = false;
 };
 
-std::string lower(std::string s) {
-    for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
-    return s;
-}
 
 int run(int argc, char** argv) {
     Options o;
@@ -99,7 +96,7 @@ int run(int argc, char** argv) {
     if (o.frames < 1) throw std::invalid_argument("invalid setting: --frames must be >= 1");
     const Camera camera = *scene.camera;
 
-    std::string stem = lower(std::filesystem::path(o.scene).stem().string());
+    std::string stem = toLower(std::filesystem::path(o.scene).stem().string());
     std::string outPath = o.out.empty() ? "out/" + stem + ".exr" : o.out;
     std::filesystem::path outDir = std::filesystem::path(outPath).parent_path();
     if (!outDir.empty()) std::filesystem::create_directories(outDir);

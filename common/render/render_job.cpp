@@ -60,53 +60,18 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
 }
 
 void RenderJob::applyEdit(const SceneEdit& edit) {
-    // Each edit is validated in place and rolled back if rejected: the scene is never left changed.
-    Scene& s = *scene_;
+    Material previous;
+    rtpm::applyEdit(*scene_, edit, &previous);  // throws and leaves the scene unchanged if refused
+    const Scene& s = *scene_;
     switch (edit.kind) {
-        case SceneEdit::Kind::Light: {
-            if (edit.index >= s.lights.size())
-                throw SceneError("edit", "light " + std::to_string(edit.index), "no such light");
-            Light old = s.lights[edit.index];
-            s.lights[edit.index] = edit.light;
-            try {
-                s.validate("edit");
-            } catch (...) {
-                s.lights[edit.index] = old;
-                throw;
-            }
-            break;
-        }
-        case SceneEdit::Kind::Material: {
-            if (edit.index >= s.materials.size())
-                throw SceneError("edit", "material " + std::to_string(edit.index), "no such material");
-            Material old = s.materials[edit.index];
-            s.materials[edit.index] = edit.material;
-            try {
-                s.validate("edit");
-            } catch (...) {
-                s.materials[edit.index] = old;
-                throw;
-            }
+        case SceneEdit::Kind::Light: break;  // lights are read from the scene at the next batch
+        case SceneEdit::Kind::Material:
             // The emissive triangle list is rebuilt through the mesh path, only if emission changed.
-            if (old.emission != edit.material.emission)
+            if (previous.emission != edit.material.emission)
                 for (size_t m = 0; m < s.meshes.size(); ++m)
                     if (s.meshes[m].material == edit.index) embree_->setMesh(uint32_t(m), s.meshes[m]);
             break;
-        }
-        case SceneEdit::Kind::Transform: {
-            if (edit.index >= s.instances.size())
-                throw SceneError("edit", "instance " + std::to_string(edit.index), "no such instance");
-            Mat4 old = s.instances[edit.index].transform;
-            s.instances[edit.index].transform = edit.transform;
-            try {
-                s.validate("edit");
-            } catch (...) {
-                s.instances[edit.index].transform = old;
-                throw;
-            }
-            embree_->setTransform(edit.index, edit.transform);
-            break;
-        }
+        case SceneEdit::Kind::Transform: embree_->setTransform(edit.index, edit.transform); break;
     }
     resetPhotons();
 }

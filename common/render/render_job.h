@@ -8,6 +8,7 @@
 #include "common/trace/embree_scene.h"
 #include "common/photon/photon_map.h"
 #include "common/core/render_settings.h"
+#include "common/scene/scene_edit.h"
 #include "common/trace/eye_pass.h"
 
 namespace rtpm {
@@ -27,16 +28,6 @@ struct FrameStats {
     uint64_t pathsThisFrame = 0;   ///< paths traced in this frame
     bool walkthrough = false;      ///< every owned set reached its cap (no shooting)
     EyeStats eye;
-};
-
-/// A scene edit applied between frames. Camera changes are not edits (photons are
-/// view-independent); every edit here resets the photon maps (DESIGN §2).
-struct SceneEdit {
-    enum class Kind { Light, Material, Transform } kind = Kind::Light;
-    uint32_t index = 0;  ///< light, material or instance index
-    Light light;
-    Material material;
-    Mat4 transform{1.0f};
 };
 
 /// Renders frames for a fixed list of interleaving sets. Used by rtpm-render (all sets) and by

@@ -1,5 +1,6 @@
 // loadScene: dispatch by built-in name or file extension, apply overrides, add defaults, validate.
 #include "common/scene/scene_loader.h"
+#include "common/core/strings.h"
 
 #include <algorithm>
 #include <cctype>
@@ -19,15 +20,6 @@ namespace {
 
 constexpr uint64_t kMaxTexels = uint64_t(1) << 26;
 
-std::string lower(std::string s) {
-    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-    return s;
-}
-
-std::string upper(std::string s) {
-    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::toupper(c)); });
-    return s;
-}
 
 float srgbToLinear(float c) {
     c = std::clamp(std::isfinite(c) ? c : 0.0f, 0.0f, 1.0f);
@@ -57,21 +49,24 @@ bool hasLightOrEmitter(const Scene& s) {
 
 std::vector<std::string> builtinSceneNames() { return {"RING", "GLASS", "EGG", "HEADLIGHT", "CORNELL"}; }
 
+bool isBuiltinScene(const std::string& name) {
+    const auto names = builtinSceneNames();
+    return std::find(names.begin(), names.end(), toUpper(name)) != names.end();
+}
+
 Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides) {
     Scene scene;
-    const std::string name = upper(nameOrPath);
-    const auto names = builtinSceneNames();
-    if (std::find(names.begin(), names.end(), name) != names.end()) {
-        scene = buildBuiltinScene(name);
+    if (isBuiltinScene(nameOrPath)) {
+        scene = buildBuiltinScene(toUpper(nameOrPath));
     } else {
-        const std::string ext = lower(std::filesystem::path(nameOrPath).extension().string());
+        const std::string ext = toLower(std::filesystem::path(nameOrPath).extension().string());
         if (ext == ".gltf" || ext == ".glb") {
             scene = loadGltf(nameOrPath);
         } else if (ext == ".obj") {
             scene = loadObj(nameOrPath);
         } else {
             std::string known;
-            for (const auto& n : names) known += n + " ";
+            for (const auto& n : builtinSceneNames()) known += n + " ";
             throw SceneError(nameOrPath, "scene",
                              "neither a built-in scene (" + known +
                                  ") nor a file with extension .gltf, .glb or .obj");
@@ -122,8 +117,8 @@ Texture decodeSrgbTexture(const std::vector<uint8_t>& encoded, const std::string
                           const std::string& file, const std::string& element) {
     if (encoded.empty()) throw SceneError(file, element, "image data is empty");
     // The pseudo file name only picks the reader plugin; a recognised signature wins over the hint.
-    std::string ext = lower(std::filesystem::path(formatHint).extension().string());
-    if (ext.empty()) ext = "." + lower(formatHint);
+    std::string ext = toLower(std::filesystem::path(formatHint).extension().string());
+    if (ext.empty()) ext = "." + toLower(formatHint);
     if (encoded.size() >= 4 && encoded[0] == 0x89 && encoded[1] == 'P' && encoded[2] == 'N' &&
         encoded[3] == 'G')
         ext = ".png";

@@ -31,6 +31,8 @@ struct SceneOverrides {
 
 /// Names accepted by loadScene as built-in scenes, upper case: RING, GLASS, EGG, HEADLIGHT, CORNELL.
 std::vector<std::string> builtinSceneNames();
+/// True when `name` is a built-in scene name (case-insensitive).
+bool isBuiltinScene(const std::string& name);
 
 /// Loads a scene.
 /// `nameOrPath` is a built-in name (case-insensitive, see builtinSceneNames()) or a file path

@@ -27,7 +27,7 @@ proto::Settings smallSettings() {
     s.height = 30;
     s.m = 2;
     s.f = 2;
-    s.photonsPerSetPerFrame = 400;
+    s.photonsPerBatch = 400;
     s.k = 20;
     s.rMax = 0.0f;
     s.maxDepth = 16;

@@ -1,13 +1,13 @@
-// One master connection: read loop through the frame splitter, single-flight write queue, timeouts.
-#include "server/session.h"
+// One protocol connection: read loop through the frame splitter, single-flight write queue, timeouts.
+#include "proto/net/connection.h"
 
-namespace rtpm::server {
+namespace rtpm::net {
 
 namespace {
 constexpr size_t kReadChunk = 256 * 1024;
 }
 
-Session::Session(asio::ip::tcp::socket socket, SessionHandler& handler, size_t maxQueuedBytes)
+Connection::Connection(asio::ip::tcp::socket socket, ConnectionHandler& handler, size_t maxQueuedBytes)
     : socket_(std::move(socket)), handler_(handler), timer_(socket_.get_executor()), maxQueuedBytes_(maxQueuedBytes) {
     asio::error_code ec;
     auto ep = socket_.remote_endpoint(ec);
@@ -16,7 +16,7 @@ Session::Session(asio::ip::tcp::socket socket, SessionHandler& handler, size_t m
     readBuf_.resize(kReadChunk);
 }
 
-void Session::start(std::chrono::milliseconds handshakeTimeout) {
+void Connection::start(std::chrono::milliseconds handshakeTimeout) {
     auto self = shared_from_this();
     timer_.expires_after(handshakeTimeout);
     timer_.async_wait([self](const asio::error_code& ec) {
@@ -26,9 +26,9 @@ void Session::start(std::chrono::milliseconds handshakeTimeout) {
     readMore();
 }
 
-void Session::markAuthenticated() { timer_.cancel(); }
+void Connection::markAuthenticated() { timer_.cancel(); }
 
-void Session::readMore() {
+void Connection::readMore() {
     auto self = shared_from_this();
     socket_.async_read_some(asio::buffer(readBuf_), [self](const asio::error_code& ec, size_t n) {
         if (self->finished_) return;
@@ -59,7 +59,7 @@ void Session::readMore() {
     });
 }
 
-void Session::send(Buffer bytes) {
+void Connection::send(Buffer bytes) {
     if (finished_) return;
     queuedBytes_ += bytes->size();
     queue_.push_back(std::move(bytes));
@@ -70,11 +70,11 @@ void Session::send(Buffer bytes) {
     if (!writing_) writeNext();
 }
 
-void Session::writeNext() {
+void Connection::writeNext() {
     if (finished_) return;
     if (queue_.empty()) {
         writing_ = false;
-        if (flushing_) finish("closed by the server");
+        if (flushing_) finish("closed by this side");
         return;
     }
     writing_ = true;
@@ -91,28 +91,28 @@ void Session::writeNext() {
     });
 }
 
-void Session::closeAfterFlush(std::chrono::milliseconds grace) {
+void Connection::closeAfterFlush(std::chrono::milliseconds grace) {
     if (finished_) return;
     closing_ = true;
     flushing_ = true;
     if (!writing_ && queue_.empty()) {
-        finish("closed by the server");
+        finish("closed by this side");
         return;
     }
     auto self = shared_from_this();
     timer_.expires_after(grace);
     timer_.async_wait([self](const asio::error_code& ec) {
         if (ec || self->finished_) return;
-        self->finish("closed by the server (peer did not read its last messages)");
+        self->finish("closed by this side (peer did not read its last messages)");
     });
 }
 
-void Session::close(const std::string& why) {
+void Connection::close(const std::string& why) {
     closing_ = true;
     finish(why);
 }
 
-void Session::finish(const std::string& why) {
+void Connection::finish(const std::string& why) {
     if (finished_) return;
     finished_ = true;
     closing_ = true;
@@ -127,4 +127,4 @@ void Session::finish(const std::string& why) {
     asio::post(socket_.get_executor(), [self, why] { self->handler_.onClosed(*self, why); });
 }
 
-}  // namespace rtpm::server
+}  // namespace rtpm::net

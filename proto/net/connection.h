@@ -1,4 +1,4 @@
-// One TCP connection of the master: framed reads through proto::FrameSplitter, queued writes.
+// One TCP connection speaking the rtpm protocol: framed reads through proto::FrameSplitter, queued writes.
 #pragma once
 
 #include <asio.hpp>
@@ -12,35 +12,35 @@
 
 #include "proto/messages.h"
 
-namespace rtpm::server {
+namespace rtpm::net {
 
-class Session;
+class Connection;
 
-/// What a Session reports to its owner. Called on the I/O thread only.
-class SessionHandler {
+/// What a Connection reports to its owner. Called on the I/O thread only.
+class ConnectionHandler {
 public:
-    virtual ~SessionHandler() = default;
+    virtual ~ConnectionHandler() = default;
     /// A whole, validated message. `wireBytes` = header + payload.
-    virtual void onMessage(Session& s, proto::Message&& m, size_t wireBytes) = 0;
+    virtual void onMessage(Connection& c, proto::Message&& m, size_t wireBytes) = 0;
     /// The peer's bytes cannot be decoded (bad magic, version, size, field…); the session stops
     /// reading. The handler decides what to send before closing.
-    virtual void onBadBytes(Session& s, const proto::Error& e) = 0;
+    virtual void onBadBytes(Connection& c, const proto::Error& e) = 0;
     /// The connection is gone (peer closed, I/O error, close() completed). Called exactly once,
     /// after which the handler must drop its reference.
-    virtual void onClosed(Session& s, const std::string& why) = 0;
+    virtual void onClosed(Connection& c, const std::string& why) = 0;
 };
 
 /// A connection: reads as fast as the peer sends, splitting the stream into messages; writes
 /// queued buffers one at a time (one write in flight, Asio's rule), sharing encoded buffers
 /// between sessions. Lives on one io_context thread; not thread-safe. Owned by a shared_ptr so
 /// pending handlers keep it alive.
-class Session : public std::enable_shared_from_this<Session> {
+class Connection : public std::enable_shared_from_this<Connection> {
 public:
     using Buffer = std::shared_ptr<const std::vector<uint8_t>>;
 
     /// `maxQueuedBytes`: a peer that lets more than this pile up unread is closed (it is not
     /// reading; memory must not grow without bound).
-    Session(asio::ip::tcp::socket socket, SessionHandler& handler, size_t maxQueuedBytes);
+    Connection(asio::ip::tcp::socket socket, ConnectionHandler& handler, size_t maxQueuedBytes);
 
     /// Starts reading. `handshakeTimeout`: the connection is closed unless markAuthenticated()
     /// is called within it.
@@ -68,7 +68,7 @@ private:
     void finish(const std::string& why);
 
     asio::ip::tcp::socket socket_;
-    SessionHandler& handler_;
+    ConnectionHandler& handler_;
     asio::steady_timer timer_;
     std::string peer_;
     proto::FrameSplitter splitter_;
@@ -83,4 +83,4 @@ private:
     bool finished_ = false;  // onClosed delivered
 };
 
-}  // namespace rtpm::server
+}  // namespace rtpm::net

@@ -1,0 +1,178 @@
+// Conversions between the wire protocol's types and the renderer's.
+#include "proto/bridge/bridge.h"
+
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+
+#include <glm/gtc/type_ptr.hpp>
+
+namespace rtpm::bridge {
+
+// The codec addresses a pixel as six floats: direct RGB, then caustic RGB.
+static_assert(sizeof(Vec3) == 3 * sizeof(float), "Vec3 is three packed floats");
+static_assert(sizeof(PixelRadiance) == 6 * sizeof(float), "PixelRadiance is six packed floats");
+static_assert(offsetof(PixelRadiance, caustic) == 3 * sizeof(float), "caustic follows direct");
+
+proto::Vec3f toWire(Vec3 v) { return {v.x, v.y, v.z}; }
+Vec3 fromWire(proto::Vec3f v) { return {v.x, v.y, v.z}; }
+
+proto::Settings toWire(const RenderSettings& rs, proto::PixelEncoding encoding) {
+    if (rs.photons.capPhotons > (uint64_t{1} << 30))
+        throw std::invalid_argument("--cap must be at most 2^30 in a cluster");
+    proto::Settings s;
+    s.width = static_cast<uint32_t>(rs.width);
+    s.height = static_cast<uint32_t>(rs.height);
+    s.m = static_cast<uint32_t>(rs.interleave);
+    s.f = static_cast<uint32_t>(rs.filterSize());
+    s.photonsPerBatch = rs.photons.photonsPerBatch;
+    s.k = rs.photons.k;
+    s.rMax = rs.photons.rMax;
+    s.maxDepth = static_cast<uint32_t>(rs.eye.maxDepth);
+    s.diffuseBounces = rs.photons.diffuseBounces;
+    s.capPhotonsPerSet = static_cast<uint32_t>(rs.photons.capPhotons);
+    s.spt = rs.photons.selective;
+    switch (rs.photons.tree) {
+        case PhotonTree::MiddleSplit: s.tree = proto::TreeVariant::MiddleSplitKdTree; break;
+        case PhotonTree::MedianBalanced: s.tree = proto::TreeVariant::BalancedKdTree; break;
+        case PhotonTree::UniformGrid: s.tree = proto::TreeVariant::UniformGrid; break;
+    }
+    s.encoding = encoding;
+    s.seed = rs.photons.seed;
+    s.photonMaxDepth = rs.photons.maxDepth;
+    s.areaLightSamples = static_cast<uint32_t>(rs.eye.areaLightSamples);
+    s.gatherVisibility = rs.photons.gatherVisibility;
+    return s;
+}
+
+RenderSettings fromWire(const proto::Settings& s) {
+    RenderSettings rs;
+    rs.width = int(s.width);
+    rs.height = int(s.height);
+    rs.interleave = int(s.m);
+    rs.filter = int(s.f);
+    rs.eye.maxDepth = int(s.maxDepth);
+    rs.eye.areaLightSamples = int(s.areaLightSamples);
+    rs.photons.maxDepth = s.photonMaxDepth;
+    rs.photons.seed = s.seed;
+    rs.photons.photonsPerBatch = s.photonsPerBatch;
+    rs.photons.k = s.k;
+    rs.photons.rMax = s.rMax;
+    rs.photons.diffuseBounces = s.diffuseBounces;
+    rs.photons.capPhotons = s.capPhotonsPerSet;
+    rs.photons.selective = s.spt;
+    rs.photons.gatherVisibility = s.gatherVisibility;
+    switch (s.tree) {  // the decoder refuses values above kMaxTreeVariant
+        case proto::TreeVariant::MiddleSplitKdTree: rs.photons.tree = PhotonTree::MiddleSplit; break;
+        case proto::TreeVariant::BalancedKdTree: rs.photons.tree = PhotonTree::MedianBalanced; break;
+        case proto::TreeVariant::UniformGrid: rs.photons.tree = PhotonTree::UniformGrid; break;
+        default: throw std::invalid_argument("settings.tree " + std::to_string(int(s.tree)) + " is not a tree variant");
+    }
+    validateSettings(rs);
+    return rs;
+}
+
+proto::CameraState toWire(const Camera& c) {
+    return proto::CameraState{toWire(c.position), toWire(c.forward), toWire(c.up), c.yfov};
+}
+
+Camera fromWire(const proto::CameraState& c) {
+    Camera cam;
+    cam.position = fromWire(c.position);
+    cam.forward = fromWire(c.forward);
+    cam.up = fromWire(c.up);
+    cam.yfov = c.yfov;
+    // The decoder guarantees finite values; these would still give NaN rays or a mirrored image.
+    const float fl = glm::length(cam.forward), ul = glm::length(cam.up);
+    if (!(fl > 1e-6f) || !(ul > 1e-6f)) throw std::invalid_argument("camera: forward and up must be non-zero vectors");
+    if (glm::length(glm::cross(cam.forward, cam.up)) <= 1e-6f * fl * ul)
+        throw std::invalid_argument("camera: up is parallel to forward");
+    if (!(cam.yfov > 0.0f && cam.yfov < kPi))
+        throw std::invalid_argument("camera: yfov " + std::to_string(cam.yfov) + " rad not in (0, pi)");
+    return cam;
+}
+
+proto::LightEdit lightToWire(const Scene& scene, uint32_t index) {
+    const Light& l = scene.lights.at(index);
+    return proto::LightEdit{index, toWire(l.position), toWire(l.direction), toWire(l.intensity)};
+}
+
+proto::MaterialEdit materialToWire(const Scene& scene, uint32_t index) {
+    const Material& m = scene.materials.at(index);
+    proto::MaterialEdit e;
+    e.index = index;
+    switch (m.type) {
+        case MaterialType::Mirror: e.kind = proto::MaterialKind::Mirror; break;
+        case MaterialType::Dielectric: e.kind = proto::MaterialKind::Dielectric; break;
+        default: e.kind = proto::MaterialKind::Diffuse; break;
+    }
+    e.baseColor = toWire(m.baseColor);
+    e.ior = m.ior;
+    e.absorption = toWire(m.absorption);
+    e.emission = toWire(m.emission);
+    return e;
+}
+
+proto::TransformEdit transformToWire(const Scene& scene, uint32_t instance) {
+    const Mat4& m = scene.instances.at(instance).transform;
+    proto::TransformEdit e;
+    e.instance = instance;
+    for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r) e.matrix[size_t(c * 4 + r)] = m[c][r];
+    return e;
+}
+
+namespace {
+
+void requireIndex(uint32_t index, size_t count, const char* what) {
+    if (index >= count)
+        throw std::invalid_argument(std::string("edit: ") + what + " " + std::to_string(index) +
+                                    " does not exist (scene has " + std::to_string(count) + ")");
+}
+
+}  // namespace
+
+std::optional<SceneEdit> fromWire(const Scene& scene, const proto::SceneEdit& wire) {
+    SceneEdit edit;
+    if (std::holds_alternative<proto::CameraEdit>(wire)) return std::nullopt;
+    if (auto* l = std::get_if<proto::LightEdit>(&wire)) {
+        requireIndex(l->index, scene.lights.size(), "light");
+        edit.kind = SceneEdit::Kind::Light;
+        edit.index = l->index;
+        edit.light = scene.lights[l->index];  // type, cone angles and name are not on the wire
+        edit.light.position = fromWire(l->position);
+        edit.light.direction = fromWire(l->direction);
+        edit.light.intensity = fromWire(l->intensity);
+    } else if (auto* m = std::get_if<proto::MaterialEdit>(&wire)) {
+        requireIndex(m->index, scene.materials.size(), "material");
+        edit.kind = SceneEdit::Kind::Material;
+        edit.index = m->index;
+        edit.material = scene.materials[m->index];  // name and texture are not on the wire
+        switch (m->kind) {
+            case proto::MaterialKind::Diffuse: edit.material.type = MaterialType::Diffuse; break;
+            case proto::MaterialKind::Mirror: edit.material.type = MaterialType::Mirror; break;
+            case proto::MaterialKind::Dielectric: edit.material.type = MaterialType::Dielectric; break;
+        }
+        edit.material.baseColor = fromWire(m->baseColor);
+        edit.material.ior = m->ior;
+        edit.material.absorption = fromWire(m->absorption);
+        edit.material.emission = fromWire(m->emission);
+    } else {
+        const auto& t = std::get<proto::TransformEdit>(wire);
+        requireIndex(t.instance, scene.instances.size(), "instance");
+        edit.kind = SceneEdit::Kind::Transform;
+        edit.index = t.instance;
+        edit.transform = glm::make_mat4(t.matrix.data());
+    }
+    return edit;
+}
+
+proto::ConstPixelView pixelView(std::span<const PixelRadiance> pixels) {
+    return {pixels.empty() ? nullptr : &pixels[0].direct.x, pixels.size(), 6};
+}
+
+proto::PixelView pixelView(std::span<PixelRadiance> pixels) {
+    return {pixels.empty() ? nullptr : &pixels[0].direct.x, pixels.size(), 6};
+}
+
+}  // namespace rtpm::bridge

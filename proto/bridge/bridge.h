@@ -1,0 +1,49 @@
+// The one place where wire types (proto/) and rendering types (common/) are converted, both ways.
+#pragma once
+
+#include <optional>
+#include <span>
+
+#include "common/core/pixel_radiance.h"
+#include "common/core/render_settings.h"
+#include "common/scene/scene.h"
+#include "common/scene/scene_edit.h"
+#include "proto/messages.h"
+#include "proto/pixel_codec.h"
+
+namespace rtpm::bridge {
+
+proto::Vec3f toWire(Vec3 v);
+Vec3 fromWire(proto::Vec3f v);
+
+/// The Settings message for a job rendered with `settings`, its pixels sent in `encoding`.
+/// F is sent resolved (filterSize()). Throws std::invalid_argument naming the setting when a
+/// value has no wire form (a photon cap above 2^30).
+proto::Settings toWire(const RenderSettings& settings, proto::PixelEncoding encoding);
+/// Inverse of toWire (the encoding is not a rendering setting). Throws std::invalid_argument
+/// naming the field when the values are refused by validateSettings or the tree id is unknown.
+RenderSettings fromWire(const proto::Settings& settings);
+
+/// Bit-exact camera conversion (FrameBegin and camera edits carry it).
+proto::CameraState toWire(const Camera& camera);
+/// Inverse of toWire(Camera). Throws std::invalid_argument for a camera that would give NaN
+/// rays or a mirrored image (zero forward or up, up parallel to forward, yfov outside (0, π)).
+Camera fromWire(const proto::CameraState& camera);
+
+/// The wire edit that sets light / material / instance `index` of `scene` to its current value.
+/// Precondition: the index exists.
+proto::LightEdit lightToWire(const Scene& scene, uint32_t index);
+proto::MaterialEdit materialToWire(const Scene& scene, uint32_t index);
+proto::TransformEdit transformToWire(const Scene& scene, uint32_t instance);
+
+/// The scene edit a wire edit asks for on `scene` (fields the wire does not carry — a light's
+/// type and cone, a material's name and texture — are kept from `scene`); nullopt for a camera
+/// edit. Throws std::invalid_argument when the index does not exist in `scene`. The result is
+/// applied with applyEdit(), which validates it.
+std::optional<SceneEdit> fromWire(const Scene& scene, const proto::SceneEdit& edit);
+
+/// Codec views over the renderer's and the master's pixel buffers (no copy).
+proto::ConstPixelView pixelView(std::span<const PixelRadiance> pixels);
+proto::PixelView pixelView(std::span<PixelRadiance> pixels);
+
+}  // namespace rtpm::bridge

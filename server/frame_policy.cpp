@@ -1,0 +1,81 @@
+// Frame-loop policy: epochs, modes, assignment, skips, eviction.
+#include "server/frame_policy.h"
+
+namespace rtpm::server {
+
+FramePolicy::FramePolicy(uint32_t setCount, bool walkthrough, size_t pipeline, uint32_t evictAfter)
+    : setCount_(setCount), walkthrough_(walkthrough), pipeline_(pipeline), evictAfter_(evictAfter) {}
+
+FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<ClientId>& joinOrder,
+                            const std::function<size_t(ClientId)>& outstanding) {
+    for (ClientId id : joinOrder) state_.try_emplace(id);
+    bool newEpoch = frame == 0;
+    if (edited) {
+        ++epoch_;
+        newEpoch = true;
+    }
+    started_ = true;
+    if (newEpoch) epochStart_ = frame;
+    if (newEpoch || assignment_.owner.size() != setCount_) {
+        assignment_ = dealSets(setCount_, joinOrder);
+        for (auto& [id, s] : state_) s.capped = false;
+    } else if (clientsChanged_) {
+        Assignment next = rebalance(assignment_, setCount_, joinOrder);
+        if (!movedSets(assignment_, next).empty())
+            for (auto& [id, s] : state_) s.capped = false;
+        assignment_ = std::move(next);
+    }
+    clientsChanged_ = false;
+    bool allCapped = !joinOrder.empty();
+    for (ClientId id : joinOrder)
+        if (assignment_.countOf(id) > 0 && !state_[id].capped) allCapped = false;
+
+    FramePlan p;
+    p.frame = frame;
+    p.epoch = epoch_;
+    p.mode = frame == epochStart_              ? proto::FrameMode::Interaction
+             : walkthrough_ || allCapped ? proto::FrameMode::Walkthrough
+                                         : proto::FrameMode::Accumulate;
+    p.owners = assignment_.owner;
+    for (ClientId& o : p.owners)
+        if (o != kNoClient && outstanding(o) >= pipeline_) o = kNoClient;
+    for (ClientId id : joinOrder) {
+        std::vector<uint32_t> sets = assignment_.setsOf(id);
+        if (sets.empty()) continue;
+        if (outstanding(id) >= pipeline_) {
+            ++state_[id].skips;
+            continue;
+        }
+        p.sets.emplace(id, std::move(sets));
+    }
+    return p;
+}
+
+void FramePolicy::clientLeft(ClientId id) {
+    state_.erase(id);
+    clientsChanged_ = true;
+}
+
+void FramePolicy::stats(ClientId id, proto::FrameMode mode, uint64_t photonsShot) {
+    ClientState& s = state_[id];
+    if (mode != proto::FrameMode::Interaction) s.capped = photonsShot == 0;
+    s.skips = 0;
+}
+
+std::vector<uint32_t> FramePolicy::tentativeSets(ClientId id, const std::vector<ClientId>& joinOrder) const {
+    const Assignment a = started_ ? rebalance(assignment_, setCount_, joinOrder) : dealSets(setCount_, joinOrder);
+    return a.setsOf(id);
+}
+
+std::vector<ClientId> FramePolicy::evictions(const std::vector<ClientId>& clients,
+                                             const std::function<uint32_t(ClientId)>& misses) const {
+    std::vector<ClientId> out;
+    for (ClientId id : clients) {
+        auto it = state_.find(id);
+        const uint32_t skips = it == state_.end() ? 0 : it->second.skips;
+        if (misses(id) >= evictAfter_ || skips >= evictAfter_) out.push_back(id);
+    }
+    return out;
+}
+
+}  // namespace rtpm::server

@@ -1,0 +1,81 @@
+// The frame loop's decisions: epochs, frame modes, set (re)assignment, skips and eviction.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <vector>
+
+#include "proto/messages.h"
+#include "server/assignment.h"
+
+namespace rtpm::server {
+
+/// What to send for one frame.
+struct FramePlan {
+    uint64_t frame = 0;
+    uint32_t epoch = 0;
+    proto::FrameMode mode = proto::FrameMode::Interaction;
+    /// Per set: the client asked to render it, kNoClient when nobody is (shown with its previous
+    /// values). A client that already has kPipeline frames outstanding is not asked.
+    std::vector<ClientId> owners;
+    /// The clients to send FrameBegin to, with their sets (ascending).
+    std::map<ClientId, std::vector<uint32_t>> sets;
+};
+
+/// The master's frame-loop policy, pure: no sockets, no clock, no threads (DESIGN §2–§3).
+///  * Epochs: frame 0 and every frame that carries scene edits start a new epoch (edits increment
+///    the epoch number); all clients
+///    reset their photon maps at it, and the plain round-robin deal is used (maps restart anyway).
+///  * Modes: the first frame of an epoch is Interaction; later frames are Walkthrough when asked
+///    for, or when every client with sets reported that it shot nothing (capped); otherwise
+///    Accumulate.
+///  * Reassignment: clients joining or leaving within an epoch move as few sets as possible
+///    (rebalance()); moved sets restart accumulation on their new owner.
+///  * Pipelining: a client with `pipeline` frames outstanding is skipped (its sets shown with
+///    previous values); a client skipped or late `evictAfter` times in a row is evicted.
+/// Not thread-safe.
+class FramePolicy {
+public:
+    FramePolicy(uint32_t setCount, bool walkthrough, size_t pipeline, uint32_t evictAfter);
+
+    /// Plans frame `frame` (strictly increasing). `edited`: scene edits are sent with it.
+    /// `outstanding(id)`: frames sent to client id that it has not finished.
+    FramePlan plan(uint64_t frame, bool edited, const std::vector<ClientId>& joinOrder,
+                   const std::function<size_t(ClientId)>& outstanding);
+
+    /// A client joined or left: the next plan rebalances (within an epoch).
+    void clientsChanged() { clientsChanged_ = true; }
+    void clientLeft(ClientId id);
+    /// A client's Stats for a frame of mode `mode` arrived in time: it finished a frame, and in a
+    /// non-interaction frame `photonsShot == 0` means its sets are capped.
+    void stats(ClientId id, proto::FrameMode mode, uint64_t photonsShot);
+    /// Sets `id` would hold if a frame began now (for Welcome; FrameBegin is binding).
+    std::vector<uint32_t> tentativeSets(ClientId id, const std::vector<ClientId>& joinOrder) const;
+
+    /// Clients to evict: skipped `evictAfter` frames in a row, or `misses(id)` (consecutive
+    /// deadline misses) ≥ evictAfter.
+    std::vector<ClientId> evictions(const std::vector<ClientId>& clients,
+                                    const std::function<uint32_t(ClientId)>& misses) const;
+
+    uint32_t epoch() const { return epoch_; }
+    const Assignment& assignment() const { return assignment_; }
+
+private:
+    struct ClientState {
+        bool capped = false;  // last Stats of a non-interaction frame shot no photon
+        uint32_t skips = 0;   // consecutive frames skipped (pipeline full)
+    };
+    uint32_t setCount_;
+    bool walkthrough_;
+    size_t pipeline_;
+    uint32_t evictAfter_;
+    Assignment assignment_;
+    bool clientsChanged_ = false;
+    bool started_ = false;
+    uint32_t epoch_ = 0;
+    uint64_t epochStart_ = 0;
+    std::map<ClientId, ClientState> state_;
+};
+
+}  // namespace rtpm::server

@@ -1,0 +1,106 @@
+// The master's output stage: pixel decoding, assembly, caustic filtering, composition, files.
+#include "server/image_output.h"
+
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <filesystem>
+#include <stdexcept>
+
+#include "common/image/image_io.h"
+#include "proto/bridge/bridge.h"
+#include "proto/pixel_codec.h"
+
+namespace rtpm::server {
+
+ImageOutput::ImageOutput(ImageOutputOptions options)
+    : opt_(std::move(options)),
+      pattern_{opt_.width, opt_.height, opt_.interleave},
+      image_(opt_.width, opt_.height),
+      radiance_(size_t(opt_.interleave) * size_t(opt_.interleave)) {
+    if (!opt_.csv.empty()) {
+        const bool fresh = !std::filesystem::exists(opt_.csv);
+        csv_ = std::fopen(opt_.csv.c_str(), "a");
+        if (!csv_) throw std::runtime_error("cannot open " + opt_.csv);
+        if (fresh)
+            std::fprintf(csv_, "frame,fps,photons_per_set,mode,bytes,slowest_client,slowest_ms,sets_arrived,"
+                               "sets_total,deadline_hit,master_ms\n");
+    }
+    thread_ = std::thread([this] { io_.run(); });
+}
+
+ImageOutput::~ImageOutput() {
+    drain();
+    if (csv_) std::fclose(csv_);
+}
+
+void ImageOutput::drain() {
+    guard_.reset();
+    if (thread_.joinable()) thread_.join();
+}
+
+void ImageOutput::post(OutputJob job, std::function<void(OutputResult)> done) {
+    asio::post(io_, [this, job = std::move(job), done = std::move(done)]() mutable { done(process(job)); });
+}
+
+OutputResult ImageOutput::process(OutputJob& job) {
+    using Clock = std::chrono::steady_clock;
+    const auto t0 = Clock::now();
+    OutputResult result;
+    std::vector<std::string> errors(job.data.size());
+    // Decoding is the master's heaviest step: sets decode in parallel, each straight into its
+    // own radiance buffer (a set appears once per frame); scatter stays serial (FrameImage contract).
+    tbb::parallel_for(size_t(0), job.data.size(), [&](size_t i) {
+        const proto::FrameData& d = job.data[i];
+        std::vector<PixelRadiance>& rad = radiance_[d.set];
+        rad.resize(d.pixelCount);
+        proto::Status st = proto::decodePixels(d.encoding, d.pixels, bridge::pixelView(std::span(rad)));
+        if (!st.ok()) errors[i] = st.error().message;
+    });
+    for (size_t i = 0; i < job.data.size(); ++i) {
+        const proto::FrameData& d = job.data[i];
+        if (!errors[i].empty()) {
+            result.badPayloads.emplace_back(job.owners[d.set], "frame " + std::to_string(d.frame) + " set " +
+                                                                   std::to_string(d.set) +
+                                                                   ": bad pixel payload: " + errors[i]);
+            continue;
+        }
+        image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set]);
+    }
+    image_.filterAndCompose(opt_.filter);
+    result.masterMs = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    try {
+        if (!job.saveAs.empty()) writeImages(job.saveAs);
+        if (job.last && !opt_.out.empty()) writeImages(opt_.out);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "rtpm-server: cannot write images: %s\n", e.what());
+        result.writeFailed = true;
+    }
+    if (!opt_.quiet) {
+        std::printf("frame %5llu  %7.2f fps  %-11s  photons/set %10.0f  sets %3zu/%-3u  %8.2f MB  "
+                    "slowest %s %.1f ms  master %.2f ms%s\n",
+                    (unsigned long long)job.frame, job.fps, proto::frameModeName(job.mode), job.photonsPerSet,
+                    job.arrived, job.setCount, double(job.bytes) / 1e6, job.slowest.c_str(), job.slowestMs,
+                    result.masterMs, job.deadlineHit ? "  (deadline)" : "");
+        std::fflush(stdout);
+    }
+    if (csv_) {
+        std::fprintf(csv_, "%llu,%.3f,%.1f,%s,%llu,%s,%.3f,%zu,%u,%d,%.3f\n", (unsigned long long)job.frame,
+                     job.fps, job.photonsPerSet, proto::frameModeName(job.mode), (unsigned long long)job.bytes,
+                     job.slowest.c_str(), job.slowestMs, job.arrived, job.setCount, job.deadlineHit ? 1 : 0,
+                     result.masterMs);
+        std::fflush(csv_);
+    }
+    return result;
+}
+
+void ImageOutput::writeImages(const std::string& exrPath) {
+    const std::filesystem::path dir = std::filesystem::path(exrPath).parent_path();
+    if (!dir.empty()) std::filesystem::create_directories(dir);
+    writeExr(exrPath, image_);
+    const std::string png = std::filesystem::path(exrPath).replace_extension(".png").string();
+    writePng(png, image_.width(), image_.height(), image_.final());
+    std::fprintf(stderr, "rtpm-server: wrote %s and %s\n", exrPath.c_str(), png.c_str());
+}
+
+}  // namespace rtpm::server

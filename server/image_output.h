@@ -1,0 +1,88 @@
+// The master's image output stage: decode → scatter → filter → compose → write, on its own thread.
+#pragma once
+
+#include <asio.hpp>
+
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "common/core/interleave.h"
+#include "common/core/pixel_radiance.h"
+#include "common/image/frame_image.h"
+#include "proto/messages.h"
+#include "server/assignment.h"
+
+namespace rtpm::server {
+
+/// Where and how the output stage writes.
+struct ImageOutputOptions {
+    int width = 640, height = 480, interleave = 3, filter = 3;
+    std::string out;   ///< final EXR (PNG beside it); empty = none
+    std::string csv;   ///< per-frame figures, appended (header when new); empty = none
+    bool quiet = false;  ///< no per-frame line on stdout
+};
+
+/// One retired frame and its figures, handed from the frame loop to the output stage.
+struct OutputJob {
+    uint64_t frame = 0;
+    proto::FrameMode mode{};
+    double fps = 0.0;
+    uint64_t bytes = 0;
+    double photonsPerSet = 0.0;
+    std::string slowest;
+    float slowestMs = 0.0f;
+    size_t arrived = 0;
+    uint32_t setCount = 0;
+    bool deadlineHit = false;
+    std::vector<ClientId> owners;  ///< owner per set at this frame, to name bad payloads
+    std::vector<proto::FrameData> data;
+    std::string saveAs;  ///< also write this frame to this EXR path (PNG beside it); empty = no
+    bool last = false;   ///< write opt.out after this frame
+};
+
+/// What the output stage found.
+struct OutputResult {
+    std::vector<std::pair<ClientId, std::string>> badPayloads;  ///< client, why
+    double masterMs = 0.0;  ///< decode + scatter + filter + compose
+    bool writeFailed = false;
+};
+
+/// Decodes each set's pixels straight into its radiance buffer (sets in parallel), scatters them
+/// into the full frame, box-filters the caustics, composes and writes EXR + PNG and the CSV row.
+/// post() runs jobs in order on the stage's own thread, so a slow frame never stalls the sockets;
+/// process() runs one on the caller's thread. Sets missing from a job keep their previous values.
+class ImageOutput {
+public:
+    /// Throws std::runtime_error if the CSV file cannot be opened.
+    explicit ImageOutput(ImageOutputOptions options);
+    ~ImageOutput();  ///< finishes queued jobs, then joins the thread
+    ImageOutput(const ImageOutput&) = delete;
+    ImageOutput& operator=(const ImageOutput&) = delete;
+
+    /// Queues `job`; `done` is called on the output thread with its result.
+    void post(OutputJob job, std::function<void(OutputResult)> done);
+    /// Finishes every queued job and stops the thread; later post()s are not run. Idempotent.
+    void drain();
+    /// Runs `job` on the calling thread. Not concurrent with post()ed jobs.
+    OutputResult process(OutputJob& job);
+    const FrameImage& image() const { return image_; }
+
+private:
+    void writeImages(const std::string& exrPath);
+
+    ImageOutputOptions opt_;
+    Interleave pattern_;
+    FrameImage image_;
+    std::vector<std::vector<PixelRadiance>> radiance_;  ///< per set, reused
+    FILE* csv_ = nullptr;
+    asio::io_context io_;
+    asio::executor_work_guard<asio::io_context::executor_type> guard_{io_.get_executor()};
+    std::thread thread_;
+};
+
+}  // namespace rtpm::server

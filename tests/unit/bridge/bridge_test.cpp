@@ -1,0 +1,138 @@
+// Round trips of every proto ↔ common conversion, and the one default table.
+#include "proto/bridge/bridge.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "common/scene/scene_loader.h"
+
+namespace rtpm {
+namespace {
+
+TEST(Bridge, DefaultWireSettingsAreTheRenderersDefaults) {
+    // One default per knob: a default Settings message is what a default job sends.
+    EXPECT_EQ(bridge::toWire(RenderSettings{}, proto::Settings{}.encoding), proto::Settings{});
+}
+
+TEST(Bridge, SettingsRoundTripEveryField) {
+    RenderSettings rs;
+    rs.width = 321;
+    rs.height = 123;
+    rs.interleave = 4;
+    rs.filter = 5;
+    rs.eye.maxDepth = 7;
+    rs.eye.areaLightSamples = 9;
+    rs.photons.photonsPerBatch = 12345;
+    rs.photons.selective = false;
+    rs.photons.diffuseBounces = 0;
+    rs.photons.maxDepth = 11;
+    rs.photons.k = 33;
+    rs.photons.rMax = 0.125f;
+    rs.photons.capPhotons = 777;
+    rs.photons.seed = 0xfeedbeefull;
+    rs.photons.tree = PhotonTree::UniformGrid;
+    rs.photons.gatherVisibility = true;
+    const proto::Settings wire = bridge::toWire(rs, proto::PixelEncoding::Float32);
+    EXPECT_EQ(wire.encoding, proto::PixelEncoding::Float32);
+    const RenderSettings back = bridge::fromWire(wire);
+    EXPECT_EQ(back.width, rs.width);
+    EXPECT_EQ(back.height, rs.height);
+    EXPECT_EQ(back.interleave, rs.interleave);
+    EXPECT_EQ(back.filterSize(), rs.filterSize());
+    EXPECT_EQ(back.eye.maxDepth, rs.eye.maxDepth);
+    EXPECT_EQ(back.eye.areaLightSamples, rs.eye.areaLightSamples);
+    EXPECT_EQ(back.photons.photonsPerBatch, rs.photons.photonsPerBatch);
+    EXPECT_EQ(back.photons.selective, rs.photons.selective);
+    EXPECT_EQ(back.photons.diffuseBounces, rs.photons.diffuseBounces);
+    EXPECT_EQ(back.photons.maxDepth, rs.photons.maxDepth);
+    EXPECT_EQ(back.photons.k, rs.photons.k);
+    EXPECT_EQ(back.photons.rMax, rs.photons.rMax);
+    EXPECT_EQ(back.photons.capPhotons, rs.photons.capPhotons);
+    EXPECT_EQ(back.photons.seed, rs.photons.seed);
+    EXPECT_EQ(back.photons.tree, rs.photons.tree);
+    EXPECT_EQ(back.photons.gatherVisibility, rs.photons.gatherVisibility);
+    EXPECT_EQ(bridge::toWire(back, proto::PixelEncoding::Float32), wire);
+}
+
+TEST(Bridge, SettingsWithoutWireFormOrRefusedAreErrors) {
+    RenderSettings rs;
+    rs.photons.capPhotons = (uint64_t{1} << 30) + 1;
+    EXPECT_THROW(bridge::toWire(rs, proto::PixelEncoding::Float32), std::invalid_argument);
+    proto::Settings s;
+    s.k = 0;
+    EXPECT_THROW(bridge::fromWire(s), std::invalid_argument);
+    s = proto::Settings{};
+    s.tree = static_cast<proto::TreeVariant>(9);
+    EXPECT_THROW(bridge::fromWire(s), std::invalid_argument);
+}
+
+TEST(Bridge, CameraRoundTripIsBitExactAndDegenerateCamerasAreRefused) {
+    Camera c;
+    c.position = Vec3(0.1f, -2.5f, 3.25f);
+    c.forward = glm::normalize(Vec3(0.3f, -0.2f, -1.0f));
+    c.up = Vec3(0.0f, 1.0f, 0.0f);
+    c.yfov = 0.7f;
+    const Camera back = bridge::fromWire(bridge::toWire(c));
+    EXPECT_EQ(back.position, c.position);
+    EXPECT_EQ(back.forward, c.forward);
+    EXPECT_EQ(back.up, c.up);
+    EXPECT_EQ(back.yfov, c.yfov);
+    proto::CameraState bad = bridge::toWire(c);
+    bad.up = bad.forward;
+    EXPECT_THROW(bridge::fromWire(bad), std::invalid_argument);
+    bad = bridge::toWire(c);
+    bad.yfov = 3.5f;
+    EXPECT_THROW(bridge::fromWire(bad), std::invalid_argument);
+}
+
+TEST(Bridge, EditsRoundTripThroughTheScene) {
+    const Scene ring = loadScene("RING");
+    ASSERT_FALSE(ring.materials.empty());
+    ASSERT_FALSE(ring.instances.empty());
+    Scene edited = ring;
+    edited.materials[0].baseColor = Vec3(0.25f, 0.5f, 0.75f);
+    edited.instances[0].transform[3] = glm::vec4(0.5f, 0.0f, 0.25f, 1.0f);
+    // Wire edits taken from the edited scene, read back against the original: the same values.
+    auto m = bridge::fromWire(ring, bridge::materialToWire(edited, 0));
+    ASSERT_TRUE(m);
+    EXPECT_EQ(m->kind, SceneEdit::Kind::Material);
+    EXPECT_EQ(m->material.baseColor, edited.materials[0].baseColor);
+    EXPECT_EQ(m->material.type, edited.materials[0].type);
+    auto t = bridge::fromWire(ring, bridge::transformToWire(edited, 0));
+    ASSERT_TRUE(t);
+    EXPECT_EQ(t->transform, edited.instances[0].transform);
+    if (!ring.lights.empty()) {
+        edited.lights[0].position += Vec3(0.1f);
+        auto l = bridge::fromWire(ring, bridge::lightToWire(edited, 0));
+        ASSERT_TRUE(l);
+        EXPECT_EQ(l->light.position, edited.lights[0].position);
+        EXPECT_EQ(l->light.type, ring.lights[0].type);  // not on the wire: kept from the scene
+    }
+    EXPECT_FALSE(bridge::fromWire(ring, proto::CameraEdit{}));
+    proto::MaterialEdit missing;
+    missing.index = uint32_t(ring.materials.size());
+    EXPECT_THROW(bridge::fromWire(ring, missing), std::invalid_argument);
+}
+
+TEST(Bridge, PixelsEncodeFromAndDecodeIntoRadianceBuffersWithoutACopy) {
+    std::vector<PixelRadiance> px(37);
+    for (size_t i = 0; i < px.size(); ++i) {
+        px[i].direct = Vec3(float(i), 0.5f * float(i), 0.25f);
+        px[i].caustic = Vec3(i % 3 ? 0.0f : 2.0f, 1e-3f * float(i), 0.0f);
+    }
+    const proto::EncodedPixels enc =
+        proto::encodePixels(bridge::pixelView(std::span<const PixelRadiance>(px)), proto::PixelEncoding::Float32);
+    std::vector<PixelRadiance> back(px.size());
+    ASSERT_TRUE(proto::decodePixels(enc.encoding, enc.bytes, bridge::pixelView(std::span(back))).ok());
+    for (size_t i = 0; i < px.size(); ++i) {
+        EXPECT_EQ(back[i].direct, px[i].direct) << i;
+        EXPECT_EQ(back[i].caustic, px[i].caustic) << i;
+    }
+    // The view addresses the caller's memory: the encoder read these very floats.
+    EXPECT_EQ(bridge::pixelView(std::span(back)).base, &back[0].direct.x);
+}
+
+}  // namespace
+}  // namespace rtpm

@@ -1,0 +1,83 @@
+// The frame-loop policy without sockets or clocks: epochs, modes, skips, reassignment, eviction.
+#include "server/frame_policy.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+
+namespace rtpm::server {
+namespace {
+
+auto none = [](ClientId) -> size_t { return 0; };
+
+TEST(FramePolicy, FirstFrameIsInteractionThenAccumulateUntilEveryClientIsCapped) {
+    FramePolicy p(9, /*walkthrough=*/false, /*pipeline=*/2, /*evictAfter=*/3);
+    std::vector<ClientId> clients{1, 2};
+    FramePlan f0 = p.plan(0, false, clients, none);
+    EXPECT_EQ(f0.mode, proto::FrameMode::Interaction);
+    EXPECT_EQ(f0.epoch, 0u);
+    EXPECT_EQ(f0.sets.at(1), (std::vector<uint32_t>{0, 2, 4, 6, 8}));
+    EXPECT_EQ(f0.sets.at(2), (std::vector<uint32_t>{1, 3, 5, 7}));
+    EXPECT_EQ(p.plan(1, false, clients, none).mode, proto::FrameMode::Accumulate);
+    p.stats(1, proto::FrameMode::Accumulate, 0);
+    EXPECT_EQ(p.plan(2, false, clients, none).mode, proto::FrameMode::Accumulate);  // client 2 still shoots
+    p.stats(2, proto::FrameMode::Accumulate, 0);
+    EXPECT_EQ(p.plan(3, false, clients, none).mode, proto::FrameMode::Walkthrough);
+}
+
+TEST(FramePolicy, EditsStartANewEpochInInteractionAndResetCapped) {
+    FramePolicy p(4, false, 2, 3);
+    std::vector<ClientId> clients{1};
+    p.plan(0, false, clients, none);
+    p.stats(1, proto::FrameMode::Accumulate, 0);
+    EXPECT_EQ(p.plan(1, false, clients, none).mode, proto::FrameMode::Walkthrough);
+    FramePlan e = p.plan(2, true, clients, none);
+    EXPECT_EQ(e.mode, proto::FrameMode::Interaction);
+    EXPECT_EQ(e.epoch, 1u);
+    EXPECT_EQ(p.plan(3, false, clients, none).mode, proto::FrameMode::Accumulate);
+}
+
+TEST(FramePolicy, ForcedWalkthroughAfterTheFirstFrameOfAnEpoch) {
+    FramePolicy p(4, /*walkthrough=*/true, 2, 3);
+    std::vector<ClientId> clients{1};
+    EXPECT_EQ(p.plan(0, false, clients, none).mode, proto::FrameMode::Interaction);
+    EXPECT_EQ(p.plan(1, false, clients, none).mode, proto::FrameMode::Walkthrough);
+}
+
+TEST(FramePolicy, ClientWithFullPipelineIsSkippedItsSetsUnownedAndEvictedAfterRepeatedSkips) {
+    FramePolicy p(4, false, 2, 3);
+    std::vector<ClientId> clients{1, 2};
+    auto busy2 = [](ClientId id) -> size_t { return id == 2 ? 2 : 0; };
+    auto noMisses = [](ClientId) -> uint32_t { return 0; };
+    for (uint64_t f = 0; f < 3; ++f) {
+        FramePlan plan = p.plan(f, false, clients, busy2);
+        EXPECT_EQ(plan.sets.count(2), 0u);
+        EXPECT_EQ(plan.owners[1], kNoClient);  // client 2's set 1 is shown with previous values
+        EXPECT_EQ(plan.owners[0], 1u);
+    }
+    EXPECT_EQ(p.evictions(clients, noMisses), (std::vector<ClientId>{2}));
+    p.stats(2, proto::FrameMode::Accumulate, 10);  // a finished frame clears the skip count
+    EXPECT_TRUE(p.evictions(clients, noMisses).empty());
+    EXPECT_EQ(p.evictions(clients, [](ClientId id) -> uint32_t { return id == 1 ? 3 : 0; }),
+              (std::vector<ClientId>{1}));
+}
+
+TEST(FramePolicy, LeavingClientsSetsMoveToSurvivorsWithinTheEpoch) {
+    FramePolicy p(4, false, 2, 3);
+    p.plan(0, false, {1, 2}, none);
+    p.clientLeft(2);
+    FramePlan f1 = p.plan(1, false, {1}, none);
+    EXPECT_EQ(f1.sets.at(1), (std::vector<uint32_t>{0, 1, 2, 3}));
+    EXPECT_EQ(f1.epoch, 0u);
+    EXPECT_EQ(f1.mode, proto::FrameMode::Accumulate);
+}
+
+TEST(FramePolicy, TentativeSetsOfAJoiningClient) {
+    FramePolicy p(4, false, 2, 3);
+    EXPECT_EQ(p.tentativeSets(1, {1}), (std::vector<uint32_t>{0, 1, 2, 3}));
+    p.plan(0, false, {1}, none);
+    EXPECT_EQ(p.tentativeSets(2, {1, 2}).size(), 2u);
+}
+
+}  // namespace
+}  // namespace rtpm::server
