@@ -10,19 +10,18 @@
 #include <memory>
 #include <string>
 
+#include "common/core/rgb9e5.h"
+
 namespace rtpm::proto {
 namespace {
 
-// RGB9E5 constants (EXT_texture_shared_exponent): 9 mantissa bits, exponent bias 15, max 31.
-constexpr int kMantissaBits = 9;
-constexpr int kExpBias = 15;
-constexpr int kMaxExp = 31;
+// Pixel words: RGB9E5 with OpenGL's exponent bias 15 (EXT_texture_shared_exponent).
+using PixelWord = Rgb9e5<15>;
+static_assert(PixelWord::max() == kRgb9e5Max);
 
 // Non-finite and negative radiance are not representable (and are bugs upstream): encode 0.
 inline float sanitize(float v) { return (v > 0.0f && v <= 3.0e38f) ? v : 0.0f; }
 
-// 2^k as a float for k in the normal range, built from its bits (exact, no libm call).
-inline float pow2(int k) { return std::bit_cast<float>(static_cast<uint32_t>(k + 127) << 23); }
 
 inline void putU32(uint8_t* p, uint32_t v) {
     p[0] = static_cast<uint8_t>(v);
@@ -74,37 +73,10 @@ uint8_t toByte(float v) {
 }  // namespace
 
 uint32_t packRgb9e5(float r, float g, float b) {
-    const float rc = std::min(sanitize(r), kRgb9e5Max);
-    const float gc = std::min(sanitize(g), kRgb9e5Max);
-    const float bc = std::min(sanitize(b), kRgb9e5Max);
-    const float maxc = std::max(rc, std::max(gc, bc));
-    // floor(log2(maxc)) from the float's exponent field; anything below 2^-16 (denormals and 0
-    // included) uses the smallest shared exponent.
-    int floorLog2 = static_cast<int>((std::bit_cast<uint32_t>(maxc) >> 23) & 0xff) - 127;
-    floorLog2 = std::max(floorLog2, -kExpBias - 1);
-    int e = floorLog2 + 1 + kExpBias;  // in [0, 31] since maxc ≤ 65408 < 2^16
-    // Scale so the largest channel's mantissa lands in [256, 512); rounding may reach 512, then
-    // the exponent goes up by one (always possible: maxc ≤ kRgb9e5Max keeps e ≤ 31).
-    float inv = pow2(kExpBias + kMantissaBits - e);
-    uint32_t maxm = static_cast<uint32_t>(maxc * inv + 0.5f);
-    if (maxm == (1u << kMantissaBits)) {
-        ++e;
-        inv *= 0.5f;
-    }
-    e = std::min(e, kMaxExp);
-    const uint32_t rm = std::min(static_cast<uint32_t>(rc * inv + 0.5f), 511u);
-    const uint32_t gm = std::min(static_cast<uint32_t>(gc * inv + 0.5f), 511u);
-    const uint32_t bm = std::min(static_cast<uint32_t>(bc * inv + 0.5f), 511u);
-    return rm | gm << 9 | bm << 18 | static_cast<uint32_t>(e) << 27;
+    return PixelWord::pack(sanitize(r), sanitize(g), sanitize(b));
 }
 
-void unpackRgb9e5(uint32_t word, float rgb[3]) {
-    const int e = static_cast<int>(word >> 27);
-    const float scale = pow2(e - kExpBias - kMantissaBits);  // 2^(e-24) ∈ [2^-24, 2^7]
-    rgb[0] = static_cast<float>(word & 511u) * scale;
-    rgb[1] = static_cast<float>((word >> 9) & 511u) * scale;
-    rgb[2] = static_cast<float>((word >> 18) & 511u) * scale;
-}
+void unpackRgb9e5(uint32_t word, float rgb[3]) { PixelWord::unpack(word, rgb); }
 
 size_t bytesPerPixel(PixelEncoding encoding) {
     switch (encoding) {

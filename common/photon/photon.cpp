@@ -4,28 +4,20 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/core/rgb9e5.h"
+
 namespace rtpm {
 
 namespace {
 
-// RGB9E5 layout of EXT_texture_shared_exponent (9-bit mantissas, 5-bit exponent), but with the
-// exponent bias 20 instead of 15. The relative error stays ≤ 2^-9 for a largest channel in
-// [2^-20 ≈ 9.5e-7, 2044]; below that the absolute step is 2^-29 ≈ 1.9e-9, and anything above
-// 2044 is clamped. A fixed range cannot hold photon powers in W (they scale with the scene:
-// 1e-9 W per photon in a 1 mm scene, 1e7 W in a 100 km one), so PhotonMaps stores them in units
-// of a power of two near the largest path power: stored values are < 2, and the 2^-20 of range
-// below keeps SPT weights, absorption and colour ratios at full relative precision.
-constexpr int kMantissaBits = 9;
-constexpr int kExpBias = 20;
-constexpr int kMaxBiasedExp = 31;
-constexpr float kMaxRgb9e5 = static_cast<float>((1 << kMantissaBits) - 1) /
-                             (1 << kMantissaBits) * (1 << (kMaxBiasedExp - kExpBias));  // 2044
-
-float sanitize(float c) {
-    // NaN and negatives → 0 (a photon never carries negative flux); +Inf and huge → max.
-    if (!(c > 0.0f)) return 0.0f;
-    return std::min(c, kMaxRgb9e5);
-}
+// Photon powers are RGB9E5 words with exponent bias 20 instead of OpenGL's 15 (core/rgb9e5.h).
+// The relative error stays ≤ 2^-9 for a largest channel in [2^-20 ≈ 9.5e-7, 2044]; below that
+// the absolute step is 2^-29 ≈ 1.9e-9, and anything above 2044 is clamped. A fixed range cannot
+// hold photon powers in W (they scale with the scene: 1e-9 W per photon in a 1 mm scene, 1e7 W in
+// a 100 km one), so PhotonMaps stores them in units of a power of two near the largest path
+// power: stored values are < 2, and the 2^-20 of range below keeps SPT weights, absorption and
+// colour ratios at full relative precision.
+using PowerWord = Rgb9e5<20>;
 
 float signNotZero(float v) { return v < 0.0f ? -1.0f : 1.0f; }
 
@@ -39,37 +31,12 @@ float dequantizeUnit16(uint32_t q) { return static_cast<float>(q) * (2.0f / 6553
 
 }  // namespace
 
-uint32_t encodeRgb9e5(Vec3 rgb) {
-    const float r = sanitize(rgb.x);
-    const float g = sanitize(rgb.y);
-    const float b = sanitize(rgb.z);
-    const float maxc = std::max({r, g, b});
-    if (maxc < std::ldexp(1.0f, -kExpBias - kMantissaBits - 1)) return 0;  // rounds to zero
-
-    // Shared exponent e: maxc < 2^(e - bias), mantissa = c / 2^(e - bias - 9).
-    int exp2 = 0;
-    std::frexp(maxc, &exp2);  // maxc = f · 2^exp2, f in [0.5, 1)
-    int biased = std::max(-kExpBias - 1, exp2 - 1) + 1 + kExpBias;
-    float scale = std::ldexp(1.0f, kExpBias + kMantissaBits - biased);
-    // Rounding the largest channel may carry into bit 9: move to the next exponent.
-    if (std::lround(maxc * scale) >= (1 << kMantissaBits)) {
-        ++biased;
-        scale *= 0.5f;
-    }
-    biased = std::min(biased, kMaxBiasedExp);
-    const auto mant = [&](float c) {
-        return static_cast<uint32_t>(
-            std::min<long>(std::lround(c * scale), (1 << kMantissaBits) - 1));
-    };
-    return mant(r) | (mant(g) << 9) | (mant(b) << 18) | (static_cast<uint32_t>(biased) << 27);
-}
+uint32_t encodeRgb9e5(Vec3 rgb) { return PowerWord::pack(rgb.x, rgb.y, rgb.z); }
 
 Vec3 decodeRgb9e5(uint32_t packed) {
-    const int biased = static_cast<int>(packed >> 27);
-    const float scale = std::ldexp(1.0f, biased - kExpBias - kMantissaBits);
-    return Vec3(static_cast<float>(packed & 0x1ffu), static_cast<float>((packed >> 9) & 0x1ffu),
-                static_cast<float>((packed >> 18) & 0x1ffu)) *
-           scale;
+    Vec3 v;
+    PowerWord::unpack(packed, &v.x);
+    return v;
 }
 
 uint32_t encodeOctahedral(Vec3 dir) {
