@@ -12,7 +12,7 @@ namespace rtpm {
 
 /// Classic balanced kd-tree (Jensen): each node splits at the median photon along the largest
 /// dimension of its photons' bounding box (std::nth_element), built from scratch only.
-/// Same node format, traversal and query API as KdTree; used in benchmarks and tests only.
+/// Same node format, traversal and query API as KdTree; selected with `--tree median`.
 /// Thread safety: const members may run concurrently; build/clear need exclusive access.
 class MedianKdTree {
 public:

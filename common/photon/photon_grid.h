@@ -20,7 +20,7 @@ namespace rtpm {
 /// search sphere, x and y centre-out, skipping rows and cells farther than the current k-th
 /// distance (the paper visits every cell within the maximum radius).
 /// Unlike the paper's grid, nothing stops it from being used with maxDist2 = +inf (it then
-/// visits every non-pruned cell). Same query API as KdTree; for benchmarks and tests.
+/// visits every non-pruned cell). Same query API as KdTree; selected with `--tree grid`.
 /// Thread safety: const members may run concurrently; build/clear need exclusive access.
 class PhotonGrid {
 public:

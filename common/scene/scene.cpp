@@ -80,16 +80,22 @@ size_t Scene::triangleCount() const {
     return n;
 }
 
+void validateMesh(const Mesh& m, const std::string& fileName, const std::string& el) {
+    if (m.indices.size() % 3 != 0)
+        throw SceneError(fileName, el, "index count " + std::to_string(m.indices.size()) + " not a multiple of 3");
+    for (uint32_t idx : m.indices)
+        if (idx >= m.positions.size())
+            throw SceneError(fileName, el, "vertex index " + std::to_string(idx) + " out of range (" +
+                                               std::to_string(m.positions.size()) + " vertices)");
+    for (Vec3 p : m.positions)
+        if (!finite(p)) throw SceneError(fileName, el, "non-finite vertex position");
+}
+
 void Scene::validate(const std::string& fileName) const {
     for (size_t mi = 0; mi < meshes.size(); ++mi) {
         const Mesh& m = meshes[mi];
         std::string el = "mesh " + std::to_string(mi) + " (" + m.name + ")";
-        if (m.indices.size() % 3 != 0) throw SceneError(fileName, el, "index count not a multiple of 3");
-        for (uint32_t idx : m.indices)
-            if (idx >= m.positions.size())
-                throw SceneError(fileName, el, "vertex index " + std::to_string(idx) + " out of range");
-        for (Vec3 p : m.positions)
-            if (!finite(p)) throw SceneError(fileName, el, "non-finite vertex position");
+        validateMesh(m, fileName, el);
         if (!m.normals.empty() && m.normals.size() != m.positions.size())
             throw SceneError(fileName, el, "normal count differs from vertex count");
         for (Vec3 n : m.normals)

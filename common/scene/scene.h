@@ -127,6 +127,11 @@ struct Scene {
     void validate(const std::string& fileName) const;
 };
 
+/// Throws SceneError{fileName, element, …} unless `mesh` is usable geometry: index count a
+/// multiple of 3, every index in range, finite positions. The one geometry rule: EmbreeScene
+/// applies it before building, Scene::validate with the attribute checks (normals, uvs, material).
+void validateMesh(const Mesh& mesh, const std::string& fileName, const std::string& element);
+
 /// A spot light's cone in the form its falloff and solid angle use: s = 1 / max(0.001, cosI − cosO),
 /// c₁ = min(1, cosO + 1/s), ramp = ∫_{cosO}^{c₁} falloff dc, flat = 1 − c₁.
 struct SpotShape {

@@ -85,19 +85,8 @@ struct EmbreeScene::Impl {
     RTCGeometry buildTriangleGeometry(const Mesh& mesh, uint32_t meshIndex) {
         const size_t vertexCount = mesh.positions.size();
         const size_t triCount = mesh.indices.size() / 3;
-        if (mesh.indices.size() % 3 != 0)
-            throw SceneError("<embree>", "mesh " + std::to_string(meshIndex) + " '" + mesh.name + "'",
-                             "index count " + std::to_string(mesh.indices.size()) +
-                                 " is not a multiple of 3");
-        for (uint32_t idx : mesh.indices)
-            if (idx >= vertexCount)
-                throw SceneError("<embree>", "mesh " + std::to_string(meshIndex) + " '" + mesh.name + "'",
-                                 "vertex index " + std::to_string(idx) + " out of range (" +
-                                     std::to_string(vertexCount) + " vertices)");
-        for (const Vec3& p : mesh.positions)
-            if (!finite(p))
-                throw SceneError("<embree>", "mesh " + std::to_string(meshIndex) + " '" + mesh.name + "'",
-                                 "vertex position is not finite");
+        // Validated before any Embree object exists, so a rejected mesh leaks nothing.
+        validateMesh(mesh, "<embree>", "mesh " + std::to_string(meshIndex) + " '" + mesh.name + "'");
         RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
         if (!geom) throwOnError("rtcNewGeometry(triangle)");
         // Embree allocates with the padding its SIMD loads need; an empty mesh gets one dummy
@@ -246,7 +235,6 @@ void EmbreeScene::refreshDerived() {
     epsilon_ = diag > 0.0f && std::isfinite(diag) ? 1e-6f * diag : 1e-6f;
 }
 
-void EmbreeScene::refreshEmissive() { refreshDerived(); }
 
 RTCScene EmbreeScene::rtcScene() const { return impl_->top; }
 

@@ -63,9 +63,6 @@ public:
     void setTransform(uint32_t index, const Mat4& transform);
     /// Replaces mesh `index`'s vertices/indices; recommits that geometry and the top level.
     void setMesh(uint32_t index, const Mesh& mesh);
-    /// Material edits need no rebuild: the scene reference is re-read on the next query.
-    /// Call this after changing a material's emission so emissiveTriangles() follows. O(vertices).
-    void refreshEmissive();
 
     /// Point just off the surface at `p` on the side of `towards` (a direction), offset scaled to
     /// |p| and the scene size so it works from millimetre to 100 km scenes.
