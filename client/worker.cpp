@@ -22,6 +22,7 @@
 
 #include "client/frame_renderer.h"
 #include "proto/messages.h"
+#include "proto/net/connection.h"
 
 namespace rtpm::client {
 
@@ -36,6 +37,8 @@ constexpr auto kMaxBackoff = std::chrono::milliseconds(2000);
 constexpr auto kAttemptTimeout = std::chrono::seconds(5);
 /// After a Bye is queued the socket is closed when it is written, or after this at the latest.
 constexpr auto kByeGrace = std::chrono::seconds(2);
+/// Unsent bytes after which the master is taken as not reading (a few pipelined float32 frames).
+constexpr size_t kMaxQueuedBytes = size_t(256) << 20;
 
 
 std::string setList(const std::vector<uint32_t>& sets) {
@@ -76,7 +79,7 @@ bool parseHostPort(const std::string& text, std::string& host, uint16_t& port) {
     return true;
 }
 
-struct Worker::Impl {
+struct Worker::Impl : net::ConnectionHandler {
     enum class State { Connecting, AwaitWelcome, Running, Closing, Done };
     /// What the render thread consumes, in arrival order.
     struct FrameItem {
@@ -191,35 +194,32 @@ struct Worker::Impl {
 
     void onConnected() {
         state = State::AwaitWelcome;
-        asio::error_code ignored;
-        socket.set_option(tcp::no_delay(true), ignored);
+        // The same connection class as the master's (framed reads, one write in flight).
+        conn = std::make_shared<net::Connection>(std::move(socket), *this, kMaxQueuedBytes);
         proto::Hello hello;
         hello.authToken = opt.token;
         hello.cores = threadCount();
         hello.clientName = opt.name;
-        send(proto::encode(hello));
-        startRead();
+        conn->send(hello);
+        conn->start(std::chrono::milliseconds(0));
     }
 
-    // ---- receiving ---------------------------------------------------------------------------
+    // ---- receiving (net::ConnectionHandler, io thread) ----------------------------------------
 
-    void startRead() {
-        socket.async_read_some(asio::buffer(readBuf), [this](const asio::error_code& e, size_t n) {
-            if (state == State::Done) return;
-            if (e) {
-                // Closing: we said Bye and the server hung up first; nothing is lost.
-                if (state == State::Closing) return closeNow();
-                return serverGone(e);
-            }
-            splitter.feed(std::span<const uint8_t>(readBuf.data(), n));
-            while (state == State::AwaitWelcome || state == State::Running) {
-                auto next = splitter.next();
-                if (!next.ok()) return protocolError("undecodable bytes: " + next.error().message);
-                if (!next.value()) break;
-                handle(std::move(*next.value()));
-            }
-            if (state == State::AwaitWelcome || state == State::Running || state == State::Closing) startRead();
-        });
+    void onMessage(net::Connection&, proto::Message&& m, size_t) override {
+        if (state == State::AwaitWelcome || state == State::Running) handle(std::move(m));
+    }
+
+    void onBadBytes(net::Connection&, const proto::Error& e) override {
+        if (state == State::AwaitWelcome || state == State::Running)
+            protocolError("undecodable bytes: " + e.message);
+    }
+
+    void onClosed(net::Connection&, const std::string& why) override {
+        if (state == State::Done) return;
+        // Closing: we said Bye and the server hung up first (or the Bye was written); nothing is lost.
+        if (state == State::Closing) return closeNow();
+        serverGone(why);
     }
 
     void handle(proto::Message msg) {
@@ -230,6 +230,7 @@ struct Worker::Impl {
                 std::fprintf(stderr, "rtpm-client: connected to %s as client %u (sets %s, %u threads)\n",
                              addrText().c_str(), w->clientId, setList(w->sets).c_str(), threadCount());
                 state = State::Running;
+                conn->markAuthenticated();
                 renderThread = std::thread([this] { renderLoop(); });
                 return;
             }
@@ -260,12 +261,8 @@ struct Worker::Impl {
         closeNow();
     }
 
-    void serverGone(const asio::error_code& e) {
-        if (e == asio::error::eof)
-            std::fprintf(stderr, "rtpm-client: server %s closed the connection\n", addrText().c_str());
-        else
-            std::fprintf(stderr, "rtpm-client: server %s closed the connection (%s)\n", addrText().c_str(),
-                         e.message().c_str());
+    void serverGone(const std::string& why) {
+        std::fprintf(stderr, "rtpm-client: server %s closed the connection (%s)\n", addrText().c_str(), why.c_str());
         exitCode = kExitServerGone;
         closeNow();
     }
@@ -278,14 +275,11 @@ struct Worker::Impl {
         exitCode = code;
         state = State::Closing;
         stopRenderThread(false);
+        if (!conn) return closeNow();
         // Frames not yet on the wire are moot; keep only the write in progress.
-        while (writes.size() > (writing ? 1u : 0u)) writes.pop_back();
-        send(proto::encode(proto::Bye{reason, clip(text)}));
-        closeAfterWrites = true;
-        retryTimer.expires_after(kByeGrace);
-        retryTimer.async_wait([this](const asio::error_code& e) {
-            if (!e) closeNow();
-        });
+        conn->dropUnsent();
+        conn->send(proto::Bye{reason, clip(text)});
+        conn->closeAfterFlush(kByeGrace);  // onClosed → closeNow
     }
 
     void protocolError(const std::string& why) {
@@ -296,39 +290,13 @@ struct Worker::Impl {
     void closeNow() {
         state = State::Done;
         asio::error_code ignored;
-        socket.shutdown(tcp::socket::shutdown_both, ignored);
-        socket.close(ignored);
+        socket.close(ignored);  // a connection attempt in progress
+        if (conn) conn->close("client done");
         attemptTimer.cancel();
         retryTimer.cancel();
         asio::error_code ignoredSignal;
         signals.cancel(ignoredSignal);
-        writes.clear();
         stopRenderThread(false);
-    }
-
-    // ---- sending (io thread only; one write in flight) ----------------------------------------
-
-    void send(std::vector<uint8_t> bytes) {
-        writes.push_back(std::move(bytes));
-        if (!writing) writeNext();
-    }
-
-    void writeNext() {
-        if (writes.empty()) {
-            writing = false;
-            if (closeAfterWrites) closeNow();
-            return;
-        }
-        writing = true;
-        asio::async_write(socket, asio::buffer(writes.front()), [this](const asio::error_code& e, size_t) {
-            if (state == State::Done) return;
-            if (e) {
-                if (state == State::Closing) return closeNow();
-                return serverGone(e);
-            }
-            writes.pop_front();
-            writeNext();
-        });
     }
 
     // ---- render thread -----------------------------------------------------------------------
@@ -394,7 +362,7 @@ struct Worker::Impl {
                     if (opt.verbose) std::fflush(stdout);  // scripts and tests follow progress live
                     asio::post(io, [this, b = std::move(bytes)]() mutable {
                         if (state != State::Running) return;
-                        for (auto& m : b) send(std::move(m));
+                        for (auto& m : b) conn->send(std::make_shared<const std::vector<uint8_t>>(std::move(m)));
                     });
                 }
             } catch (const ProtocolViolation& e) {
@@ -428,11 +396,7 @@ struct Worker::Impl {
     uint16_t port = 0;
     std::string lastError = "no attempt made";
 
-    std::array<uint8_t, 64 * 1024> readBuf{};
-    proto::FrameSplitter splitter;
-    std::deque<std::vector<uint8_t>> writes;
-    bool writing = false;
-    bool closeAfterWrites = false;
+    std::shared_ptr<net::Connection> conn;  ///< once connected
 
     std::mutex mu;
     std::condition_variable cv;

@@ -18,6 +18,10 @@ Connection::Connection(asio::ip::tcp::socket socket, ConnectionHandler& handler,
 
 void Connection::start(std::chrono::milliseconds handshakeTimeout) {
     auto self = shared_from_this();
+    if (handshakeTimeout.count() <= 0) {
+        readMore();
+        return;
+    }
     timer_.expires_after(handshakeTimeout);
     timer_.async_wait([self](const asio::error_code& ec) {
         if (ec || self->finished_) return;
@@ -89,6 +93,13 @@ void Connection::writeNext() {
         self->queue_.pop_front();
         self->writeNext();
     });
+}
+
+void Connection::dropUnsent() {
+    while (queue_.size() > (writing_ ? 1u : 0u)) {
+        queuedBytes_ -= queue_.back()->size();
+        queue_.pop_back();
+    }
 }
 
 void Connection::closeAfterFlush(std::chrono::milliseconds grace) {

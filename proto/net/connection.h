@@ -30,7 +30,7 @@ public:
     virtual void onClosed(Connection& c, const std::string& why) = 0;
 };
 
-/// A connection: reads as fast as the peer sends, splitting the stream into messages; writes
+/// A connection (the master's to each peer, the client's to the master): reads as fast as the peer sends, splitting the stream into messages; writes
 /// queued buffers one at a time (one write in flight, Asio's rule), sharing encoded buffers
 /// between sessions. Lives on one io_context thread; not thread-safe. Owned by a shared_ptr so
 /// pending handlers keep it alive.
@@ -43,7 +43,7 @@ public:
     Connection(asio::ip::tcp::socket socket, ConnectionHandler& handler, size_t maxQueuedBytes);
 
     /// Starts reading. `handshakeTimeout`: the connection is closed unless markAuthenticated()
-    /// is called within it.
+    /// is called within it (zero: no timeout).
     void start(std::chrono::milliseconds handshakeTimeout);
     void markAuthenticated();
 
@@ -51,6 +51,8 @@ public:
     void send(Buffer bytes);
     void send(const proto::Message& m) { send(std::make_shared<const std::vector<uint8_t>>(proto::encode(m))); }
 
+    /// Drops every queued buffer except the one being written (a message is never cut).
+    void dropUnsent();
     /// Stops reading, sends what is queued, then closes (or closes after `grace` regardless).
     void closeAfterFlush(std::chrono::milliseconds grace = std::chrono::milliseconds(2000));
     /// Closes now; queued bytes are dropped.
