@@ -1,4 +1,21 @@
 // Caustic radiance from a photon map by k-nearest-neighbour density estimation (paper §3.1).
+//
+// Known limitation of the gather (thin occluders): the gather is a sphere with a front-facing test only, no
+// visibility or surface test, so photons on the far side of a thin wall that stands on the
+// same plane (same normal) as x are counted. Query points within r_k (≤ rMax) of the wall's
+// foot on its dark side get up to the lit side's estimate there (HardCases test: 0.26 vs 0.28
+// W/(m²·sr) at ±5 mm; zero beyond rMax). The band narrows as r_k shrinks with more photons.
+// No cheap principled fix exists: a Photon has no spare bits (12 B position, 32-bit RGB9E5,
+// 2×16-bit direction; bits could be taken from the direction, whose sign test is all this
+// uses), but a surface id does not separate two halves of one floor; a disc-shaped gather
+// (reject photons far from the tangent plane) rejects nothing on one plane; a visibility ray
+// to the k-th photon only says that one photon is hidden, not which of the k are, and
+// shrinking r at the first hidden photon would bias every estimate near any contact edge; a
+// ray per gathered photon is exact for planar receivers but costs k (64) rays per estimate,
+// more than the rest of the eye pass. That exact test is offered as an option:
+// causticRadianceIf counts only the k nearest photons p for which `visible(p)` holds
+// (PhotonSettings::gatherVisibility casts one shadow ray per gathered photon); r stays r_k, so
+// the estimate is unchanged wherever every found photon is visible.
 #pragma once
 
 #include <algorithm>
@@ -50,22 +67,9 @@ private:
 /// found photons are spread over: an under-estimate at the caustic's edge, never a spike).
 /// r is clamped below by kMinDensityRadiusRelative × bounds diagonal. Returns 0 for an empty
 /// map, k = 0, rMax ≤ 0 or no photon found; never NaN/Inf for finite inputs.
-/// Known limitation (thin occluders): the gather is a sphere with a front-facing test only, no
-/// visibility or surface test, so photons on the far side of a thin wall that stands on the
-/// same plane (same normal) as x are counted. Query points within r_k (≤ rMax) of the wall's
-/// foot on its dark side get up to the lit side's estimate there (HardCases test: 0.26 vs 0.28
-/// W/(m²·sr) at ±5 mm; zero beyond rMax). The band narrows as r_k shrinks with more photons.
-/// No cheap principled fix exists: a Photon has no spare bits (12 B position, 32-bit RGB9E5,
-/// 2×16-bit direction; bits could be taken from the direction, whose sign test is all this
-/// uses), but a surface id does not separate two halves of one floor; a disc-shaped gather
-/// (reject photons far from the tangent plane) rejects nothing on one plane; a visibility ray
-/// to the k-th photon only says that one photon is hidden, not which of the k are, and
-/// shrinking r at the first hidden photon would bias every estimate near any contact edge; a
-/// ray per gathered photon is exact for planar receivers but costs k (64) rays per estimate,
-/// more than the rest of the eye pass. That exact test is offered as an option:
-/// causticRadianceIf counts only the k nearest photons p for which `visible(p)` holds
-/// (PhotonSettings::gatherVisibility casts one shadow ray per gathered photon); r stays r_k, so
-/// the estimate is unchanged wherever every found photon is visible.
+/// causticRadianceIf counts only the k nearest photons p for which `visible(p)` holds (r stays
+/// r_k, so the estimate is unchanged wherever every found photon is visible); the file's opening
+/// comment says why this is the thin-wall fix.
 /// `Index` is KdTree, MedianKdTree or PhotonGrid (anything with size(), photonIncoming(),
 /// photonPower(), bounds(), search()). Thread-safe if each thread has its own heap; no allocation once the heap saw k.
 template <class Index, class Visible>
