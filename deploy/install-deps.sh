@@ -1,27 +1,61 @@
 #!/usr/bin/env bash
-# Installs every Debian 12 package that rtpm's build, tests and benchmarks need. Idempotent.
+# Installs the Debian 12 packages rtpm needs. Idempotent: does nothing when all are present.
+#
+#   deploy/install-deps.sh [GROUP ...]      (root or sudo; default group: dev)
+#
+#   dev       build, tests and benchmarks (compilers, -dev packages, GoogleTest, matplotlib, …)
+#   build     only what building rtpm-server, rtpm-client and rtpm-render needs (Dockerfile's
+#             build stage)
+#   runtime   only the shared libraries those three programs load (Dockerfile's runtime stage)
+#   docker    Docker engine, Compose 1.29 and debootstrap for deploy/compose-test.sh; iproute2
+#             (ip netns, veth, tc) for the multihost test and deploy/scale-bench.sh
 set -euo pipefail
 
-packages=(
-    build-essential cmake ninja-build pkg-config git
+build=(
+    build-essential cmake ninja-build pkg-config
     libembree-dev libtbb-dev libglm-dev
-    libopenimageio-dev libopenexr-dev openimageio-tools
+    libopenexr-dev libstb-dev
     libasio-dev
-    libtinygltf-dev nlohmann-json3-dev libstb-dev libtinyobjloader-dev
+    libtinygltf-dev nlohmann-json3-dev libtinyobjloader-dev
     libcli11-dev libspdlog-dev libfmt-dev
-    libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
     libzstd-dev
+)
+runtime=(
+    libembree3-3 libtbb12 libopenexr-3-1-30 libstb0 libtinyobjloader2rc10 libzstd1
+    libspdlog1.10 libfmt9
+)
+dev=(
+    "${build[@]}" git
+    libopenimageio-dev openimageio-tools
+    libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
     clang libclang-rt-14-dev
     python3 python3-matplotlib python3-numpy
     iproute2 procps
 )
+docker=(
+    docker.io docker-compose debootstrap python3-jsonschema
+    iproute2 procps ca-certificates
+)
+
+groups=("$@")
+((${#groups[@]})) || groups=(dev)
+packages=()
+for g in "${groups[@]}"; do
+    case $g in
+        dev) packages+=("${dev[@]}") ;;
+        build) packages+=("${build[@]}") ;;
+        runtime) packages+=("${runtime[@]}") ;;
+        docker) packages+=("${docker[@]}") ;;
+        *) echo "install-deps: unknown group '$g' (dev, build, runtime, docker)" >&2; exit 2 ;;
+    esac
+done
 
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 if ((${#missing[@]} == 0)); then
-    echo "install-deps: all ${#packages[@]} packages present"
+    echo "install-deps: all ${#packages[@]} packages of ${groups[*]} present"
     exit 0
 fi
 

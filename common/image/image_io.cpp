@@ -1,10 +1,22 @@
-// Image output and input through OpenImageIO: multi-layer EXR, tone-mapped sRGB PNG.
+// Image output and input: multi-layer EXR through OpenEXR, tone-mapped sRGB PNG through stb.
+// (Not OpenImageIO: its Debian build loads ~400 MB of codec libraries — FFmpeg, OpenCV, OpenVDB,
+// GDAL — that the runtime image would have to carry for two file formats.)
 #include "common/image/image_io.h"
 
-#include <OpenImageIO/imageio.h>
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+#include <ImfTestFile.h>
+#include <half.h>
+#include <stb_image.h>
+#include <stb_image_write.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <memory>
 #include <set>
 #include <stdexcept>
 
@@ -26,20 +38,6 @@ void checkSize(const char* what, int width, int height, size_t floats) {
 
 float finiteOrZero(float v) { return std::isfinite(v) ? v : 0.0f; }
 
-void writeImage(const std::string& path, const OIIO::ImageSpec& spec, OIIO::TypeDesc dataType,
-                const void* data) {
-    auto out = OIIO::ImageOutput::create(path);
-    if (!out)
-        throw std::runtime_error(path + ": cannot create an image writer: " + OIIO::geterror());
-    if (!out->open(path, spec)) throw std::runtime_error(path + ": cannot open for writing: " + out->geterror());
-    if (!out->write_image(dataType, data)) {
-        const std::string err = out->geterror();
-        out->close();
-        throw std::runtime_error(path + ": write failed: " + err);
-    }
-    if (!out->close()) throw std::runtime_error(path + ": close failed: " + out->geterror());
-}
-
 }  // namespace
 
 void writeExr(const std::string& path, int width, int height, std::span<const ImageLayer> layers,
@@ -51,22 +49,42 @@ void writeExr(const std::string& path, int width, int height, std::span<const Im
         if (!names.insert(layer.name).second)
             throw std::invalid_argument(path + ": layer '" + layer.name + "' given twice");
     }
-    const int nch = int(layers.size()) * 3;
-    OIIO::ImageSpec spec(width, height, nch, half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
-    spec.channelnames.clear();
-    for (const ImageLayer& layer : layers)
-        for (const char* c : {"R", "G", "B"})
-            spec.channelnames.push_back(layer.name.empty() ? std::string(c) : layer.name + "." + c);
-    spec.alpha_channel = -1;
-    spec.attribute("compression", "zip");
-    // Interleave all layers pixel by pixel, the layout write_image expects.
+    // One plane per channel (OpenEXR slices) in the file's pixel type: OpenEXR converts types
+    // when it reads, not when it writes. Non-finite values become 0.
     const size_t pixels = size_t(width) * size_t(height);
-    std::vector<float> data(pixels * size_t(nch));
-    for (size_t p = 0; p < pixels; ++p)
-        for (size_t l = 0; l < layers.size(); ++l)
-            for (size_t c = 0; c < 3; ++c)
-                data[p * size_t(nch) + l * 3 + c] = finiteOrZero(layers[l].rgb[p * 3 + c]);
-    writeImage(path, spec, OIIO::TypeDesc::FLOAT, data.data());
+    std::vector<std::vector<float>> floatPlanes;
+    std::vector<std::vector<::half>> halfPlanes;
+    Imf::Header header(width, height);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    Imf::FrameBuffer frameBuffer;
+    for (const ImageLayer& layer : layers) {
+        for (size_t c = 0; c < 3; ++c) {
+            const std::string name = (layer.name.empty() ? "" : layer.name + ".") + "RGB"[c];
+            char* base = nullptr;
+            size_t bytes = 0;
+            if (half) {
+                std::vector<::half>& plane = halfPlanes.emplace_back(pixels);
+                for (size_t p = 0; p < pixels; ++p) plane[p] = ::half(finiteOrZero(layer.rgb[p * 3 + c]));
+                base = reinterpret_cast<char*>(plane.data());
+                bytes = sizeof(::half);
+            } else {
+                std::vector<float>& plane = floatPlanes.emplace_back(pixels);
+                for (size_t p = 0; p < pixels; ++p) plane[p] = finiteOrZero(layer.rgb[p * 3 + c]);
+                base = reinterpret_cast<char*>(plane.data());
+                bytes = sizeof(float);
+            }
+            const Imf::PixelType type = half ? Imf::HALF : Imf::FLOAT;
+            header.channels().insert(name, Imf::Channel(type));
+            frameBuffer.insert(name, Imf::Slice(type, base, bytes, bytes * size_t(width)));
+        }
+    }
+    try {
+        Imf::OutputFile file(path.c_str(), header);
+        file.setFrameBuffer(frameBuffer);
+        file.writePixels(height);
+    } catch (const std::exception& e) {
+        throw std::runtime_error(path + ": cannot write EXR: " + e.what());
+    }
 }
 
 void writeExr(const std::string& path, const FrameImage& frame, bool half) {
@@ -91,30 +109,85 @@ std::vector<float> ExrImage::layerRgb(const std::string& name) const {
     return rgb;
 }
 
-ExrImage readExr(const std::string& path) {
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) throw std::runtime_error(path + ": cannot open image: " + OIIO::geterror());
-    const OIIO::ImageSpec& spec = in->spec();
+namespace {
+
+ExrImage readOpenExr(const std::string& path) {
+    try {
+        Imf::InputFile file(path.c_str());
+        const Imath::Box2i window = file.header().dataWindow();
+        ExrImage img;
+        img.width = window.max.x - window.min.x + 1;
+        img.height = window.max.y - window.min.y + 1;
+        if (img.width <= 0 || img.height <= 0) throw std::runtime_error("image has no pixels");
+        const size_t pixels = size_t(img.width) * size_t(img.height);
+        Imf::FrameBuffer frameBuffer;
+        for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it) {
+            if (it.channel().xSampling != 1 || it.channel().ySampling != 1)
+                throw std::runtime_error(std::string("channel ") + it.name() + " is subsampled (unsupported)");
+            img.channelNames.push_back(it.name());
+            std::vector<float>& plane = img.channels[it.name()];
+            plane.assign(pixels, 0.0f);
+            // The slice origin is shifted so that data-window pixel (min.x, min.y) lands at plane[0].
+            char* base = reinterpret_cast<char*>(plane.data()) -
+                         (ptrdiff_t(window.min.x) + ptrdiff_t(window.min.y) * img.width) * ptrdiff_t(sizeof(float));
+            frameBuffer.insert(it.name(), Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * size_t(img.width)));
+        }
+        if (img.channelNames.empty()) throw std::runtime_error("image has no channels");
+        file.setFrameBuffer(frameBuffer);
+        file.readPixels(window.min.y, window.max.y);
+        return img;
+    } catch (const std::exception& e) {
+        throw std::runtime_error(path + ": cannot read EXR: " + e.what());
+    }
+}
+
+/// PNG, JPEG, HDR, … through stb_image: 8- and 16-bit values scaled to [0, 1] (no transfer curve
+/// applied, as stored), channels named Y, YA, RGB or RGBA.
+ExrImage readStbImage(const std::string& path) {
+    std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+    if (!f) throw std::runtime_error(path + ": cannot open image");
+    int w = 0, h = 0, nch = 0;
+    if (!stbi_info_from_file(f.get(), &w, &h, &nch))
+        throw std::runtime_error(path + ": cannot decode image: " + stbi_failure_reason());
+    std::vector<float> data;
+    const size_t n = size_t(w) * size_t(h) * size_t(nch);
+    auto decode = [&](auto* px, float scale) {
+        if (!px) throw std::runtime_error(path + ": cannot decode image: " + stbi_failure_reason());
+        data.resize(n);
+        for (size_t i = 0; i < n; ++i) data[i] = float(px[i]) * scale;
+        stbi_image_free(px);
+    };
+    if (stbi_is_hdr_from_file(f.get())) {
+        stbi_hdr_to_ldr_gamma(1.0f);
+        decode(stbi_loadf_from_file(f.get(), &w, &h, &nch, 0), 1.0f);
+    } else if (stbi_is_16_bit_from_file(f.get())) {
+        decode(stbi_load_from_file_16(f.get(), &w, &h, &nch, 0), 1.0f / 65535.0f);
+    } else {
+        decode(stbi_load_from_file(f.get(), &w, &h, &nch, 0), 1.0f / 255.0f);
+    }
+    static const char* const kNames[4][4] = {{"Y"}, {"Y", "A"}, {"R", "G", "B"}, {"R", "G", "B", "A"}};
     ExrImage img;
-    img.width = spec.width;
-    img.height = spec.height;
-    const int nch = spec.nchannels;
-    if (img.width <= 0 || img.height <= 0 || nch <= 0)
-        throw std::runtime_error(path + ": image has no pixels or channels");
-    const size_t pixels = size_t(img.width) * size_t(img.height);
-    std::vector<float> data(pixels * size_t(nch));
-    if (!in->read_image(0, 0, 0, nch, OIIO::TypeDesc::FLOAT, data.data()))
-        throw std::runtime_error(path + ": cannot decode image: " + in->geterror());
-    in->close();
+    img.width = w;
+    img.height = h;
+    const size_t pixels = size_t(w) * size_t(h);
     for (int c = 0; c < nch; ++c) {
-        const std::string name = c < int(spec.channelnames.size()) ? spec.channelnames[size_t(c)]
-                                                                   : "channel" + std::to_string(c);
-        img.channelNames.push_back(name);
-        std::vector<float>& plane = img.channels[name];
+        img.channelNames.push_back(kNames[nch - 1][c]);
+        std::vector<float>& plane = img.channels[img.channelNames.back()];
         plane.resize(pixels);
         for (size_t p = 0; p < pixels; ++p) plane[p] = data[p * size_t(nch) + size_t(c)];
     }
     return img;
+}
+
+}  // namespace
+
+ExrImage readExr(const std::string& path) {
+    bool exr = false;
+    try {
+        exr = Imf::isOpenExrFile(path.c_str());
+    } catch (const std::exception&) {
+    }
+    return exr ? readOpenExr(path) : readStbImage(path);
 }
 
 float linearToSrgb(float v) {
@@ -141,9 +214,8 @@ float writePng(const std::string& path, int width, int height, std::span<const f
     std::vector<unsigned char> bytes(rgb.size());
     for (size_t i = 0; i < rgb.size(); ++i)
         bytes[i] = static_cast<unsigned char>(std::lround(255.0f * linearToSrgb(finiteOrZero(rgb[i] * scale))));
-    OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
-    spec.attribute("oiio:ColorSpace", "sRGB");
-    writeImage(path, spec, OIIO::TypeDesc::UINT8, bytes.data());
+    if (!stbi_write_png(path.c_str(), width, height, 3, bytes.data(), width * 3))
+        throw std::runtime_error(path + ": cannot write PNG");
     return scale;
 }
 

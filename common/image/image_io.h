@@ -39,7 +39,8 @@ struct ExrImage {
     std::vector<float> layerRgb(const std::string& name) const;
 };
 
-/// Reads any image OpenImageIO understands (EXR, PNG, HDR, …) as float channels.
+/// Reads an OpenEXR file, or a PNG, JPEG, HDR, … that stb_image decodes (8- and 16-bit values
+/// scaled to [0, 1] as stored, channels Y, YA, RGB or RGBA), as float channels.
 /// Throws std::runtime_error naming the file if it cannot be opened or decoded.
 ExrImage readExr(const std::string& path);
 

@@ -11,10 +11,9 @@
 #include <fstream>
 #include <sstream>
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/gtx/quaternion.hpp>
+#include <stb_image_write.h>
 
 namespace rtpm {
 
@@ -67,12 +66,12 @@ std::vector<unsigned char> encodePng(const Texture& t, const std::string& name) 
     for (size_t i = 0; i < px.size(); ++i)
         px[i] = (unsigned char)std::lround(255.0f * linearToSrgb(t.rgb[i]));
     std::vector<unsigned char> png;
-    OIIO::Filesystem::IOVecOutput proxy(png);
-    auto out = OIIO::ImageOutput::create("texture.png");
-    OIIO::ImageSpec spec(t.width, t.height, 3, OIIO::TypeDesc::UINT8);
-    if (!out || !out->set_ioproxy(&proxy) || !out->open("texture.png", spec) ||
-        !out->write_image(OIIO::TypeDesc::UINT8, px.data()) || !out->close())
-        throw SceneError(name, "texture " + t.name, "cannot encode PNG: " + OIIO::geterror());
+    auto append = [](void* context, void* data, int size) {
+        auto* out = static_cast<std::vector<unsigned char>*>(context);
+        out->insert(out->end(), static_cast<unsigned char*>(data), static_cast<unsigned char*>(data) + size);
+    };
+    if (!stbi_write_png_to_func(append, &png, t.width, t.height, 3, px.data(), t.width * 3))
+        throw SceneError(name, "texture " + t.name, "cannot encode PNG");
     return png;
 }
 

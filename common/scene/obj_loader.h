@@ -9,7 +9,7 @@
 //     the transmittance through 1 m of the medium: absorption σ = −ln(Tf) per metre (Tf clamped
 //     to ≥ 1e-4); a black or absent Tf means no absorption.
 //   * Otherwise Diffuse with albedo Kd (clamped to [0, 1]) times map_Kd (decoded through
-//     OpenImageIO, sRGB → linear). Other maps (bump, map_Ks, …) are ignored with a warning.
+//     stb_image, sRGB → linear). Other maps (bump, map_Ks, …) are ignored with a warning.
 // OBJ carries no camera and no punctual light: the caller (loadScene) supplies defaults.
 // Faces are triangulated (fan); missing normals are computed per OBJ vertex (area-weighted).
 #pragma once

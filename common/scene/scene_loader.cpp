@@ -6,9 +6,9 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
+#include <stb_image.h>
 
 #include "common/scene/builtin_scenes.h"
 #include "common/scene/gltf_loader.h"
@@ -116,31 +116,34 @@ std::vector<Vec3> smoothVertexNormals(const std::vector<Vec3>& positions,
 Texture decodeSrgbTexture(const std::vector<uint8_t>& encoded, const std::string& formatHint,
                           const std::string& file, const std::string& element) {
     if (encoded.empty()) throw SceneError(file, element, "image data is empty");
-    // The pseudo file name only picks the reader plugin; a recognised signature wins over the hint.
-    std::string ext = toLower(std::filesystem::path(formatHint).extension().string());
-    if (ext.empty()) ext = "." + toLower(formatHint);
-    if (encoded.size() >= 4 && encoded[0] == 0x89 && encoded[1] == 'P' && encoded[2] == 'N' &&
-        encoded[3] == 'G')
-        ext = ".png";
-    else if (encoded.size() >= 3 && encoded[0] == 0xFF && encoded[1] == 0xD8 && encoded[2] == 0xFF)
-        ext = ".jpg";
-    OIIO::Filesystem::IOMemReader reader(encoded.data(), encoded.size());
-    auto in = OIIO::ImageInput::open("image" + ext, nullptr, &reader);
-    if (!in) throw SceneError(file, element, "cannot decode image: " + OIIO::geterror());
-    const OIIO::ImageSpec& spec = in->spec();
-    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 ||
-        uint64_t(spec.width) * uint64_t(spec.height) > kMaxTexels)
+    // stb_image recognises the format from its signature (PNG, JPEG, BMP, TGA, GIF, …); the hint
+    // only names what was expected in the error message.
+    if (encoded.size() > size_t(std::numeric_limits<int>::max()))
+        throw SceneError(file, element, "image data is too large");
+    const auto* bytes = reinterpret_cast<const stbi_uc*>(encoded.data());
+    const int length = int(encoded.size());
+    int width = 0, height = 0, nch = 0;
+    if (!stbi_info_from_memory(bytes, length, &width, &height, &nch))
+        throw SceneError(file, element, "cannot decode image (" + formatHint + "): " + stbi_failure_reason());
+    if (width <= 0 || height <= 0 || nch <= 0 || uint64_t(width) * uint64_t(height) > kMaxTexels)
         throw SceneError(file, element,
-                         "image size " + std::to_string(spec.width) + "x" +
-                             std::to_string(spec.height) + " unsupported");
-    const int nch = spec.nchannels;
-    std::vector<float> pixels(size_t(spec.width) * size_t(spec.height) * size_t(nch));
-    if (!in->read_image(0, 0, 0, nch, OIIO::TypeDesc::FLOAT, pixels.data()))
-        throw SceneError(file, element, "cannot decode image: " + in->geterror());
+                         "image size " + std::to_string(width) + "x" + std::to_string(height) + " unsupported");
+    // Values as stored, scaled to [0, 1]; 16-bit images keep their precision.
+    const size_t count = size_t(width) * size_t(height) * size_t(nch);
+    std::vector<float> pixels(count);
+    auto take = [&](auto* px, float scale) {
+        if (!px) throw SceneError(file, element, "cannot decode image (" + formatHint + "): " + stbi_failure_reason());
+        for (size_t i = 0; i < count; ++i) pixels[i] = float(px[i]) * scale;
+        stbi_image_free(px);
+    };
+    if (stbi_is_16_bit_from_memory(bytes, length))
+        take(stbi_load_16_from_memory(bytes, length, &width, &height, &nch, 0), 1.0f / 65535.0f);
+    else
+        take(stbi_load_from_memory(bytes, length, &width, &height, &nch, 0), 1.0f / 255.0f);
     Texture tex;
     tex.name = element;
-    tex.width = spec.width;
-    tex.height = spec.height;
+    tex.width = width;
+    tex.height = height;
     const size_t texels = size_t(tex.width) * size_t(tex.height);
     tex.rgb.resize(texels * 3);
     for (size_t p = 0; p < texels; ++p)

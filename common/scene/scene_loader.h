@@ -56,9 +56,9 @@ namespace rtpm {
 std::vector<Vec3> smoothVertexNormals(const std::vector<Vec3>& positions,
                                       const std::vector<uint32_t>& indices);
 
-/// Decodes an encoded image (PNG, JPEG, … any format OpenImageIO reads) holding sRGB colour to
-/// a linear RGB Texture (grey replicated, alpha dropped). `formatHint` is a file name or
-/// extension that picks the reader when the bytes have no recognised signature.
+/// Decodes an encoded image (PNG, JPEG, BMP, TGA, … any format stb_image reads, recognised by its
+/// signature) holding sRGB colour to a linear RGB Texture (grey replicated, alpha dropped).
+/// `formatHint` (a file name or extension) names the expected format in error messages.
 /// Throws SceneError{file, element, …} for undecodable or absurdly large (> 2^26 texels) images.
 Texture decodeSrgbTexture(const std::vector<uint8_t>& encoded, const std::string& formatHint,
                           const std::string& file, const std::string& element);
