@@ -27,9 +27,9 @@ netnsCheck() {
     command -v ip >/dev/null && command -v tc >/dev/null || { echo "needs iproute2 (ip, tc)"; return 1; }
     local probe=rtpmprobe$$
     ip netns add "$probe" 2>/dev/null || { echo "cannot create a network namespace"; return 1; }
-    if ! ip -n "$probe" link add a type veth peer name b 2>/dev/null ||
-        ! ip -n "$probe" link add br type bridge 2>/dev/null ||
-        ! tc -n "$probe" qdisc add dev a root tbf rate 1gbit burst 256kb latency 50ms 2>/dev/null; then
+    if ! ip -n "$probe" link add vpa type veth peer name vpb 2>/dev/null ||
+        ! ip -n "$probe" link add vbr type bridge 2>/dev/null ||
+        ! tc -n "$probe" qdisc add dev vpa root tbf rate 1gbit burst 256kb latency 50ms 2>/dev/null; then
         ip netns del "$probe"
         echo "cannot create veth pairs, bridges or tbf qdiscs in a namespace"
         return 1
