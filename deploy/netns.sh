@@ -9,10 +9,12 @@
 #   netnsInit PREFIX                the switch: namespace PREFIX-sw with bridge br0
 #   netnsHost NAME ADDR RATE        namespace PREFIX-NAME with eth0 = ADDR/16, RATE each way
 #                                   (a tc rate: 100mbit, 1gbit, …)
-#   netnsExec NAME CMD…             runs CMD inside host NAME
+#   netnsName NAME                  the namespace of host NAME, for `ip netns exec` (which execs
+#                                   CMD in place, so `$!` of a background one is CMD's PID)
 #   netnsTxBytes NAME               bytes host NAME sent through its shaped eth0 (tbf counter)
 #   cpuGroup NAME QUOTA             cgroups PREFIX-NAME (cpu + cpuacct); QUOTA in cores (0 = none)
-#   cpuGroupRun NAME CMD…           runs CMD (exec) inside the cgroups of NAME
+#   cpuGroupRun NAME CMD…           joins the cgroups of NAME and becomes CMD (an executable, not
+#                                   a function): call it in the background, `cpuGroupRun … &`
 #   cpuGroupSeconds NAME            CPU seconds used so far by everything that ran in NAME
 #   netnsTeardown                   deletes every namespace and cgroup made (idempotent)
 
@@ -79,11 +81,7 @@ netnsHost() {
     tc -n "$netnsPrefix-sw" qdisc add dev "p-$name" root tbf $tbf
 }
 
-netnsExec() {
-    local name=$1
-    shift
-    ip netns exec "$netnsPrefix-$name" "$@"
-}
+netnsName() { echo "$netnsPrefix-$1"; }
 
 netnsTxBytes() {
     tc -s -n "$netnsPrefix-$1" qdisc show dev eth0 | awk '/^qdisc tbf/ { q = 1 } q && /Sent/ { print $2; exit }'
@@ -103,12 +101,15 @@ cpuGroup() {
 cpuGroupRun() {
     local g=$netnsPrefix-$1
     shift
-    # The subshell joins the groups, then becomes CMD: CMD and its threads are counted and limited.
-    (echo "$BASHPID" >"$cgCpu/$g/cgroup.procs" && echo "$BASHPID" >"$cgAcct/$g/cgroup.procs" && exec "$@")
+    # The background shell joins the groups, then becomes CMD: CMD and its threads are counted and
+    # limited, and `$!` is CMD's PID.
+    echo "$BASHPID" >"$cgCpu/$g/cgroup.procs"
+    echo "$BASHPID" >"$cgAcct/$g/cgroup.procs"
+    exec "$@"
 }
 
 cpuGroupSeconds() {
-    awk '{ printf "%.3f\n", $1 / 1e9 }' "$cgAcct/$netnsPrefix-$1/cpuacct.usage"
+    awk '{ printf "%.6f\n", $1 / 1e9 }' "$cgAcct/$netnsPrefix-$1/cpuacct.usage"
 }
 
 netnsTeardown() {

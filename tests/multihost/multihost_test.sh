@@ -59,7 +59,7 @@ export RTPM_TOKEN
 RTPM_TOKEN=$(od -An -tx1 -N16 /dev/urandom | tr -d ' \n')
 
 # The master listens on its namespace's address only; its port comes through a port file.
-netnsExec master "$server_bin" --listen 10.213.0.1 --port 0 --port-file "$work/port" \
+ip netns exec "$(netnsName master)" "$server_bin" --listen 10.213.0.1 --port 0 --port-file "$work/port" \
     --min-clients "$clients" --encoding float32 --deadline-ms 600000 --quiet \
     --csv "$work/frames.csv" --out "$work/cluster.exr" "${settings[@]}" >"$work/server.log" 2>&1 &
 server_pid=$!
@@ -74,7 +74,7 @@ port=$(cat "$work/port")
 
 client_pids=()
 for ((i = 1; i <= clients; i++)); do
-    netnsExec "c$i" "$client_bin" --server "10.213.0.1:$port" --name "host-$i" --threads 1 \
+    ip netns exec "$(netnsName "c$i")" "$client_bin" --server "10.213.0.1:$port" --name "host-$i" --threads 1 \
         --connect-timeout 30 >"$work/client-$i.log" 2>&1 &
     client_pids+=("$!")
     pids+=("$!")
