@@ -195,10 +195,20 @@ else
     command -v docker-compose >/dev/null || fail "neither 'docker compose' nor 'docker-compose' is installed"
     compose=(docker-compose)
 fi
+say "$("${compose[@]}" version 2>/dev/null | head -n 1)"
 compose+=(-p "$project" -f "$root/deploy/docker-compose.yml")
-say "$("${compose[0]}" "${compose[@]:1:1}" version 2>/dev/null | head -n 1 || true)"
-# Host ports: loopback only, chosen by Docker, so parallel runs never collide.
-export RTPM_PORT=127.0.0.1:0 RTPM_HTTP_PORT=127.0.0.1:0
+
+# freePorts: sets RTPM_PORT and RTPM_HTTP_PORT to two free high ports (nothing listens there), so
+# parallel runs and other services never collide. No traffic is sent to them.
+freePorts() {
+    local p i
+    for ((i = 0; i < 50; i++)); do
+        p=$((20000 + RANDOM % 40000))
+        ss -Htln "( sport = :$p or sport = :$((p + 1)) )" | grep -q . || break
+    done
+    export RTPM_PORT=$p RTPM_HTTP_PORT=$((p + 1))
+}
+freePorts
 t0=$SECONDS
 timeout "$(left)" "${compose[@]}" config -q || fail "compose rejects deploy/docker-compose.yml"
 timeout "$(left)" "${compose[@]}" up -d --no-build server >"$work/up.log" 2>&1 ||
@@ -244,12 +254,7 @@ if ((swarm)); then
             { cat "$work/swarm.log" >&2; fail "docker swarm init"; }
         made_swarm=1
     fi
-    # Ingress ports listen on every interface: a free high port, not the default.
-    for ((i = 0; i < 50; i++)); do
-        p=$((20000 + RANDOM % 40000))
-        ss -Htln "( sport = :$p or sport = :$((p + 1)) )" | grep -q . || break
-    done
-    export RTPM_PORT=$p RTPM_HTTP_PORT=$((p + 1))
+    freePorts
     timeout "$(left)" docker stack deploy -c "$root/deploy/docker-compose.yml" "$project" >"$work/stack.log" 2>&1 ||
         { cat "$work/stack.log" >&2; fail "docker stack deploy"; }
     # The server task ends with status 0 ("Complete") after its frames; it is not restarted.
