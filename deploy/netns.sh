@@ -15,7 +15,8 @@
 #   cpuGroup NAME QUOTA             cgroups PREFIX-NAME (cpu + cpuacct); QUOTA in cores (0 = none)
 #   cpuGroupRun NAME CMD…           joins the cgroups of NAME and becomes CMD (an executable, not
 #                                   a function): call it in the background, `cpuGroupRun … &`
-#   cpuGroupSeconds NAME            CPU seconds used so far by everything that ran in NAME
+#   cpuGroupSeconds NAME…           CPU seconds used so far by everything that ran in the groups
+#                                   NAME… (summed; one read of all counters)
 #   netnsTeardown                   deletes every namespace and cgroup made (idempotent)
 
 netnsPrefix=""
@@ -109,7 +110,9 @@ cpuGroupRun() {
 }
 
 cpuGroupSeconds() {
-    awk '{ printf "%.6f\n", $1 / 1e9 }' "$cgAcct/$netnsPrefix-$1/cpuacct.usage"
+    local g files=()
+    for g in "$@"; do files+=("$cgAcct/$netnsPrefix-$g/cpuacct.usage"); done
+    awk '{ s += $1 } END { printf "%.6f\n", s / 1e9 }' "${files[@]}"
 }
 
 netnsTeardown() {

@@ -10,8 +10,8 @@
 # master links, saying where the master's network or CPU saturates.
 #
 #   deploy/scale-bench.sh [--clients "1 2 4 8 16"] [--scene RING] [--size 320x240] [-M 4]
-#                         [--client-cores 0.1] [--master-cores 0.3] [--frames 5]
-#                         [--walk-frames 5] [--walk-photons 50000] [--out DIR]
+#                         [--client-cores 0.1] [--master-cores 0.3] [--frames 7]
+#                         [--walk-frames 7] [--walk-photons 50000] [--out DIR]
 #
 # M = 4 gives 16 interleaving sets, so up to 16 clients all own sets (more would wait as spares).
 # A last run repeats the largest cluster's walkthrough at twice the width and height, so the model
@@ -34,8 +34,8 @@ size=320x240
 m=4
 clientCores=0.1
 masterCores=0.3
-frames=5
-walkFrames=5
+frames=7
+walkFrames=7
 walkPhotons=50000
 out=""
 while (($#)); do
@@ -151,7 +151,8 @@ run() {
     # is the last frame, whose row the master writes after the final image (EXR + PNG). Polled
     # every 20 ms; bounded: 1200 s per run.
     local at0m="" at0c="" atEm="" atEc="" shown t
-    clientCpu() { local c=0 i; for ((i = 1; i <= n; i++)); do c=$(awk -v a="$c" -v b="$(cpuGroupSeconds "c$i")" 'BEGIN { print a + b }'); done; echo "$c"; }
+    local clientGroups=()
+    for ((i = 1; i <= n; i++)); do clientGroups+=("c$i"); done
     local alive=1
     for ((t = 0; t < 60000 && alive; t++)); do
         # Liveness first, the CSV second: the last row is always seen, even when the server exits
@@ -160,12 +161,12 @@ run() {
         shown=0
         [[ -f $work/run.csv ]] && shown=$(($(wc -l <"$work/run.csv") - 1))
         if [[ -z $at0m ]] && ((shown >= 1)); then
+            at0c=$(cpuGroupSeconds "${clientGroups[@]}")
             at0m=$(cpuGroupSeconds master)
-            at0c=$(clientCpu)
         fi
         if [[ -z $atEm ]] && ((shown >= nf - 1)); then
+            atEc=$(cpuGroupSeconds "${clientGroups[@]}")
             atEm=$(cpuGroupSeconds master)
-            atEc=$(clientCpu)
         fi
         ((alive)) && sleep 0.02
     done
