@@ -53,6 +53,7 @@ image=rtpm:compose-test-$$
 started_dockerd=""
 made_swarm=0
 compose=()
+skipped=0
 cleanup() {
     local status=$?
     trap - EXIT INT TERM
@@ -76,7 +77,11 @@ cleanup() {
         for ((i = 0; i < 100; i++)); do kill -0 "$started_dockerd" 2>/dev/null || break; sleep 0.1; done
     fi
     rm -rf "$work"
-    ((status == 0)) && say "passed" || echo "compose-test: exit status $status" >&2
+    if ((status != 0)); then
+        echo "compose-test: exit status $status" >&2
+    elif ((!skipped)); then
+        say "passed"
+    fi
     exit "$status"
 }
 trap cleanup EXIT
@@ -87,14 +92,18 @@ trap 'exit 143' TERM
 if [[ $(id -u) -eq 0 ]]; then
     bash "$root/deploy/install-deps.sh" docker >/dev/null
 fi
-if ! command -v docker >/dev/null; then
-    echo "skipped: no Docker engine (no docker command, and not root to install docker.io)"
+skip() {
+    echo "skipped: no Docker engine ($1)"
+    skipped=1
     exit 0
-fi
+}
+command -v docker >/dev/null || skip "no docker command, and not root to install docker.io"
 if ! docker info >/dev/null 2>&1; then
+    if [[ -S /var/run/docker.sock ]] && pgrep -x dockerd >/dev/null; then
+        skip "dockerd runs but does not answer this user: $(docker info 2>&1 >/dev/null | head -n 1)"
+    fi
     if [[ $(id -u) -ne 0 ]] || ! command -v dockerd >/dev/null; then
-        echo "skipped: no Docker engine (none running, and dockerd cannot be started: not root or not installed)"
-        exit 0
+        skip "none running, and dockerd cannot be started: not root or not installed"
     fi
     say "starting dockerd (log: $work/dockerd.log)"
     dockerd >"$work/dockerd.log" 2>&1 &
@@ -108,8 +117,7 @@ if ! docker info >/dev/null 2>&1; then
         tail -n 5 "$work/dockerd.log" >&2
         kill "$started_dockerd" 2>/dev/null || true
         started_dockerd=""
-        echo "skipped: no Docker engine (dockerd did not start; its last log lines are above)"
-        exit 0
+        skip "dockerd did not start; its last log lines are above"
     fi
 fi
 say "Docker engine $(docker version -f '{{.Server.Version}}' 2>/dev/null)"
