@@ -18,8 +18,9 @@
 #    rtpm-render writes in the same image with the same settings.
 # 5. Swarm: `docker swarm init` (left again at the end when this script made it), `docker stack
 #    deploy` of the same file with the same checks, `docker stack rm`.
-# Everything it started (containers, volumes, networks, stack, swarm, image tags, dockerd) is
-# removed on exit; the image layers stay in Docker's cache for the next run. Every wait is
+# Everything it started (containers, volumes, networks, stack, swarm, the test image's tag,
+# dockerd) is removed on exit; debian:12, rtpm:runtime-base and the layer cache stay for the next
+# run. Every wait is
 # bounded; the whole run is bounded by --timeout (default 1500 s). Exit status 0 = passed.
 set -euo pipefail
 
@@ -50,6 +51,8 @@ left() { local l=$((budget - SECONDS)); ((l > 0)) || fail "time budget of $budge
 work=$(mktemp -d "${TMPDIR:-/tmp}/rtpm-compose-test.XXXXXX")
 project=rtpmtest$$
 image=rtpm:compose-test-$$
+# Kept between runs (it is the layer cache of --programs): the Dockerfile's runtime-base stage.
+base_image=rtpm:runtime-base
 started_dockerd=""
 made_swarm=0
 compose=()
@@ -70,7 +73,7 @@ cleanup() {
         docker rm -f "$project-render" >/dev/null 2>&1 || true
         docker volume rm "${project}_out" >/dev/null 2>&1 || true
         ((made_swarm)) && docker swarm leave --force >/dev/null 2>&1 || true
-        docker image rm "$image" "$image-base" >/dev/null 2>&1 || true
+        docker image rm "$image" >/dev/null 2>&1 || true
     fi
     if [[ -n $started_dockerd ]]; then
         kill "$started_dockerd" 2>/dev/null || true
@@ -131,13 +134,13 @@ say "debian:12 base ready ($((SECONDS - t0)) s)"
 t0=$SECONDS
 if [[ -n $programs ]]; then
     say "image from the programs in $programs on the Dockerfile's runtime-base stage"
-    timeout "$(left)" docker build -q -f "$root/deploy/Dockerfile" --target runtime-base -t "$image-base" "$root" \
+    timeout "$(left)" docker build -q -f "$root/deploy/Dockerfile" --target runtime-base -t "$base_image" "$root" \
         >"$work/build.log" 2>&1 || { tail -n 30 "$work/build.log" >&2; fail "docker build --target runtime-base"; }
     mkdir -p "$work/ctx"
     bash "$root/deploy/collect-programs.sh" "$programs" "$work/ctx/bin" >/dev/null
     # The same two steps as the Dockerfile's `runtime` stage, with these programs.
     cat >"$work/ctx/Dockerfile" <<EOF
-FROM $image-base
+FROM $base_image
 COPY bin/ /usr/local/bin/
 RUN for p in rtpm-server rtpm-client rtpm-render; do "\$p" --help >/dev/null || exit 1; done
 EOF
