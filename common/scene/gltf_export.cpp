@@ -111,10 +111,10 @@ std::vector<uint8_t> encodeGlb(const Scene& scene) {
             pbr.metallicFactor = 1.0;
             pbr.roughnessFactor = 0.0;
         } else if (m.type == MaterialType::Dielectric) {
-            pbr.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
+            if (!m.isPartlyDiffuse()) pbr.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
             pbr.roughnessFactor = 0.0;
             gm.extensions["KHR_materials_transmission"] =
-                Value(Value::Object{{"transmissionFactor", Value(1.0)}});
+                Value(Value::Object{{"transmissionFactor", Value(double(m.transmission))}});
             gm.extensions["KHR_materials_ior"] = Value(Value::Object{{"ior", Value(double(m.ior))}});
             useExtension(model, "KHR_materials_transmission");
             useExtension(model, "KHR_materials_ior");
@@ -136,13 +136,33 @@ std::vector<uint8_t> encodeGlb(const Scene& scene) {
                     {"attenuationColor", vec3Value(colour)}});
                 useExtension(model, "KHR_materials_volume");
             }
-        } else if (m.baseColorTexture >= 0) {
-            pbr.baseColorTexture.index = m.baseColorTexture;
         }
+        if (m.type == MaterialType::Diffuse && m.unlit) {
+            gm.extensions["KHR_materials_unlit"] = Value(Value::Object{});
+            useExtension(model, "KHR_materials_unlit");
+            if (std::find(model.extensionsRequired.begin(), model.extensionsRequired.end(),
+                          "KHR_materials_unlit") == model.extensionsRequired.end())
+                model.extensionsRequired.push_back("KHR_materials_unlit");
+        }
+        if (m.baseColorTexture >= 0 && (m.type == MaterialType::Diffuse || m.isPartlyDiffuse())) {
+            pbr.baseColorTexture.index = m.baseColorTexture;
+            if (!m.baseColorTransform.isIdentity()) {
+                const TextureTransform& t = m.baseColorTransform;
+                pbr.baseColorTexture.extensions["KHR_texture_transform"] = Value(Value::Object{
+                    {"offset", Value(Value::Array{Value(double(t.offset.x)), Value(double(t.offset.y))})},
+                    {"rotation", Value(double(t.rotation))},
+                    {"scale", Value(Value::Array{Value(double(t.scale.x)), Value(double(t.scale.y))})}});
+                useExtension(model, "KHR_texture_transform");
+            }
+        }
+        if (m.isEmissive() && m.emissiveTexture >= 0) gm.emissiveTexture.index = m.emissiveTexture;
         if (m.isEmissive()) {
-            float strength = std::max(m.emission.x, std::max(m.emission.y, m.emission.z));
+            // A power-of-two strength: factor × strength gives the emission back exactly, so a
+            // cluster client renders the very radiance the master loaded.
+            const float peak = std::max(m.emission.x, std::max(m.emission.y, m.emission.z));
+            const float strength = std::exp2(std::ceil(std::log2(peak)));
             Vec3 factor = m.emission / strength;
-            if (strength <= 1.0f) {
+            if (peak <= 1.0f) {
                 factor = m.emission;
             } else {
                 gm.extensions["KHR_materials_emissive_strength"] =
