@@ -584,6 +584,16 @@ void GltfImporter::convertMaterials() {
                      "; the latter is used for both");
             }
         }
+        // What the material model has no place for, named once per material.
+        std::string ignored;
+        auto note = [&](bool present, const char* what) {
+            if (present) ignored += (ignored.empty() ? "" : ", ") + std::string(what);
+        };
+        note(gm.normalTexture.index >= 0, "normalTexture");
+        note(gm.occlusionTexture.index >= 0, "occlusionTexture");
+        note(pbr.metallicRoughnessTexture.index >= 0, "metallicRoughnessTexture");
+        note(!gm.alphaMode.empty() && gm.alphaMode != "OPAQUE", "alphaMode (rendered opaque)");
+        if (!ignored.empty()) warn(el + ": ignored " + ignored);
         materialUvSet_.push_back(std::max(uvSet, 0));
         scene_.materials.push_back(std::move(m));
     }
