@@ -177,6 +177,15 @@ std::string trimmed(std::string s) {
 
 bool finite3(Vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
+// `v` normalised, or `v` itself when it is already unit to float precision. Normalising a unit
+// vector again may move it by an ulp; keeping it makes a scene that went through encodeGlb (the
+// master's copy for cluster clients) load back with the very normals and light directions the
+// master loaded, so the cluster's image equals rtpm-render's bit for bit.
+Vec3 unitKeepingBits(Vec3 v) {
+    const float len2 = glm::dot(v, v);
+    return std::abs(len2 - 1.0f) <= 1e-6f ? v : v / std::sqrt(len2);
+}
+
 // ---- accessor reading -----------------------------------------------------------------
 
 int componentBytes(int componentType) {
@@ -419,14 +428,14 @@ double numberOr(const tinygltf::Value& obj, const char* key, double fallback) {
     return v.IsNumber() ? v.GetNumberAsDouble() : fallback;
 }
 
-std::optional<Vec3> vec3Of(const tinygltf::Value& obj, const char* key) {
+std::optional<glm::dvec3> dvec3Of(const tinygltf::Value& obj, const char* key) {
     if (!obj.IsObject() || !obj.Has(key)) return std::nullopt;
     const tinygltf::Value& v = obj.Get(key);
     if (!v.IsArray() || v.ArrayLen() < 3) return std::nullopt;
-    Vec3 out;
+    glm::dvec3 out;
     for (int i = 0; i < 3; ++i) {
         if (!v.Get(i).IsNumber()) return std::nullopt;
-        out[i] = float(v.Get(i).GetNumberAsDouble());
+        out[i] = v.Get(i).GetNumberAsDouble();
     }
     return out;
 }
@@ -541,15 +550,17 @@ void GltfImporter::convertMaterials() {
             if (const tinygltf::Value* vol = extension(gm.extensions, "KHR_materials_volume")) {
                 double dist = numberOr(*vol, "attenuationDistance",
                                        std::numeric_limits<double>::infinity());
-                Vec3 color = vec3Of(*vol, "attenuationColor").value_or(Vec3(1.0f));
-                if (!(dist > 0.0) || !finite3(color))
+                // Read in double: the master's GLB (gltf_export.cpp) writes exp(−σ·d) in double, so
+                // σ comes back to the same float on a cluster client.
+                const glm::dvec3 color = dvec3Of(*vol, "attenuationColor").value_or(glm::dvec3(1.0));
+                if (!(dist > 0.0) || !std::isfinite(color.x) || !std::isfinite(color.y) || !std::isfinite(color.z))
                     fail(el + ".extensions.KHR_materials_volume",
                          "attenuationDistance must be > 0 and attenuationColor finite");
                 if (std::isfinite(dist)) {
                     // Beer–Lambert: transmittance after `dist` metres is attenuationColor.
                     for (int c = 0; c < 3; ++c) {
-                        float col = std::clamp(color[c], 1e-30f, 1.0f);
-                        m.absorption[c] = float(-std::log(double(col)) / dist);
+                        const double col = std::clamp(color[c], 1e-30, 1.0);
+                        m.absorption[c] = float(-std::log(col) / dist);
                     }
                 }
             }
@@ -702,7 +713,7 @@ std::vector<uint32_t> GltfImporter::convertMesh(int meshIndex) {
                     needNormals = true;
                     break;
                 }
-                mesh.normals[i] = v / len;
+                mesh.normals[i] = unitKeepingBits(v);
             }
             if (needNormals) warn(el + ".attributes.NORMAL: zero-length normals; recomputed");
         }
@@ -928,7 +939,7 @@ void GltfImporter::visitNode(int nodeIndex, const Mat4& parent, int depth) {
         Vec3 dir = lin * Vec3(0, 0, -1);
         if (gl.type != "point") {
             if (!finite3(dir) || !(glm::length(dir) > 1e-12f)) fail(el, "light node transform is degenerate");
-            l.direction = glm::normalize(dir);
+            l.direction = unitKeepingBits(dir);
         }
         if (gl.type == "point") {
             l.type = LightType::Point;

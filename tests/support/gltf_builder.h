@@ -2,12 +2,32 @@
 // JSON text the test spells out (so each test shows exactly the extension syntax it exercises).
 #pragma once
 
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace rtpm::testgltf {
+
+/// 8-bit sRGB PNG of `rgb` (w × h × 3 bytes, row 0 at the top), as exporters embed textures.
+/// Throws std::runtime_error if OpenImageIO cannot encode it.
+inline std::vector<uint8_t> pngBytes(int w, int h, const std::vector<uint8_t>& rgb) {
+    std::vector<unsigned char> png;
+    OIIO::Filesystem::IOVecOutput proxy(png);
+    auto out = OIIO::ImageOutput::create("texture.png");
+    OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
+    if (!out || !out->set_ioproxy(&proxy) || !out->open("texture.png", spec) ||
+        !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close())
+        throw std::runtime_error("cannot encode a test PNG: " + OIIO::geterror());
+    return png;
+}
 
 /// Standard base64 (RFC 4648) of `bytes`, as data URIs need.
 inline std::string base64(const std::string& bytes) {

@@ -6,9 +6,6 @@
 // KHR_materials_volume), emissive textures and KHR_materials_unlit.
 #include <gtest/gtest.h>
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -33,6 +30,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using testgltf::GltfBuilder;
+using testgltf::pngBytes;
 using testscenes::addMaterial;
 using testscenes::addMesh;
 using testscenes::quad;
@@ -59,17 +57,6 @@ public:
 private:
     fs::path path_;
 };
-
-// 8-bit sRGB PNG of `rgb` (row 0 at the top), as an exporter embeds textures.
-std::vector<uint8_t> pngBytes(int w, int h, const std::vector<uint8_t>& rgb) {
-    std::vector<unsigned char> png;
-    OIIO::Filesystem::IOVecOutput proxy(png);
-    auto out = OIIO::ImageOutput::create("texture.png");
-    OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
-    EXPECT_TRUE(out && out->set_ioproxy(&proxy) && out->open("texture.png", spec) &&
-                out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) && out->close());
-    return png;
-}
 
 // Rendered buffers of a scene (scene camera), after `frames` frames.
 struct Picture {
