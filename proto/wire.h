@@ -15,7 +15,7 @@ namespace rtpm::proto {
 /// 'R','T','P','M' on the wire (little-endian u32 0x4D505452).
 inline constexpr uint32_t kMagic = 0x4D505452u;
 /// Bumped on any change of a message layout; peers must match exactly (PROTOCOL.md §2).
-inline constexpr uint16_t kProtocolVersion = 1;
+inline constexpr uint16_t kProtocolVersion = 2;
 /// Size of the fixed header that precedes every payload.
 inline constexpr size_t kHeaderBytes = 16;
 
@@ -41,7 +41,7 @@ enum class ErrorCode : uint8_t {
     BadMagic,         ///< header does not start with 'RTPM'
     BadVersion,       ///< header version differs from kProtocolVersion
     UnknownType,      ///< header type is not a known MessageType
-    BadFlags,         ///< header flags not zero (no flag is defined in version 1)
+    BadFlags,         ///< header flags not zero (no flag is defined in version 2)
     PayloadTooLarge,  ///< header payloadBytes above the per-type limit
     LengthTooLarge,   ///< a string, byte array or count above its field limit or the bytes left
     BadEnum,          ///< an enumerated field out of range

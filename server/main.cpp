@@ -20,14 +20,14 @@ using namespace rtpm;
 int run(int argc, char** argv) {
     server::MasterOptions o;
     RenderSettings& rs = o.settings;
-    bool plain = false;
+    bool plain = false, noDefaultLight = false;
     std::string animate, editScript, encoding = "rgb9e5-zstd";
     int deadlineMs = int(o.deadline.count());
     CLI::App app{"rtpm-server: the cluster master. Waits for rtpm-client processes, deals them the M×M "
                  "interleaving sets, runs the frame loop, assembles their pixels, box-filters the caustics and "
                  "writes the image rtpm-render writes for the same settings."};
     // Rendering settings: the same names, meanings and defaults as rtpm-render.
-    addRenderFlags(app, rs, o.sceneName, plain);
+    addRenderFlags(app, rs, o.sceneName, plain, noDefaultLight);
     app.add_option("--frames", o.frames, "frames to render; the last one is written to --out")->capture_default_str();
     // Cluster.
     app.add_option("--listen", o.listen, "address to listen on")->capture_default_str();
@@ -79,7 +79,9 @@ int run(int argc, char** argv) {
 
     o.builtin = isBuiltinScene(o.sceneName);
     if (o.builtin) o.sceneName = toUpper(o.sceneName);
-    Scene scene = loadScene(o.sceneName);
+    SceneOverrides overrides;
+    overrides.defaultLight = !noDefaultLight;
+    Scene scene = loadScene(o.sceneName, overrides);
     for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     if (!editScript.empty()) {
         o.script = server::loadEditScript(editScript);

@@ -29,6 +29,7 @@ struct Options {
     int frames = 10;
     int threads = 0;
     bool plain = false;
+    bool noDefaultLight = false;
     std::vector<float> eye, target, lightPos;
     float yfov = 0.0f;
     float lightIntensity = 10.0f;
@@ -43,7 +44,7 @@ int run(int argc, char** argv) {
     CLI::App app{"rtpm-render: single-process caustic renderer (photon maps per interleaving set, "
                  "image-space box filter). Writes a multi-layer EXR (R G B, direct.*, caustic.*, "
                  "caustic_filtered.*) and a tone-mapped PNG beside it."};
-    addRenderFlags(app, rs, o.scene, o.plain);
+    addRenderFlags(app, rs, o.scene, o.plain, o.noDefaultLight);
     app.add_option("--frames", o.frames,
                    "frames to render; every frame adds one photon batch per set until the cap "
                    "(accumulation), the last frame is written")
@@ -72,6 +73,7 @@ int run(int argc, char** argv) {
                                                             size_t(o.threads));
 
     SceneOverrides overrides;
+    overrides.defaultLight = !o.noDefaultLight;
     if (!o.eye.empty()) {
         CameraOverride c;
         c.eye = Vec3(o.eye[0], o.eye[1], o.eye[2]);

@@ -18,7 +18,7 @@ namespace {
 constexpr double kPiD = std::numbers::pi;
 
 // Purposes of hashed random numbers (the fifth hash key), so two uses at one bounce never share.
-enum Purpose : uint64_t { kFresnelChoice = 1, kRoulette = 2, kBounceU = 3, kBounceV = 4 };
+enum Purpose : uint64_t { kFresnelChoice = 1, kRoulette = 2, kBounceU = 3, kBounceV = 4, kLobeChoice = 5 };
 
 
 // Orthonormal basis around unit n (Duff et al. 2017, branchless and continuous except at n.z = -1).
@@ -117,24 +117,40 @@ std::vector<Emitter> buildEmitters(const EmbreeScene& scene) {
     const std::vector<EmissiveTriangle>& tris = scene.emissiveTriangles();
     const size_t firstArea = out.size();
     std::vector<double> areaSum;
+    std::vector<uint8_t> textured;         // per area group
+    std::vector<glm::dvec3> texturedFlux;  // per area group: Σ A_t L_t (textured groups)
     for (uint32_t t = 0; t < tris.size(); ++t) {
         const EmissiveTriangle& tri = tris[t];
         if (!(tri.area > 0.0f) || !std::isfinite(tri.area) || !finite(tri.radiance) ||
             !finite(tri.normal) || !(channelSum(tri.radiance) > 0.0f))
             continue;
         size_t g = firstArea;
-        while (g < out.size() && out[g].radiance != tri.radiance) ++g;
+        if (tri.textured) {
+            while (g < out.size() && !(textured[g - firstArea] && out[g].material == tri.material)) ++g;
+        } else {
+            while (g < out.size() && (textured[g - firstArea] || out[g].radiance != tri.radiance)) ++g;
+        }
         if (g == out.size()) {
             Emitter e;
             e.kind = EmitterKind::Area;
             e.id = static_cast<uint32_t>(g - firstArea);
             e.radiance = tri.radiance;
+            e.material = tri.material;
             out.push_back(std::move(e));
             areaSum.push_back(0.0);
+            textured.push_back(tri.textured ? 1 : 0);
+            texturedFlux.emplace_back(0.0);
         }
         Emitter& e = out[g];
         double& sum = areaSum[g - firstArea];
-        sum += tri.area;
+        if (tri.textured) {
+            // Weight area × Σ_rgb L; the flux is accumulated per channel in double.
+            sum += double(tri.area) * double(channelSum(tri.radiance));
+            texturedFlux[g - firstArea] += glm::dvec3(tri.radiance) * double(tri.area);
+            e.colour.push_back(tri.radiance);  // turned into the power factor below
+        } else {
+            sum += tri.area;
+        }
         e.triangles.push_back(t);
         e.cdf.push_back(sum);
     }
@@ -143,7 +159,23 @@ std::vector<Emitter> buildEmitters(const EmbreeScene& scene) {
         const double total = areaSum[g - firstArea];
         for (double& c : e.cdf) c /= total;
         e.cdf.back() = 1.0;
-        e.flux = static_cast<float>(kPiD * total) * e.radiance;
+        if (!textured[g - firstArea]) {
+            e.flux = static_cast<float>(kPiD * total) * e.radiance;
+            continue;
+        }
+        // Φ = π Σ A_t L_t. Triangle t is chosen with p_t = A_t s_t / W (s_t = Σ_rgb L_t,
+        // W = Σ A_t s_t) and its photon carries Φ/N ⊙ k_t with k_t = (L_t / s_t) ⊘ (Φ / Σ_rgb Φ):
+        // E[power] = Σ p_t Φ/N ⊙ k_t = Φ/N, and Σ_rgb of every photon's power is Σ_rgb Φ / N.
+        const glm::dvec3 flux = kPiD * texturedFlux[g - firstArea];
+        const double fluxSum = flux.x + flux.y + flux.z;
+        e.flux = Vec3(flux);
+        for (Vec3& c : e.colour) {
+            const double s = double(channelSum(c));
+            Vec3 k(0.0f);
+            for (int ch = 0; ch < 3; ++ch)
+                if (flux[ch] > 0.0) k[ch] = float(double(c[ch]) / s * fluxSum / flux[ch]);
+            c = k;
+        }
     }
     return out;
 }
@@ -248,6 +280,7 @@ EmittedRay sampleEmission(const Emitter& e, const EmbreeScene& scene, Vec2 uDir,
             r.origin = b0 * tri.p0 + b1 * tri.p1 + (1.0f - b0 - b1) * tri.p2;
             r.normal = tri.normal;
             r.dir = cosineDirection(tri.normal, uDir.x, uDir.y);
+            if (!e.colour.empty()) r.powerScale = e.colour[t];
             break;
         }
     }
@@ -295,6 +328,7 @@ int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const Tra
     ray.origin = e.kind == EmitterKind::Area ? scene.offsetOrigin(em.origin, em.normal, em.dir)
                                              : em.origin;
     Vec3 power = src.powerPerPath;
+    if (!e.colour.empty()) power *= em.powerScale;
     if (timed) {
         tMark = Clock::now();
         stats.samplingSeconds += seconds(tStart, tMark);
@@ -332,8 +366,32 @@ int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const Tra
         if (!(glm::dot(ng, ng) > 0.5f)) break;  // degenerate triangle: no usable side
         if (hit.material >= model.materials.size()) break;
         const Material& mat = model.materials[hit.material];
+        if (mat.type == MaterialType::Diffuse && mat.unlit) break;  // unlit: absorbs, stores nothing
+        // A partly transmissive dielectric (transmission t < 1) is a surface the photon map must
+        // know the incident flux on (the eye pass weights its estimate by the Lambertian share
+        // 1 − t): a caustic photon is stored on arrival, whatever lobe it takes next. The lobe is
+        // then chosen with probability t (dielectric) or 1 − t (Lambertian) from the photon's
+        // hashed numbers, and the power is kept: the choice is the weight.
+        MaterialType lobe = mat.type;
+        bool storedHere = false, attenuated = false;
+        if (mat.isPartlyDiffuse()) {
+            if (glm::dot(dir, hit.geometricNormal) > 0.0f) {
+                power *= beerLambert(mat.absorption, hit.t);  // the segment ran inside the medium
+                attenuated = true;
+            }
+            if (specularSinceDiffuse) {
+                if (!finite(power)) {
+                    anomaly = true;
+                    break;
+                }
+                out.push_back(TracedPhoton{hit.position, power, dir});
+                ++stored;
+                storedHere = true;
+            }
+            if (hashed(depth, kLobeChoice) >= mat.transmission) lobe = MaterialType::Diffuse;
+        }
         Vec3 next;
-        switch (mat.type) {
+        switch (lobe) {
             case MaterialType::Mirror: {
                 next = reflect(dir, ns);
                 // A shading normal can send the reflection below the surface; use the true one.
@@ -345,7 +403,7 @@ int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const Tra
             case MaterialType::Dielectric: {
                 const DielectricInterface side = dielectricInterface(dir, hit.geometricNormal, mat.ior);
                 // A back-face hit ends a segment that ran inside this medium.
-                if (!side.entering) power *= beerLambert(mat.absorption, hit.t);
+                if (!side.entering && !attenuated) power *= beerLambert(mat.absorption, hit.t);
                 const float f = fresnelDielectric(side.cosI, side.etaI, side.etaT);
                 if (hashed(depth, kFresnelChoice) < f ||
                     !refract(dir, ns, side.etaI / side.etaT, next)) {
@@ -359,7 +417,7 @@ int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const Tra
                 break;
             }
             case MaterialType::Diffuse: {
-                if (specularSinceDiffuse) {
+                if (specularSinceDiffuse && !storedHere) {
                     if (!finite(power)) {
                         anomaly = true;
                         break;
@@ -371,12 +429,7 @@ int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const Tra
                     next = Vec3(0.0f);
                     break;
                 }
-                Vec3 albedo = mat.baseColor;
-                if (mat.baseColorTexture >= 0 &&
-                    static_cast<size_t>(mat.baseColorTexture) < model.textures.size()) {
-                    const Texture& tex = model.textures[static_cast<size_t>(mat.baseColorTexture)];
-                    if (tex.width > 0 && tex.height > 0) albedo *= tex.sample(hit.uv);
-                }
+                const Vec3 albedo = baseColorAt(mat, model.textures, hit.uv);
                 const float survive = std::min(1.0f, std::max({albedo.x, albedo.y, albedo.z}));
                 if (!(survive > 0.0f) || hashed(depth, kRoulette) >= survive) {
                     next = Vec3(0.0f);

@@ -33,7 +33,13 @@ struct Emitter {
     // Area: triangles (indices into EmbreeScene::emissiveTriangles) and their area CDF.
     std::vector<uint32_t> triangles;
     std::vector<double> cdf;  ///< cdf[t] = Σ_{s ≤ t} area_s / Σ area, last entry 1
-    Vec3 radiance{0.0f};      ///< W/(m²·sr), common to all triangles of the group
+    Vec3 radiance{0.0f};      ///< W/(m²·sr), common to all triangles of the group (untextured)
+    /// Textured group (one emissive-textured material): triangles are chosen ∝ area × Σ_rgb of
+    /// their mean radiance (cdf) and a photon from triangle t carries flux/paths × colour[t], so
+    /// every photon has the same Σ_rgb power and the expected power is exact. Empty otherwise.
+    std::vector<Vec3> colour;
+    uint32_t material = 0;    ///< textured group: its Scene::materials index
+    bool textured() const { return !colour.empty(); }
 };
 
 /// Exact radiant flux (W per channel) of a punctual light: point 4πI, spot I·spotSolidAngle,
@@ -41,8 +47,9 @@ struct Emitter {
 Vec3 lightFlux(const Light& light, const Bounds& bounds);
 
 /// Every emitter of the scene with positive flux: one per punctual light, one per distinct
-/// emissive radiance over EmbreeScene::emissiveTriangles() (flux π·L·A per triangle; degenerate
-/// or non-finite triangles are skipped). Lights with zero or non-finite flux are left out.
+/// emissive radiance over the untextured EmbreeScene::emissiveTriangles() and one per
+/// emissive-textured material (flux π·L·A per triangle, L its mean radiance; degenerate or
+/// non-finite triangles are skipped). Lights with zero or non-finite flux are left out.
 std::vector<Emitter> buildEmitters(const EmbreeScene& scene);
 
 /// Splits `total` paths among emitters proportionally to Σ_rgb flux by largest remainder
@@ -69,6 +76,7 @@ struct EmittedRay {
     Vec3 origin{0.0f};
     Vec3 dir{0.0f, 1.0f, 0.0f};
     Vec3 normal{0.0f};
+    Vec3 powerScale{1.0f};  ///< textured area groups: Emitter::colour of the chosen triangle
 };
 
 /// Maps steering numbers to an emitted ray. `uDir` drives the direction (point: uniform sphere;

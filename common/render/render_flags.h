@@ -11,13 +11,17 @@ namespace rtpm {
 
 /// Adds every flag that decides what a frame looks like to `app`, bound to `settings`.
 /// `plainShooting` receives --no-spt; the caller sets settings.photons.selective = !plainShooting
-/// after parsing. `sceneName` receives --scene.
+/// after parsing. `sceneName` receives --scene, `noDefaultLight` --no-default-light (the caller
+/// passes SceneOverrides::defaultLight = !noDefaultLight to loadScene).
 inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string& sceneName,
-                           bool& plainShooting) {
+                           bool& plainShooting, bool& noDefaultLight) {
     RenderSettings& rs = settings;
     app.add_option("--scene", sceneName,
                    "built-in scene (RING GLASS EGG HEADLIGHT CORNELL) or .gltf/.glb/.obj file")
         ->capture_default_str();
+    app.add_flag("--no-default-light", noDefaultLight,
+                 "refuse a scene with no light and no emissive material instead of adding the "
+                 "default spot light above it (see README)");
     app.add_option("--width", rs.width, "image width in pixels")->capture_default_str();
     app.add_option("--height", rs.height, "image height in pixels")->capture_default_str();
     app.add_option("--photons,-P", rs.photons.photonsPerBatch, "P: photon paths traced per set per frame")

@@ -47,10 +47,6 @@ int addAccessor(tinygltf::Model& model, int view, int componentType, int type, s
     return int(model.accessors.size() - 1);
 }
 
-Value vec3Value(Vec3 v) {
-    return Value(Value::Array{Value(double(v.x)), Value(double(v.y)), Value(double(v.z))});
-}
-
 void useExtension(tinygltf::Model& model, const std::string& name) {
     if (std::find(model.extensionsUsed.begin(), model.extensionsUsed.end(), name) == model.extensionsUsed.end())
         model.extensionsUsed.push_back(name);
@@ -110,38 +106,55 @@ std::vector<uint8_t> encodeGlb(const Scene& scene) {
             pbr.metallicFactor = 1.0;
             pbr.roughnessFactor = 0.0;
         } else if (m.type == MaterialType::Dielectric) {
-            pbr.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
+            if (!m.isPartlyDiffuse()) pbr.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
             pbr.roughnessFactor = 0.0;
             gm.extensions["KHR_materials_transmission"] =
-                Value(Value::Object{{"transmissionFactor", Value(1.0)}});
+                Value(Value::Object{{"transmissionFactor", Value(double(m.transmission))}});
             gm.extensions["KHR_materials_ior"] = Value(Value::Object{{"ior", Value(double(m.ior))}});
             useExtension(model, "KHR_materials_transmission");
             useExtension(model, "KHR_materials_ior");
             if (glm::any(glm::greaterThan(m.absorption, Vec3(0.0f)))) {
-                // attenuationColor is the transmittance after attenuationDistance = 1 m.
-                Vec3 colour(std::exp(-double(m.absorption.x)), std::exp(-double(m.absorption.y)),
-                            std::exp(-double(m.absorption.z)));
+                // attenuationColor is the transmittance after attenuationDistance = 1 m, kept in
+                // double (the loader reads it so) so that σ loads back as the same float.
                 double dist = 1.0;
                 // Keep the colour representable: for strong absorption use a shorter distance.
                 float maxSigma = std::max(m.absorption.x, std::max(m.absorption.y, m.absorption.z));
-                if (maxSigma > 20.0f) {
-                    dist = 20.0 / double(maxSigma);
-                    colour = Vec3(std::exp(-double(m.absorption.x) * dist), std::exp(-double(m.absorption.y) * dist),
-                                  std::exp(-double(m.absorption.z) * dist));
-                }
+                if (maxSigma > 20.0f) dist = 20.0 / double(maxSigma);
+                Value::Array colour;
+                for (int c = 0; c < 3; ++c) colour.push_back(Value(std::exp(-double(m.absorption[c]) * dist)));
                 gm.extensions["KHR_materials_volume"] = Value(Value::Object{
                     {"thicknessFactor", Value(1.0)},
                     {"attenuationDistance", Value(dist)},
-                    {"attenuationColor", vec3Value(colour)}});
+                    {"attenuationColor", Value(std::move(colour))}});
                 useExtension(model, "KHR_materials_volume");
             }
-        } else if (m.baseColorTexture >= 0) {
-            pbr.baseColorTexture.index = m.baseColorTexture;
         }
+        if (m.type == MaterialType::Diffuse && m.unlit) {
+            gm.extensions["KHR_materials_unlit"] = Value(Value::Object{});
+            useExtension(model, "KHR_materials_unlit");
+            if (std::find(model.extensionsRequired.begin(), model.extensionsRequired.end(),
+                          "KHR_materials_unlit") == model.extensionsRequired.end())
+                model.extensionsRequired.push_back("KHR_materials_unlit");
+        }
+        if (m.baseColorTexture >= 0 && (m.type == MaterialType::Diffuse || m.isPartlyDiffuse())) {
+            pbr.baseColorTexture.index = m.baseColorTexture;
+            if (!m.baseColorTransform.isIdentity()) {
+                const TextureTransform& t = m.baseColorTransform;
+                pbr.baseColorTexture.extensions["KHR_texture_transform"] = Value(Value::Object{
+                    {"offset", Value(Value::Array{Value(double(t.offset.x)), Value(double(t.offset.y))})},
+                    {"rotation", Value(double(t.rotation))},
+                    {"scale", Value(Value::Array{Value(double(t.scale.x)), Value(double(t.scale.y))})}});
+                useExtension(model, "KHR_texture_transform");
+            }
+        }
+        if (m.isEmissive() && m.emissiveTexture >= 0) gm.emissiveTexture.index = m.emissiveTexture;
         if (m.isEmissive()) {
-            float strength = std::max(m.emission.x, std::max(m.emission.y, m.emission.z));
+            // A power-of-two strength: factor × strength gives the emission back exactly, so a
+            // cluster client renders the very radiance the master loaded.
+            const float peak = std::max(m.emission.x, std::max(m.emission.y, m.emission.z));
+            const float strength = std::exp2(std::ceil(std::log2(peak)));
             Vec3 factor = m.emission / strength;
-            if (strength <= 1.0f) {
+            if (peak <= 1.0f) {
                 factor = m.emission;
             } else {
                 gm.extensions["KHR_materials_emissive_strength"] =
@@ -211,9 +224,11 @@ std::vector<uint8_t> encodeGlb(const Scene& scene) {
     for (const Light& l : scene.lights) {
         tinygltf::Light gl;
         gl.name = l.name;
-        float peak = std::max(l.intensity.x, std::max(l.intensity.y, l.intensity.z));
-        gl.intensity = peak;
-        Vec3 colour = peak > 0.0f ? l.intensity / peak : Vec3(1.0f);
+        // A power-of-two intensity: colour × intensity gives the light's value back exactly.
+        const float peak = std::max(l.intensity.x, std::max(l.intensity.y, l.intensity.z));
+        const float scale = peak > 0.0f ? std::exp2(std::ceil(std::log2(peak))) : 1.0f;
+        gl.intensity = peak > 0.0f ? scale : 0.0;
+        Vec3 colour = peak > 0.0f ? l.intensity / scale : Vec3(1.0f);
         gl.color = {colour.x, colour.y, colour.z};
         gl.type = l.type == LightType::Point ? "point" : l.type == LightType::Spot ? "spot" : "directional";
         if (l.type == LightType::Spot) {
@@ -225,9 +240,18 @@ std::vector<uint8_t> encodeGlb(const Scene& scene) {
         node.name = l.name;
         node.translation = {l.position.x, l.position.y, l.position.z};
         if (l.type != LightType::Point) {
-            // Rotation taking the light's local −Z onto its direction.
-            glm::quat q = glm::rotation(Vec3(0.0f, 0.0f, -1.0f), glm::normalize(l.direction));
-            node.rotation = {q.x, q.y, q.z, q.w};
+            // A matrix whose local −Z column is exactly the light's direction (a quaternion would
+            // round it): the loader reads the direction back bit for bit. Columns: an orthonormal
+            // right and up around back = −direction, then the position.
+            const Vec3 back = -l.direction;
+            const Vec3 helper = std::abs(back.y) < 0.9f ? Vec3(0, 1, 0) : Vec3(1, 0, 0);
+            const Vec3 right = glm::normalize(glm::cross(helper, back));
+            const Vec3 up = glm::cross(back, right);
+            const Mat4 m(glm::vec4(right, 0.0f), glm::vec4(up, 0.0f), glm::vec4(back, 0.0f),
+                         glm::vec4(l.position, 1.0f));
+            const float* mp = glm::value_ptr(m);
+            node.matrix.assign(mp, mp + 16);
+            node.translation.clear();
         }
         node.extensions["KHR_lights_punctual"] =
             Value(Value::Object{{"light", Value(int(model.lights.size() - 1))}});

@@ -13,9 +13,11 @@ namespace rtpm {
 /// Instance (matrix), one node per light (KHR_lights_punctual; intensity = max channel, colour
 /// = intensity / max, so colour × intensity is exact) and one for the camera. Materials follow
 /// DESIGN §6 in reverse: Mirror → metallic 1 / roughness 0; Dielectric →
-/// KHR_materials_transmission 1 + KHR_materials_ior + KHR_materials_volume (attenuationColor =
-/// exp(−σ·d) with d = 1 m); emission → emissiveFactor × KHR_materials_emissive_strength;
-/// textures embedded as 8-bit sRGB PNG. Throws SceneError if the scene fails Scene::validate.
+/// KHR_materials_transmission (its factor) + KHR_materials_ior + KHR_materials_volume
+/// (attenuationColor = exp(−σ·d) with d = 1 m); emission → emissiveFactor ×
+/// KHR_materials_emissive_strength (× emissiveTexture); unlit → KHR_materials_unlit (required);
+/// base-colour texture transforms → KHR_texture_transform (uv set 0); textures embedded as
+/// 8-bit sRGB PNG (so a texture survives the trip only up to 8-bit quantisation). Throws SceneError if the scene fails Scene::validate.
 /// Cost O(scene size).
 std::vector<uint8_t> encodeGlb(const Scene& scene);
 

@@ -33,11 +33,15 @@ namespace {
 constexpr uint64_t kMaxFileBytes = uint64_t(4) << 30;
 // Deepest node hierarchy followed; deeper (or cyclic) hierarchies are errors.
 constexpr int kMaxNodeDepth = 1024;
+// Most mesh instances a scene may hold (nodes × primitives, EXT_mesh_gpu_instancing included):
+// each costs an Embree instance and a transform, ~300 bytes, so this bounds them to ~1 GB.
+constexpr size_t kMaxInstances = size_t(1) << 22;
 
 const std::set<std::string>& supportedExtensions() {
     static const std::set<std::string> kSupported = {
         "KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior",
-        "KHR_materials_volume", "KHR_materials_emissive_strength"};
+        "KHR_materials_volume", "KHR_materials_emissive_strength", "KHR_texture_transform",
+        "KHR_materials_unlit", "EXT_mesh_gpu_instancing"};
     return kSupported;
 }
 
@@ -173,6 +177,15 @@ std::string trimmed(std::string s) {
 
 bool finite3(Vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
+// `v` normalised, or `v` itself when it is already unit to float precision. Normalising a unit
+// vector again may move it by an ulp; keeping it makes a scene that went through encodeGlb (the
+// master's copy for cluster clients) load back with the very normals and light directions the
+// master loaded, so the cluster's image equals rtpm-render's bit for bit.
+Vec3 unitKeepingBits(Vec3 v) {
+    const float len2 = glm::dot(v, v);
+    return std::abs(len2 - 1.0f) <= 1e-6f ? v : v / std::sqrt(len2);
+}
+
 // ---- accessor reading -----------------------------------------------------------------
 
 int componentBytes(int componentType) {
@@ -243,6 +256,11 @@ private:
 
     void checkExtensions();
     void convertMaterials();
+    TextureTransform textureTransform(const tinygltf::Value& ext, const std::string& element,
+                                      int& uvSet) const;
+    void addGpuInstances(const tinygltf::Value& ext, const std::string& element, const Mat4& world,
+                         const std::string& name, const std::vector<uint32_t>& meshes);
+    std::vector<float> readInstanceRotations(int index, const std::string& element) const;
     int textureFor(int gltfTexture, const std::string& element);
     std::vector<uint32_t> convertMesh(int meshIndex);
     void visitNode(int node, const Mat4& parent, int depth);
@@ -255,6 +273,7 @@ private:
     std::map<int, std::vector<uint32_t>> meshPrimitives_;  // glTF mesh → rtpm meshes
     std::map<int, int32_t> imageTextures_;                  // glTF image → Scene::textures
     std::vector<uint8_t> onPath_;                           // cycle detection in the hierarchy
+    std::vector<int> materialUvSet_;                        // glTF material → TEXCOORD_n its textures use
     int defaultMaterial_ = -1;
 };
 
@@ -409,14 +428,14 @@ double numberOr(const tinygltf::Value& obj, const char* key, double fallback) {
     return v.IsNumber() ? v.GetNumberAsDouble() : fallback;
 }
 
-std::optional<Vec3> vec3Of(const tinygltf::Value& obj, const char* key) {
+std::optional<glm::dvec3> dvec3Of(const tinygltf::Value& obj, const char* key) {
     if (!obj.IsObject() || !obj.Has(key)) return std::nullopt;
     const tinygltf::Value& v = obj.Get(key);
     if (!v.IsArray() || v.ArrayLen() < 3) return std::nullopt;
-    Vec3 out;
+    glm::dvec3 out;
     for (int i = 0; i < 3; ++i) {
         if (!v.Get(i).IsNumber()) return std::nullopt;
-        out[i] = float(v.Get(i).GetNumberAsDouble());
+        out[i] = v.Get(i).GetNumberAsDouble();
     }
     return out;
 }
@@ -490,9 +509,39 @@ void GltfImporter::convertMaterials() {
         const tinygltf::Value* transmission = extension(gm.extensions, "KHR_materials_transmission");
         double transmissionFactor =
             transmission ? numberOr(*transmission, "transmissionFactor", 0.0) : 0.0;
-        if (transmissionFactor >= 0.99) {
+        if (!std::isfinite(transmissionFactor) || transmissionFactor < 0.0 || transmissionFactor > 1.0)
+            fail(el + ".extensions.KHR_materials_transmission", "transmissionFactor " +
+                                                                    std::to_string(transmissionFactor) +
+                                                                    " outside [0, 1]");
+        // The texture coordinate set the material's textures are read from (see convertMesh).
+        int uvSet = -1;
+        // Base-colour texture with its KHR_texture_transform, for the materials that use it.
+        auto useBaseColorTexture = [&] {
+            if (pbr.baseColorTexture.index < 0) return;
+            const std::string texEl = el + ".pbrMetallicRoughness.baseColorTexture";
+            m.baseColorTexture = textureFor(pbr.baseColorTexture.index, texEl);
+            uvSet = pbr.baseColorTexture.texCoord;
+            if (const tinygltf::Value* tt = extension(pbr.baseColorTexture.extensions, "KHR_texture_transform"))
+                m.baseColorTransform = textureTransform(*tt, texEl + ".extensions.KHR_texture_transform", uvSet);
+        };
+        if (extension(gm.extensions, "KHR_materials_unlit")) {
+            // Unlit wins over every other model: the file asks for the colour as it is.
+            m.type = MaterialType::Diffuse;
+            m.unlit = true;
+            useBaseColorTexture();
+        } else if (transmissionFactor > 0.0) {
             m.type = MaterialType::Dielectric;
-            m.baseColor = Vec3(1.0f);
+            m.transmission = float(transmissionFactor);
+            if (m.transmission >= 1.0f) {
+                m.baseColor = Vec3(1.0f);  // clear glass: the tint is not modelled
+            } else {
+                useBaseColorTexture();  // the Lambertian share's albedo
+                if (pbr.metallicFactor > 0.0)
+                    warn(el + ": metallicFactor " + std::to_string(pbr.metallicFactor) +
+                         " ignored on a partly transmissive material (dielectric + Lambertian mix)");
+            }
+            if (transmission && transmission->Has("transmissionTexture"))
+                warn(el + ": transmissionTexture ignored (transmissionFactor used everywhere)");
             const tinygltf::Value* iorExt = extension(gm.extensions, "KHR_materials_ior");
             m.ior = float(iorExt ? numberOr(*iorExt, "ior", 1.5) : 1.5);
             if (!std::isfinite(m.ior) || m.ior < 1.0f || m.ior > 4.0f)
@@ -501,35 +550,25 @@ void GltfImporter::convertMaterials() {
             if (const tinygltf::Value* vol = extension(gm.extensions, "KHR_materials_volume")) {
                 double dist = numberOr(*vol, "attenuationDistance",
                                        std::numeric_limits<double>::infinity());
-                Vec3 color = vec3Of(*vol, "attenuationColor").value_or(Vec3(1.0f));
-                if (!(dist > 0.0) || !finite3(color))
+                // Read in double: the master's GLB (gltf_export.cpp) writes exp(−σ·d) in double, so
+                // σ comes back to the same float on a cluster client.
+                const glm::dvec3 color = dvec3Of(*vol, "attenuationColor").value_or(glm::dvec3(1.0));
+                if (!(dist > 0.0) || !std::isfinite(color.x) || !std::isfinite(color.y) || !std::isfinite(color.z))
                     fail(el + ".extensions.KHR_materials_volume",
                          "attenuationDistance must be > 0 and attenuationColor finite");
                 if (std::isfinite(dist)) {
                     // Beer–Lambert: transmittance after `dist` metres is attenuationColor.
                     for (int c = 0; c < 3; ++c) {
-                        float col = std::clamp(color[c], 1e-30f, 1.0f);
-                        m.absorption[c] = float(-std::log(double(col)) / dist);
+                        const double col = std::clamp(color[c], 1e-30, 1.0);
+                        m.absorption[c] = float(-std::log(col) / dist);
                     }
                 }
             }
+        } else if (pbr.metallicFactor >= 0.99 && pbr.roughnessFactor <= 0.01) {
+            m.type = MaterialType::Mirror;
         } else {
-            if (transmissionFactor > 0.0)
-                warn(el + ": partial transmission " + std::to_string(transmissionFactor) +
-                     " unsupported; treated as opaque");
-            if (pbr.metallicFactor >= 0.99 && pbr.roughnessFactor <= 0.01) {
-                m.type = MaterialType::Mirror;
-            } else {
-                m.type = MaterialType::Diffuse;
-                if (pbr.baseColorTexture.index >= 0) {
-                    m.baseColorTexture =
-                        textureFor(pbr.baseColorTexture.index, el + ".pbrMetallicRoughness.baseColorTexture");
-                    if (pbr.baseColorTexture.texCoord != 0)
-                        warn(el + ": baseColorTexture uses TEXCOORD_" +
-                             std::to_string(pbr.baseColorTexture.texCoord) +
-                             "; TEXCOORD_0 is used instead");
-                }
-            }
+            m.type = MaterialType::Diffuse;
+            useBaseColorTexture();
         }
         if (gm.emissiveFactor.size() >= 3) {
             Vec3 e(float(gm.emissiveFactor[0]), float(gm.emissiveFactor[1]),
@@ -542,10 +581,61 @@ void GltfImporter::convertMaterials() {
                 fail(el + ".emissiveFactor", "emission must be finite and non-negative");
             m.emission = e;
         }
-        if (gm.emissiveTexture.index >= 0)
-            warn(el + ": emissiveTexture ignored (emission is emissiveFactor only)");
+        if (gm.emissiveTexture.index >= 0 && m.isEmissive()) {
+            // Per glTF the emission is emissiveFactor × the (sRGB) emissive texture.
+            const std::string texEl = el + ".emissiveTexture";
+            m.emissiveTexture = textureFor(gm.emissiveTexture.index, texEl);
+            if (extension(gm.emissiveTexture.extensions, "KHR_texture_transform"))
+                warn(texEl + ": KHR_texture_transform ignored on emissive textures");
+            if (uvSet < 0) {
+                uvSet = gm.emissiveTexture.texCoord;
+            } else if (gm.emissiveTexture.texCoord != uvSet) {
+                warn(texEl + ": uses TEXCOORD_" + std::to_string(gm.emissiveTexture.texCoord) +
+                     " but the base colour uses TEXCOORD_" + std::to_string(uvSet) +
+                     "; the latter is used for both");
+            }
+        }
+        // What the material model has no place for, named once per material.
+        std::string ignored;
+        auto note = [&](bool present, const char* what) {
+            if (present) ignored += (ignored.empty() ? "" : ", ") + std::string(what);
+        };
+        note(gm.normalTexture.index >= 0, "normalTexture");
+        note(gm.occlusionTexture.index >= 0, "occlusionTexture");
+        note(pbr.metallicRoughnessTexture.index >= 0, "metallicRoughnessTexture");
+        note(!gm.alphaMode.empty() && gm.alphaMode != "OPAQUE", "alphaMode (rendered opaque)");
+        if (!ignored.empty()) warn(el + ": ignored " + ignored);
+        materialUvSet_.push_back(std::max(uvSet, 0));
         scene_.materials.push_back(std::move(m));
     }
+}
+
+TextureTransform GltfImporter::textureTransform(const tinygltf::Value& ext, const std::string& element,
+                                                int& uvSet) const {
+    // KHR_texture_transform: offset [2], rotation (radians), scale [2], texCoord (overrides the
+    // textureInfo's set).
+    TextureTransform t;
+    auto vec2Of = [&](const char* key, Vec2 fallback) {
+        if (!ext.Has(key)) return fallback;
+        const tinygltf::Value& v = ext.Get(key);
+        if (!v.IsArray() || v.ArrayLen() != 2 || !v.Get(0).IsNumber() || !v.Get(1).IsNumber())
+            fail(element + "." + key, "must be an array of 2 numbers");
+        return Vec2(float(v.Get(0).GetNumberAsDouble()), float(v.Get(1).GetNumberAsDouble()));
+    };
+    if (!ext.IsObject()) fail(element, "must be an object");
+    t.offset = vec2Of("offset", Vec2(0.0f));
+    t.scale = vec2Of("scale", Vec2(1.0f));
+    t.rotation = float(numberOr(ext, "rotation", 0.0));
+    if (!std::isfinite(t.offset.x) || !std::isfinite(t.offset.y) || !std::isfinite(t.scale.x) ||
+        !std::isfinite(t.scale.y) || !std::isfinite(t.rotation))
+        fail(element, "offset, rotation and scale must be finite");
+    if (ext.Has("texCoord")) {
+        const tinygltf::Value& tc = ext.Get("texCoord");
+        if (!tc.IsNumber() || tc.GetNumberAsInt() < 0)
+            fail(element + ".texCoord", "must be a non-negative integer");
+        uvSet = tc.GetNumberAsInt();
+    }
+    return t;
 }
 
 uint32_t GltfImporter::defaultMaterial() {
@@ -623,17 +713,27 @@ std::vector<uint32_t> GltfImporter::convertMesh(int meshIndex) {
                     needNormals = true;
                     break;
                 }
-                mesh.normals[i] = v / len;
+                mesh.normals[i] = unitKeepingBits(v);
             }
             if (needNormals) warn(el + ".attributes.NORMAL: zero-length normals; recomputed");
         }
         if (needNormals) mesh.normals = smoothVertexNormals(mesh.positions, mesh.indices);
 
-        auto uvIt = prim.attributes.find("TEXCOORD_0");
+        // One uv set per mesh: the one its material's textures name (TEXCOORD_0 by default).
+        const int uvSet = prim.material >= 0 && size_t(prim.material) < materialUvSet_.size()
+                              ? materialUvSet_[size_t(prim.material)]
+                              : 0;
+        const std::string uvName = "TEXCOORD_" + std::to_string(uvSet);
+        auto uvIt = prim.attributes.find(uvName);
+        if (uvIt == prim.attributes.end() && uvSet != 0 && prim.attributes.count("TEXCOORD_0")) {
+            warn(el + ": material uses " + uvName + ", which is missing; TEXCOORD_0 used instead");
+            uvIt = prim.attributes.find("TEXCOORD_0");
+        }
         if (uvIt != prim.attributes.end()) {
-            std::vector<float> uv = readFloats(uvIt->second, el + ".attributes.TEXCOORD_0", TINYGLTF_TYPE_VEC2);
+            const std::string uvEl = el + ".attributes." + uvIt->first;
+            std::vector<float> uv = readFloats(uvIt->second, uvEl, TINYGLTF_TYPE_VEC2);
             if (uv.size() / 2 != nv)
-                fail(el + ".attributes.TEXCOORD_0", "count differs from POSITION count");
+                fail(uvEl, "count differs from POSITION count");
             mesh.uvs.resize(nv);
             for (size_t i = 0; i < nv; ++i) mesh.uvs[i] = Vec2(uv[2 * i], uv[2 * i + 1]);
         }
@@ -687,6 +787,87 @@ Mat4 GltfImporter::localTransform(const tinygltf::Node& node, const std::string&
     return t * r * s;
 }
 
+std::vector<float> GltfImporter::readInstanceRotations(int index, const std::string& element) const {
+    // EXT_mesh_gpu_instancing: ROTATION is a VEC4 quaternion (x, y, z, w) of FLOAT or normalized
+    // BYTE / SHORT.
+    View v = checkedAccessor(index, element, {TINYGLTF_TYPE_VEC4},
+                             {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE,
+                              TINYGLTF_COMPONENT_TYPE_SHORT});
+    if (v.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && !v.normalized)
+        fail(element, "integer rotations must be normalized");
+    std::vector<float> out(v.count * 4, 0.0f);
+    if (!v.data) return out;
+    const size_t cb = size_t(componentBytes(v.componentType));
+    for (size_t i = 0; i < v.count; ++i)
+        for (size_t c = 0; c < 4; ++c) {
+            const float f = readComponent(v.data + i * v.stride + c * cb, v.componentType, v.normalized);
+            if (!std::isfinite(f)) fail(element, "element " + std::to_string(i) + " is not finite");
+            out[i * 4 + c] = f;
+        }
+    return out;
+}
+
+void GltfImporter::addGpuInstances(const tinygltf::Value& ext, const std::string& el, const Mat4& world,
+                                   const std::string& name, const std::vector<uint32_t>& meshes) {
+    // Instance k is placed at world · T_k · R_k · S_k (the node's transform, then the instance's
+    // TRS, as the extension defines); every primitive of the node's mesh gets one Instance per k,
+    // all sharing that primitive's Mesh (one Embree BVH, many instances).
+    if (!ext.IsObject() || !ext.Has("attributes") || !ext.Get("attributes").IsObject())
+        fail(el, "missing attributes object");
+    const tinygltf::Value& attrs = ext.Get("attributes");
+    size_t count = 0;
+    auto accessorOf = [&](const char* key) -> int {
+        if (!attrs.Has(key)) return -1;
+        const tinygltf::Value& v = attrs.Get(key);
+        if (!v.IsNumber() || v.GetNumberAsInt() < 0) fail(el + ".attributes." + key, "not an accessor index");
+        const int index = v.GetNumberAsInt();
+        if (size_t(index) >= model_.accessors.size())
+            fail(el + ".attributes." + key, "accessor index " + std::to_string(index) + " out of range");
+        const size_t n = model_.accessors[size_t(index)].count;
+        if (count != 0 && n != count)
+            fail(el + ".attributes." + key, "count " + std::to_string(n) + " differs from the other attributes' " +
+                                                std::to_string(count));
+        count = n;
+        return index;
+    };
+    const int tIndex = accessorOf("TRANSLATION");
+    const int rIndex = accessorOf("ROTATION");
+    const int sIndex = accessorOf("SCALE");
+    if (count == 0) fail(el + ".attributes", "no TRANSLATION, ROTATION or SCALE accessor");
+    if (count * meshes.size() > kMaxInstances - std::min(kMaxInstances, scene_.instances.size()))
+        fail(el, std::to_string(count) + " instances exceed the limit of " + std::to_string(kMaxInstances) +
+                     " mesh instances per scene");
+    const std::vector<float> tr = tIndex >= 0 ? readFloats(tIndex, el + ".attributes.TRANSLATION", TINYGLTF_TYPE_VEC3)
+                                              : std::vector<float>();
+    const std::vector<float> rot = rIndex >= 0 ? readInstanceRotations(rIndex, el + ".attributes.ROTATION")
+                                               : std::vector<float>();
+    const std::vector<float> sc = sIndex >= 0 ? readFloats(sIndex, el + ".attributes.SCALE", TINYGLTF_TYPE_VEC3)
+                                              : std::vector<float>();
+    scene_.instances.reserve(scene_.instances.size() + count * meshes.size());
+    for (size_t k = 0; k < count; ++k) {
+        Mat4 local(1.0f);
+        if (!tr.empty()) local = glm::translate(local, Vec3(tr[3 * k], tr[3 * k + 1], tr[3 * k + 2]));
+        if (!rot.empty()) {
+            // Stored (x, y, z, w); glm::quat takes (w, x, y, z).
+            glm::quat q(rot[4 * k + 3], rot[4 * k], rot[4 * k + 1], rot[4 * k + 2]);
+            const float len = glm::length(q);
+            if (!(len > 1e-12f)) fail(el + ".attributes.ROTATION", "element " + std::to_string(k) + " is a zero quaternion");
+            local = local * glm::mat4_cast(q / len);
+        }
+        if (!sc.empty()) local = glm::scale(local, Vec3(sc[3 * k], sc[3 * k + 1], sc[3 * k + 2]));
+        const Mat4 m = world * local;
+        if (!(std::abs(glm::determinant(glm::mat3(m))) > 0.0f))
+            fail(el, "instance " + std::to_string(k) + " has a singular transform (zero scale)");
+        for (uint32_t meshId : meshes) {
+            Instance inst;
+            inst.name = name + "#" + std::to_string(k);
+            inst.mesh = meshId;
+            inst.transform = m;
+            scene_.instances.push_back(std::move(inst));
+        }
+    }
+}
+
 void GltfImporter::visitNode(int nodeIndex, const Mat4& parent, int depth) {
     const std::string el = "nodes[" + std::to_string(nodeIndex) + "]";
     if (nodeIndex < 0 || size_t(nodeIndex) >= model_.nodes.size())
@@ -698,15 +879,25 @@ void GltfImporter::visitNode(int nodeIndex, const Mat4& parent, int depth) {
     const Mat4 world = parent * localTransform(node, el);
     const std::string name = node.name.empty() ? el : node.name;
 
+    const tinygltf::Value* gpuInstancing = extension(node.extensions, "EXT_mesh_gpu_instancing");
     if (node.mesh >= 0) {
         if (node.skin >= 0) warn(el + ": skin ignored (mesh used in its bind pose)");
-        for (uint32_t meshId : convertMesh(node.mesh)) {
-            Instance inst;
-            inst.name = name;
-            inst.mesh = meshId;
-            inst.transform = world;
-            scene_.instances.push_back(inst);
+        if (gpuInstancing) {
+            addGpuInstances(*gpuInstancing, el + ".extensions.EXT_mesh_gpu_instancing", world, name,
+                            convertMesh(node.mesh));
+        } else {
+            for (uint32_t meshId : convertMesh(node.mesh)) {
+                Instance inst;
+                inst.name = name;
+                inst.mesh = meshId;
+                inst.transform = world;
+                scene_.instances.push_back(inst);
+            }
         }
+        if (scene_.instances.size() > kMaxInstances)
+            fail(el, "more than " + std::to_string(kMaxInstances) + " mesh instances in the scene");
+    } else if (gpuInstancing) {
+        warn(el + ": EXT_mesh_gpu_instancing on a node without a mesh; ignored");
     }
     Vec3 origin = Vec3(world * glm::vec4(0, 0, 0, 1));
     glm::mat3 lin(world);
@@ -748,7 +939,7 @@ void GltfImporter::visitNode(int nodeIndex, const Mat4& parent, int depth) {
         Vec3 dir = lin * Vec3(0, 0, -1);
         if (gl.type != "point") {
             if (!finite3(dir) || !(glm::length(dir) > 1e-12f)) fail(el, "light node transform is degenerate");
-            l.direction = glm::normalize(dir);
+            l.direction = unitKeepingBits(dir);
         }
         if (gl.type == "point") {
             l.type = LightType::Point;

@@ -15,14 +15,18 @@ namespace rtpm {
 /// Cameras: the first perspective camera met in a depth-first traversal of the default scene
 /// (glTF cameras look down local −Z with +Y up). KHR_lights_punctual: point/spot intensity in
 /// W/sr, directional in W/m², times colour; spot cone angles; direction = the node's local −Z.
-/// Materials: metallic ≥ 0.99 and roughness ≤ 0.01 → Mirror (reflectance baseColorFactor);
-/// KHR_materials_transmission ≥ 0.99 → Dielectric (KHR_materials_ior, default 1.5; absorption
-/// σ = −ln(attenuationColor)/attenuationDistance from KHR_materials_volume, read whatever the
-/// thicknessFactor, because rtpm traces the real geometry); emissiveFactor ×
-/// KHR_materials_emissive_strength → emission; otherwise Diffuse with baseColorFactor times the
-/// sRGB-decoded baseColorTexture. Primitives other than TRIANGLES are skipped with a warning;
-/// missing normals are computed (area-weighted smooth). Unsupported required extensions are
-/// errors, unsupported used ones warnings (Scene::warnings).
+/// Materials: KHR_materials_unlit → unlit Diffuse; KHR_materials_transmission t > 0 → Dielectric
+/// with transmission t (t < 1: the rest Lambertian with the base colour and texture;
+/// KHR_materials_ior, default 1.5; absorption σ = −ln(attenuationColor)/attenuationDistance from
+/// KHR_materials_volume, read whatever the thicknessFactor, because rtpm traces the real
+/// geometry); metallic ≥ 0.99 and roughness ≤ 0.01 → Mirror (reflectance baseColorFactor);
+/// otherwise Diffuse with baseColorFactor times the sRGB-decoded baseColorTexture, through its
+/// KHR_texture_transform. emissiveFactor × KHR_materials_emissive_strength (× emissiveTexture) →
+/// emission. A mesh's uv set is the TEXCOORD_n its material's base-colour (else emissive) texture
+/// names. EXT_mesh_gpu_instancing: one Instance per (instance, primitive), node transform times
+/// the instance's TRS. Primitives other than TRIANGLES are skipped with a warning; missing
+/// normals are computed (area-weighted smooth). Unsupported required extensions are errors,
+/// unsupported used ones warnings (Scene::warnings); README lists every feature.
 /// Throws SceneError{file, element, message} for any malformed input (bad JSON or GLB framing,
 /// missing buffers, out-of-range indices, accessor bounds, wrong component types, NaN/Inf
 /// vertices). Never reads outside a buffer and never allocates more than the file justifies.

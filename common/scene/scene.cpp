@@ -39,6 +39,60 @@ Vec3 Texture::sample(Vec2 uv) const {
            ty * ((1 - tx) * texel(x0, y1) + tx * texel(x1, y1));
 }
 
+Vec3 Texture::meanOverTriangle(Vec2 a, Vec2 b, Vec2 c) const {
+    // Footprint: the longest edge in texels sets the subdivision (4 sub-triangle rows per texel).
+    const Vec2 size{float(width), float(height)};
+    const float edge = std::max({glm::length((b - a) * size), glm::length((c - b) * size),
+                                 glm::length((a - c) * size)});
+    const int n = std::isfinite(edge) ? std::clamp(int(std::ceil(4.0f * edge)), 2, 32) : 2;
+    // The n² sub-triangles of a regular subdivision have equal area: their centroids weigh the same.
+    // In barycentric steps of 1/n, "up" triangles have centroids (i + 1/3, j + 1/3)/n and "down"
+    // ones (i + 2/3, j + 2/3)/n.
+    Vec3 sum(0.0f);
+    int count = 0;
+    const float inv = 1.0f / float(n);
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; i + j < n; ++j) {
+            for (int down = 0; down < 2; ++down) {
+                if (down && i + j + 2 > n) continue;
+                const float off = down ? 2.0f / 3.0f : 1.0f / 3.0f;
+                const float u = (float(i) + off) * inv, v = (float(j) + off) * inv;
+                sum += sample(a + u * (b - a) + v * (c - a));
+                ++count;
+            }
+        }
+    return sum / float(std::max(count, 1));
+}
+
+Vec2 TextureTransform::apply(Vec2 uv) const {
+    // KHR_texture_transform: translation · rotation · scale, rotation matrix [c s; −s c] in the
+    // extension's row-major notation (a positive angle turns uv counter-clockwise).
+    const float c = std::cos(rotation), s = std::sin(rotation);
+    const Vec2 scaled = uv * scale;
+    return Vec2(c * scaled.x + s * scaled.y, -s * scaled.x + c * scaled.y) + offset;
+}
+
+Vec3 baseColorAt(const Material& material, const std::vector<Texture>& textures, Vec2 uv) {
+    Vec3 albedo = material.baseColor;
+    if (material.baseColorTexture >= 0 && size_t(material.baseColorTexture) < textures.size()) {
+        const Texture& tex = textures[size_t(material.baseColorTexture)];
+        if (tex.width > 0 && tex.height > 0) {
+            if (!material.baseColorTransform.isIdentity()) uv = material.baseColorTransform.apply(uv);
+            albedo *= tex.sample(uv);
+        }
+    }
+    return albedo;
+}
+
+Vec3 emissionAt(const Material& material, const std::vector<Texture>& textures, Vec2 uv) {
+    Vec3 e = material.emission;
+    if (material.emissiveTexture >= 0 && size_t(material.emissiveTexture) < textures.size()) {
+        const Texture& tex = textures[size_t(material.emissiveTexture)];
+        if (tex.width > 0 && tex.height > 0) e *= tex.sample(uv);
+    }
+    return e;
+}
+
 Camera Camera::lookAt(Vec3 eye, Vec3 target, Vec3 upHint, float yfovRadians) {
     Camera c;
     c.position = eye;
@@ -118,8 +172,14 @@ void Scene::validate(const std::string& fileName) const {
             throw SceneError(fileName, el, "negative emission or absorption");
         if (m.type == MaterialType::Dielectric && !(m.ior >= 1.0f && m.ior <= 4.0f))
             throw SceneError(fileName, el, "ior " + std::to_string(m.ior) + " outside [1, 4]");
-        if (m.baseColorTexture >= int32_t(textures.size()))
+        if (m.baseColorTexture >= int32_t(textures.size()) || m.emissiveTexture >= int32_t(textures.size()))
             throw SceneError(fileName, el, "texture index out of range");
+        const TextureTransform& tt = m.baseColorTransform;
+        if (!finite(Vec3(tt.offset, tt.rotation)) || !finite(Vec3(tt.scale, 0.0f)))
+            throw SceneError(fileName, el, "non-finite texture transform");
+        if (!(m.transmission > 0.0f && m.transmission <= 1.0f))
+            throw SceneError(fileName, el, "transmission " + std::to_string(m.transmission) +
+                                               " outside (0, 1]");
     }
     for (size_t li = 0; li < lights.size(); ++li) {
         const Light& l = lights[li];

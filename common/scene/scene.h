@@ -43,6 +43,11 @@ struct Texture {
     std::vector<float> rgb;  // width * height * 3, linear (sRGB decoded on load)
     /// Bilinear lookup with repeat wrapping. Precondition: width, height > 0.
     Vec3 sample(Vec2 uv) const;
+    /// Mean of sample() over the uv-space triangle (a, b, c): the average over the centroids of
+    /// a regular n×n subdivision, n from the triangle's footprint in texels (4 per texel along
+    /// the longest edge, 2 ≤ n ≤ 32), so its error is that of the midpoint rule at sub-texel spacing.
+    /// Precondition: width, height > 0. Cost O(n²) ≤ 1024 lookups.
+    Vec3 meanOverTriangle(Vec2 a, Vec2 b, Vec2 c) const;
 };
 
 enum class MaterialType : uint8_t {
@@ -51,18 +56,47 @@ enum class MaterialType : uint8_t {
     Dielectric,  ///< smooth glass/liquid: exact Fresnel, refraction, Beer–Lambert inside
 };
 
+/// glTF KHR_texture_transform of a texture lookup: uv' = T(offset) · R(rotation) · S(scale) · uv,
+/// with the extension's rotation convention (counter-clockwise in uv space, radians).
+struct TextureTransform {
+    Vec2 offset{0.0f};
+    float rotation = 0.0f;
+    Vec2 scale{1.0f};
+    bool isIdentity() const { return offset == Vec2(0.0f) && rotation == 0.0f && scale == Vec2(1.0f); }
+    /// The transformed coordinates (the extension's matrix applied to (uv, 1)). Pure, O(1).
+    Vec2 apply(Vec2 uv) const;
+    bool operator==(const TextureTransform&) const = default;
+};
+
 /// DESIGN §6 mapping from glTF metallic-roughness. Emission makes any material an area light.
 struct Material {
     std::string name;
     MaterialType type = MaterialType::Diffuse;
-    Vec3 baseColor{0.8f};       ///< albedo (Diffuse) or reflectance (Mirror); tint is ignored for Dielectric
+    Vec3 baseColor{0.8f};       ///< albedo (Diffuse, and the Lambertian share of a partly
+                                ///< transmissive Dielectric) or reflectance (Mirror)
     int32_t baseColorTexture = -1;  ///< index into Scene::textures, -1 for none
+    TextureTransform baseColorTransform;  ///< applied to the uv before the baseColorTexture lookup
     float ior = 1.5f;           ///< Dielectric: index of refraction inside the surface
     Vec3 absorption{0.0f};      ///< Dielectric: Beer–Lambert coefficient σ_a per metre inside
+    /// Dielectric: share t ∈ (0, 1] of the smooth dielectric lobe; the rest (1 − t) is Lambertian
+    /// with albedo baseColor × texture (glTF KHR_materials_transmission factor). 1 = clear glass.
+    float transmission = 1.0f;
     Vec3 emission{0.0f};        ///< emitted radiance W/(m²·sr) from the front face; > 0 → area light
+    int32_t emissiveTexture = -1;  ///< index into Scene::textures multiplying emission, -1 for none
+    /// Diffuse only, ignored for other types (glTF KHR_materials_unlit): seen as baseColor × texture, receives no light,
+    /// stores no photons and absorbs every photon that hits it; not a light source by itself.
+    bool unlit = false;
     bool isEmissive() const { return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f; }
     bool isSpecular() const { return type != MaterialType::Diffuse; }
+    /// A Dielectric with a Lambertian share (transmission < 1).
+    bool isPartlyDiffuse() const { return type == MaterialType::Dielectric && transmission < 1.0f; }
 };
+
+/// Albedo (Diffuse) at texture coordinates `uv`: baseColor times the transformed base-colour
+/// texture lookup when the material has one. `textures` is Scene::textures. Pure, O(1).
+Vec3 baseColorAt(const Material& material, const std::vector<Texture>& textures, Vec2 uv);
+/// Emitted radiance at `uv`: emission times the emissive texture when there is one. Pure, O(1).
+Vec3 emissionAt(const Material& material, const std::vector<Texture>& textures, Vec2 uv);
 
 /// Triangle mesh in object space. `normals` and `uvs` are per vertex and may be empty.
 struct Mesh {

@@ -47,6 +47,29 @@ bool hasLightOrEmitter(const Scene& s) {
 
 }  // namespace
 
+Light defaultLight(const Bounds& b, const Camera& camera) {
+    const Vec3 centre = b.empty() ? Vec3(0.0f) : b.centre();
+    const float radius = std::max(0.5f * (b.empty() ? 1.0f : b.diagonal()), 1e-3f);
+    const float distance = 3.0f * radius;
+    // Tilt 15° from the zenith towards the far side of the scene as the camera looks at it (its
+    // forward direction projected on the ground); a camera looking straight down gets no tilt.
+    Vec3 away(camera.forward.x, 0.0f, camera.forward.z);
+    const float awayLen = glm::length(away);
+    away = awayLen > 1e-6f && std::isfinite(awayLen) ? away / awayLen : Vec3(0.0f);
+    const float tilt = 15.0f * kPi / 180.0f;
+    const Vec3 toLight = std::cos(tilt) * Vec3(0.0f, 1.0f, 0.0f) + std::sin(tilt) * away;
+    Light l;
+    l.name = "default light";
+    l.type = LightType::Spot;
+    l.position = centre + distance * toLight;
+    l.direction = glm::normalize(centre - l.position);
+    const float halfAngle = std::asin(radius / distance);  // the bounding sphere as seen from the light
+    l.innerConeAngle = halfAngle + 2.0f * kPi / 180.0f;
+    l.outerConeAngle = l.innerConeAngle + 4.0f * kPi / 180.0f;
+    l.intensity = Vec3(kPi * distance * distance);
+    return l;
+}
+
 std::vector<std::string> builtinSceneNames() { return {"RING", "GLASS", "EGG", "HEADLIGHT", "CORNELL"}; }
 
 bool isBuiltinScene(const std::string& name) {
@@ -87,10 +110,21 @@ Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides) 
         scene.lights.push_back(l);
     }
     if (scene.triangleCount() == 0) throw SceneError(nameOrPath, "meshes", "scene has no triangles");
-    if (!hasLightOrEmitter(scene))
-        throw SceneError(nameOrPath, "lights",
-                         "scene has no light and no emissive material; give one (e.g. a point "
-                         "light override)");
+    if (!hasLightOrEmitter(scene)) {
+        if (!overrides.defaultLight)
+            throw SceneError(nameOrPath, "lights",
+                             "scene has no light and no emissive material; give one (e.g. --light "
+                             "x y z) or drop --no-default-light to get the default spot light");
+        // The framing camera first: it must frame the geometry, not the light above it.
+        if (!scene.camera) scene.camera = defaultCamera(scene.bounds());
+        const Light light = defaultLight(scene.bounds(), *scene.camera);
+        scene.lights.push_back(light);
+        scene.warnings.push_back(
+            nameOrPath + ": no light and no emissive material; added the default spot light (at " +
+            std::to_string(light.position.x) + ", " + std::to_string(light.position.y) + ", " +
+            std::to_string(light.position.z) +
+            ", aimed at the scene's centre; see README). --no-default-light refuses such scenes");
+    }
     if (!scene.camera) scene.camera = defaultCamera(scene.bounds());
     scene.validate(nameOrPath);
     return scene;

@@ -27,7 +27,18 @@ struct PointLightOverride {
 struct SceneOverrides {
     std::optional<CameraOverride> camera;     ///< replaces the scene's camera when set
     std::optional<PointLightOverride> light;  ///< appended to Scene::lights when set
+    /// A scene with no light and no emissive material gets defaultLight() (with a warning);
+    /// false makes such a scene an error instead (--no-default-light).
+    bool defaultLight = true;
 };
+
+/// The light a scene without lights gets: a spot light above the scene, aimed at the centre of
+/// `bounds` (Y is up, as in glTF), tilted 15° so that it stands behind the scene as `camera`
+/// sees it (caustics are cast towards the viewer). It sits 3 bounding-sphere radii r from the
+/// centre, its cone (full intensity within asin(1/3) + 2°, zero beyond 4° more) covers the
+/// bounding sphere, and its intensity π·(3r)² W/sr gives irradiance π W/m² at the centre, so a
+/// white Lambertian surface there facing the light has radiance 1 W/(m²·sr). Pure, O(1).
+Light defaultLight(const Bounds& bounds, const Camera& camera);
 
 /// Names accepted by loadScene as built-in scenes, upper case: RING, GLASS, EGG, HEADLIGHT, CORNELL.
 std::vector<std::string> builtinSceneNames();
@@ -39,8 +50,9 @@ bool isBuiltinScene(const std::string& name);
 /// chosen by extension (case-insensitive): `.gltf`, `.glb` (glTF 2.0) or `.obj` (with its MTL).
 /// Overrides are applied after loading. A scene without a camera gets a default one looking at
 /// the centre of its bounds from the +Z side (so every returned scene has a camera).
-/// A scene with no light and no emissive material is an error (SceneError naming the file)
-/// unless `overrides.light` supplies one. Warnings (unsupported features) are in Scene::warnings.
+/// A scene with no light and no emissive material (after `overrides.light`) gets defaultLight()
+/// and a warning naming the file, or, with `overrides.defaultLight` false, is an error
+/// (SceneError naming the file). Warnings (unsupported features) are in Scene::warnings.
 /// Throws SceneError{file, element, message} on any bad input; never crashes on malformed files.
 /// The returned scene passes Scene::validate. Thread-safe (no shared state). Cost: O(file size)
 /// for files, O(triangles) for built-ins.

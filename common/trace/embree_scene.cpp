@@ -224,8 +224,24 @@ void EmbreeScene::refreshDerived() {
             if (!(e.area > 0.0f) || !(len > 0.0f) || !std::isfinite(e.area)) continue;
             e.normal = n / len;
             e.radiance = mat.emission;
+            e.textured = false;
+            if (mat.emissiveTexture >= 0 && size_t(mat.emissiveTexture) < scene_->textures.size()) {
+                // Power and light sampling follow the texture's mean over the triangle; a surface
+                // seen directly shows the texture itself (eye_pass.cpp).
+                const Texture& tex = scene_->textures[size_t(mat.emissiveTexture)];
+                if (tex.width > 0 && tex.height > 0) {
+                    const bool uvs = mesh.uvs.size() == mesh.positions.size();
+                    const auto uvOf = [&](uint32_t k) {
+                        return uvs ? mesh.uvs[mesh.indices[3 * t + k]] : Vec2(0.0f);
+                    };
+                    e.radiance = mat.emission * tex.meanOverTriangle(uvOf(0), uvOf(1), uvOf(2));
+                    e.textured = true;
+                    if (!(e.radiance.x > 0.0f || e.radiance.y > 0.0f || e.radiance.z > 0.0f)) continue;
+                }
+            }
             e.instance = i;
             e.triangle = t;
+            e.material = mesh.material;
             emissive_.push_back(e);
         }
     }

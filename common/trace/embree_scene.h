@@ -37,8 +37,10 @@ struct EmissiveTriangle {
     Vec3 p0, p1, p2;
     Vec3 normal;     ///< unit, front face (emits into this hemisphere)
     float area;      ///< m²
-    Vec3 radiance;   ///< W/(m²·sr)
+    Vec3 radiance;   ///< W/(m²·sr); with an emissive texture, emission × the texture's mean over the triangle
     uint32_t instance, triangle;
+    uint32_t material;  ///< Scene::materials index
+    bool textured;      ///< radiance varies over the surface (emissive texture)
 };
 
 /// Owns the Embree device and scene. One Embree geometry per mesh, one instance per Instance.

@@ -20,6 +20,11 @@
 // * Sample rotations are hashed from the pixel's image coordinates and the path vertex number,
 //   never from thread or set order: the image is identical for any thread count or set split.
 // * Mirrors reflect with baseColor (no texture); diffuse albedo is baseColor × texture(uv).
+// * A partly transmissive dielectric (transmission t < 1) is split deterministically like a
+//   Fresnel split: the Lambertian share (1 − t) is shaded at the hit (direct light and caustic
+//   estimate, albedo baseColor × texture), the dielectric share t continues through the Fresnel
+//   split below. The photon tracer makes the same choice stochastically (photon_tracer.cpp).
+// * Unlit materials (KHR_materials_unlit) return baseColor × texture and end the path.
 #include "common/trace/eye_pass.h"
 
 #include <tbb/blocked_range.h>
@@ -210,24 +215,39 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, int width, const Came
             // A clear medium (σ = 0) attenuates by exp(−0) = 1 exactly: skip the three exp calls.
             if (mat.type == MaterialType::Dielectric && cosGeo > 0.0f && mat.absorption != Vec3(0.0f))
                 path.throughput *= beerLambert(mat.absorption, hit.t * glm::length(dir));
-            if (mat.isEmissive() && cosGeo < 0.0f) result.direct += path.throughput * mat.emission;
+            if (mat.isEmissive() && cosGeo < 0.0f)
+                result.direct += path.throughput * (mat.emissiveTexture >= 0
+                                                        ? emissionAt(mat, scene.textures, hit.uv)
+                                                        : mat.emission);
 
             // Normals facing the viewer.
             const Vec3 ng = cosGeo > 0.0f ? -hit.geometricNormal : hit.geometricNormal;
             const Vec3 ns = cosGeo > 0.0f ? -hit.shadingNormal : hit.shadingNormal;
 
-            if (mat.type == MaterialType::Diffuse) {
-                Vec3 albedo = mat.baseColor;
-                if (mat.baseColorTexture >= 0 && size_t(mat.baseColorTexture) < scene.textures.size()) {
-                    const Texture& tex = scene.textures[size_t(mat.baseColorTexture)];
-                    if (tex.width > 0 && tex.height > 0) albedo *= tex.sample(hit.uv);
-                }
+            // Lambertian end point (or the Lambertian share of a partly transmissive dielectric,
+            // weighted by `throughput`): direct light by shadow rays plus the caustic estimate.
+            auto shadeDiffuse = [&](Vec3 throughput) {
+                const Vec3 albedo = baseColorAt(mat, scene.textures, hit.uv);
                 const uint64_t h = splitMix64(pixelKey ^ splitMix64(diffuseVertex++));
                 const std::array<float, 3> rot{hashToUnit(h), hashToUnit(splitMix64(h + 1)), hashToUnit(splitMix64(h + 2))};
-                result.direct += path.throughput * directLight(ctx, hit, ns, ng, albedo, rot, count);
+                result.direct += throughput * directLight(ctx, hit, ns, ng, albedo, rot, count);
                 if (ctx.caustics)
-                    result.caustic += path.throughput * ctx.caustics->radiance(uint32_t(ctx.set), hit, ns, albedo);
+                    result.caustic += throughput * ctx.caustics->radiance(uint32_t(ctx.set), hit, ns, albedo);
+            };
+
+            if (mat.type == MaterialType::Diffuse) {
+                if (mat.unlit)
+                    result.direct += path.throughput * baseColorAt(mat, scene.textures, hit.uv);
+                else
+                    shadeDiffuse(path.throughput);
                 break;
+            }
+            if (mat.isPartlyDiffuse()) {
+                // Deterministic split of a partly transmissive material: the Lambertian share
+                // (1 − t) ends here, the dielectric share t continues below.
+                shadeDiffuse(path.throughput * (1.0f - mat.transmission));
+                path.throughput *= mat.transmission;
+                if (maxComponent(path.throughput) < kMinThroughput) break;
             }
             if (path.depth >= ctx.settings.maxDepth) break;
 

@@ -11,6 +11,7 @@
 
 #include "client/worker.h"
 #include "tests/support/cluster_util.h"
+#include "tests/support/gltf_builder.h"
 #include "common/image/image_io.h"
 #include "common/core/interleave.h"
 
@@ -23,12 +24,13 @@ const std::string kToken = "cluster-test-token";
 
 /// Settings shared by the cluster and the reference: small so a run takes about a second.
 struct RunSettings {
+    std::string scene = "RING";
     int width = 96, height = 72, m = 3, frames = 3, photons = 2000;
     std::vector<std::string> extra;  ///< more shared flags
 
     /// Flags that rtpm-render and rtpm-server share (README: "The main ones, shared by rtpm-server").
     std::vector<std::string> flags() const {
-        std::vector<std::string> f{"--scene", "RING", "--width", std::to_string(width), "--height",
+        std::vector<std::string> f{"--scene", scene, "--width", std::to_string(width), "--height",
                                    std::to_string(height), "-M", std::to_string(m), "--frames",
                                    std::to_string(frames), "-P", std::to_string(photons)};
         f.insert(f.end(), extra.begin(), extra.end());
@@ -176,6 +178,78 @@ TEST(ClusterImageSettings, NonDefaultSettingsStillGiveTheSingleProcessImage) {
     const ExrImage got = readExr(c.outPath());
     for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
 }
+
+// A scene as Blender exports it, using every glTF feature the loader maps (README's table):
+// EXT_mesh_gpu_instancing, partly transmissive glass with KHR_materials_volume, a floor textured
+// through KHR_texture_transform, an unlit quad, and either no light at all (the master adds the
+// default spot light and sends it) or an emissive-textured quad as the only light. The master
+// sends it as its own GLB; the clients must render exactly what rtpm-render renders from the file.
+std::string writeFeatureScene(const TempDir& dir, bool emitter) {
+    testgltf::GltfBuilder b;
+    const std::vector<uint8_t> checker = {200, 40, 40, 40, 200, 40, 40, 40, 200, 220, 220, 220};
+    const int img = b.image(testgltf::pngBytes(2, 2, checker), "image/png");
+    const float c0[3] = {0, 0, 0}, u0[3] = {3, 0, 0}, v0[3] = {0, 0, -3};
+    const float c1[3] = {0, 0, 0}, u1[3] = {0.5f, 0, 0}, v1[3] = {0, 0, -0.5f};  // glass tile, faces +Y
+    const float c2[3] = {-2, 0.5f, -2.5f}, u2[3] = {0.5f, 0, 0}, v2[3] = {0, 0.5f, 0};  // unlit
+    const float c3[3] = {2, 1.5f, -2.5f}, u3[3] = {0.4f, 0, 0}, v3[3] = {0, 0.4f, 0};   // emitter
+    const std::string floor = b.quadPrimitive(c0, u0, v0) + R"(,"material":0})";
+    const std::string tile = b.quadPrimitive(c1, u1, v1) + R"(,"material":1})";
+    const std::string unlit = b.quadPrimitive(c2, u2, v2) + R"(,"material":2})";
+    const std::string glow = b.quadPrimitive(c3, u3, v3) + R"(,"material":3})";
+    std::vector<float> t, r, s;
+    for (int i = 0; i < 4; ++i) {
+        t.insert(t.end(), {-1.5f + 1.1f * float(i), 0.8f, 0.5f * float(i % 2)});
+        const float a = 0.3f * float(i);  // tilted about (0.6, 0.8, 0)
+        r.insert(r.end(), {std::sin(0.5f * a) * 0.6f, std::sin(0.5f * a) * 0.8f, 0.0f, std::cos(0.5f * a)});
+        s.insert(s.end(), {1.0f + 0.2f * float(i), 1.0f, 1.0f});
+    }
+    const int ta = b.floats(t, "VEC3"), ra = b.floats(r, "VEC4"), sa = b.floats(s, "VEC3");
+    const std::string json = R"("scene":0,"scenes":[{"nodes":[0,1,2)" + std::string(emitter ? ",3" : "") + R"(]}],
+"nodes":[{"mesh":0},{"mesh":1,"extensions":{"EXT_mesh_gpu_instancing":{"attributes":{"TRANSLATION":)" +
+                             std::to_string(ta) + R"(,"ROTATION":)" + std::to_string(ra) + R"(,"SCALE":)" +
+                             std::to_string(sa) + R"(}}}},{"mesh":2},{"mesh":3}],
+"meshes":[{"primitives":[)" + floor + R"(]},{"primitives":[)" + tile + R"(]},{"primitives":[)" + unlit +
+                             R"(]},{"primitives":[)" + glow + R"(]}],
+"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0,"extensions":{"KHR_texture_transform":
+   {"offset":[0.1,0.3],"rotation":0.4,"scale":[3,2]}}},"metallicFactor":0}},
+ {"pbrMetallicRoughness":{"baseColorFactor":[0.9,0.7,0.5,1],"roughnessFactor":0},
+  "extensions":{"KHR_materials_transmission":{"transmissionFactor":0.7},"KHR_materials_ior":{"ior":1.45},
+   "KHR_materials_volume":{"thicknessFactor":0.1,"attenuationDistance":0.37,"attenuationColor":[0.9,0.55,0.3]}}},
+ {"pbrMetallicRoughness":{"baseColorFactor":[0.2,0.5,0.9,1]},"extensions":{"KHR_materials_unlit":{}}},
+ {"emissiveFactor":[1,0.8,0.6],"emissiveTexture":{"index":0},
+  "extensions":{"KHR_materials_emissive_strength":{"emissiveStrength":3}}}],
+"textures":[{"source":)" + std::to_string(img) + R"(}],
+"extensionsUsed":["EXT_mesh_gpu_instancing","KHR_texture_transform","KHR_materials_transmission",
+ "KHR_materials_ior","KHR_materials_volume","KHR_materials_unlit","KHR_materials_emissive_strength"],
+"extensionsRequired":["EXT_mesh_gpu_instancing","KHR_texture_transform","KHR_materials_unlit"])";
+    const std::string path = dir.file("features.gltf");
+    std::ofstream(path, std::ios::binary) << b.json(json);
+    return path;
+}
+
+class ClusterImageGltf : public ::testing::TestWithParam<bool> {};
+
+TEST_P(ClusterImageGltf, FeatureSceneEqualsSingleProcessBitForBit) {
+    const bool emitter = GetParam();
+    TempDir sceneDir;
+    RunSettings rs;
+    rs.scene = writeFeatureScene(sceneDir, emitter);
+    const ExrImage& ref = reference(rs);
+    if (!emitter) expectNonTrivial(ref);  // the small emitter's caustics are too sparse to ask
+    Cluster c;
+    c.startServer(rs, 2, "float32");
+    c.startClient();
+    c.startClient();
+    c.expectServerFinishes();
+    for (auto& cl : c.clients) c.expectClientExits(*cl, client::kExitOk);
+    const ExrImage got = readExr(c.outPath());
+    for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
+}
+
+INSTANTIATE_TEST_SUITE_P(Lights, ClusterImageGltf, ::testing::Values(false, true),
+                         [](const ::testing::TestParamInfo<bool>& i) {
+                             return i.param ? std::string("EmissiveTexture") : std::string("DefaultLight");
+                         });
 
 // RGB9E5 keeps 9 mantissa bits under a shared exponent: each channel is off by at most half a
 // unit of the largest channel's mantissa (≤ 2^-9 of it), values under 2^-24 flush to 0.

@@ -52,14 +52,14 @@ TEST(Messages, TruncationAtEveryByteIsAnErrorNotACrash) {
 }
 
 TEST(Messages, HelloGoldenBytes) {
-    auto bytes = encode(Hello{1, "tok", 8, "c1"});
+    auto bytes = encode(Hello{2, "tok", 8, "c1"});
     EXPECT_EQ(hex(bytes),
               "5254504d"   // magic 'RTPM'
-              "0100"       // version 1
+              "0200"       // version 2
               "0100"       // type Hello
               "00000000"   // flags
               "13000000"   // payload 19 bytes
-              "0100"       // protocolVersion 1
+              "0200"       // protocolVersion 2
               "03000000746f6b"  // "tok"
               "08000000"   // cores 8
               "020000006331");  // "c1"
@@ -68,7 +68,7 @@ TEST(Messages, HelloGoldenBytes) {
 TEST(Messages, FrameBeginGoldenBytes) {
     FrameBegin fb{5, 2, 3, {{1, 2, 3}, {0, 0, -1}, {0, 1, 0}, 0.5f}, FrameMode::Accumulate, {0, 7}};
     EXPECT_EQ(hex(encode(fb)),
-              "5254504d01000600" "00000000" "45000000"  // header, type 6, payload 69 bytes
+              "5254504d02000600" "00000000" "45000000"  // header v2, type 6, payload 69 bytes
               "0500000000000000"                        // frame 5
               "02000000" "03000000"                     // epoch 2, sceneVersion 3
               "0000803f" "00000040" "00004040"          // position (1, 2, 3)

@@ -64,15 +64,23 @@ TEST(ObjLoader, FaceReferencingMissingVertexNamesTheLine) {
     }
 }
 
-TEST(ObjLoader, SceneWithoutLightNeedsAnOverride) {
+TEST(ObjLoader, SceneWithoutLightGetsTheDefaultLightOrAnOverride) {
     const std::string path = kObjDir + "/no_light.obj";
+    SceneOverrides strict;
+    strict.defaultLight = false;  // --no-default-light
     try {
-        loadScene(path);
+        loadScene(path, strict);
         ADD_FAILURE() << "no_light.obj loaded without a light";
     } catch (const SceneError& e) {
         EXPECT_EQ(e.file, path);
         EXPECT_EQ(e.element, "lights");
     }
+    // By default: the default spot light, and a warning naming the file.
+    Scene d = loadScene(path);
+    ASSERT_EQ(d.lights.size(), 1u);
+    EXPECT_EQ(d.lights[0].type, LightType::Spot);
+    ASSERT_FALSE(d.warnings.empty());
+    EXPECT_NE(d.warnings.back().find(path), std::string::npos) << d.warnings.back();
     SceneOverrides o;
     o.light = PointLightOverride{Vec3(0, 2, 1), Vec3(3.0f)};
     o.camera = CameraOverride{Vec3(0, 0, 4), Vec3(0), Vec3(0, 1, 0), 0.5f};
