@@ -2,8 +2,7 @@
 // JSON text the test spells out (so each test shows exactly the extension syntax it exercises).
 #pragma once
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
+#include <stb_image_write.h>
 
 #include <algorithm>
 #include <cmath>
@@ -17,15 +16,15 @@
 namespace rtpm::testgltf {
 
 /// 8-bit sRGB PNG of `rgb` (w × h × 3 bytes, row 0 at the top), as exporters embed textures.
-/// Throws std::runtime_error if OpenImageIO cannot encode it.
+/// Throws std::runtime_error if stb cannot encode it.
 inline std::vector<uint8_t> pngBytes(int w, int h, const std::vector<uint8_t>& rgb) {
-    std::vector<unsigned char> png;
-    OIIO::Filesystem::IOVecOutput proxy(png);
-    auto out = OIIO::ImageOutput::create("texture.png");
-    OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
-    if (!out || !out->set_ioproxy(&proxy) || !out->open("texture.png", spec) ||
-        !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close())
-        throw std::runtime_error("cannot encode a test PNG: " + OIIO::geterror());
+    std::vector<uint8_t> png;
+    auto append = [](void* context, void* data, int size) {
+        auto* out = static_cast<std::vector<uint8_t>*>(context);
+        out->insert(out->end(), static_cast<uint8_t*>(data), static_cast<uint8_t*>(data) + size);
+    };
+    if (!stbi_write_png_to_func(append, &png, w, h, 3, rgb.data(), w * 3) || png.empty())
+        throw std::runtime_error("cannot encode a test PNG");
     return png;
 }
 
