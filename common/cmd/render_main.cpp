@@ -35,6 +35,7 @@ struct Options {
     float lightIntensity = 10.0f;
     float exposure = 0.0f;
     bool exposureSet = false;
+    SceneInputPolicy sceneInput;
 };
 
 
@@ -45,6 +46,7 @@ int run(int argc, char** argv) {
                  "image-space box filter). Writes a multi-layer EXR (R G B, direct.*, caustic.*, "
                  "caustic_filtered.*) and a tone-mapped PNG beside it."};
     addRenderFlags(app, rs, o.scene, o.plain, o.noDefaultLight);
+    addSceneInputFlags(app, o.sceneInput);
     app.add_option("--frames", o.frames,
                    "frames to render; every frame adds one photon batch per set until the cap "
                    "(accumulation), the last frame is written")
@@ -85,7 +87,7 @@ int run(int argc, char** argv) {
         overrides.light = PointLightOverride{Vec3(o.lightPos[0], o.lightPos[1], o.lightPos[2]), Vec3(o.lightIntensity)};
 
     auto t0 = std::chrono::steady_clock::now();
-    Scene scene = loadScene(o.scene, overrides);
+    Scene scene = loadScene(o.scene, overrides, o.sceneInput);
     double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     std::printf("scene %s: %zu triangles, %zu lights, %zu materials, loaded in %.1f ms\n", scene.name.c_str(),

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "common/core/render_settings.h"
+#include "common/scene/scene_files.h"
 
 namespace rtpm {
 
@@ -57,6 +58,21 @@ inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string&
     app.add_flag("--gather-visibility", rs.photons.gatherVisibility,
                  "count only photons visible from the shaded point (a shadow ray per gathered "
                  "photon): no caustic leaks through thin walls, k more rays per pixel");
+}
+
+/// Adds the flags that say which files a scene may read and how much it may decode
+/// (--allow-scene-dir, repeatable; --max-scene-bytes), bound to `input`.
+inline void addSceneInputFlags(CLI::App& app, SceneInputPolicy& input) {
+    app.add_option("--allow-scene-dir", input.allowedDirs,
+                   "folder a scene file may read buffers, textures and MTL files from besides its "
+                   "own (repeatable; symlinks are resolved before the check)")
+        ->allow_extra_args(false)
+        ->take_all();
+    app.add_option("--max-scene-bytes", input.maxSceneBytes,
+                   "bytes a scene may read from files plus decode into arrays (meshes, textures) "
+                   "before loading stops with an error")
+        ->capture_default_str()
+        ->check(CLI::Range(uint64_t(1), uint64_t(1) << 40));
 }
 
 }  // namespace rtpm

@@ -9,6 +9,9 @@
 #include <tiny_gltf.h>
 
 #include "common/scene/gltf_loader.h"
+
+#include "common/core/printable_text.h"
+#include "common/scene/scene_files.h"
 #include "common/scene/scene_loader.h"
 
 #include <algorithm>
@@ -18,6 +21,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <regex>
 #include <set>
 
@@ -29,8 +33,6 @@ namespace rtpm {
 
 namespace {
 
-// Largest scene file read whole into memory (also bounds every buffer it may reference).
-constexpr uint64_t kMaxFileBytes = uint64_t(4) << 30;
 // Deepest node hierarchy followed; deeper (or cyclic) hierarchies are errors.
 constexpr int kMaxNodeDepth = 1024;
 // Most mesh instances a scene may hold (nodes × primitives, EXT_mesh_gpu_instancing included):
@@ -45,53 +47,49 @@ const std::set<std::string>& supportedExtensions() {
     return kSupported;
 }
 
-// ---- file system callbacks: no shell expansion (tinygltf's default uses wordexp), size cap,
-// and only files under the scene's own directory.
+// ---- file system callbacks: every external file goes through SceneFiles (confined to the
+// allowed folders, regular files only, bounded by the budget); no shell expansion (tinygltf's
+// default uses wordexp) and never the working directory (tinygltf's second search path).
 struct FsContext {
-    std::string baseDir;  // absolute, empty: no external files at all
+    SceneFiles* files = nullptr;
+    std::string base;                                  // tinygltf's basedir, '/'-terminated
+    std::map<std::string, std::filesystem::path> resolved;  // tinygltf's path → resolved file
+    std::optional<SceneError> refusal;                 // first reference refused
 };
 
+const char* kExternalFile = "buffers/images (external file)";
+
 bool fsFileExists(const std::string& path, void* user) {
-    const auto* ctx = static_cast<const FsContext*>(user);
-    if (ctx->baseDir.empty() || path.rfind(ctx->baseDir, 0) != 0) return false;
-    std::error_code ec;
-    return std::filesystem::is_regular_file(path, ec);
+    auto* ctx = static_cast<FsContext*>(user);
+    // tinygltf tries basedir + uri, then "./" + uri: only the first is ours to answer.
+    if (ctx->base.empty() ? path.rfind("./", 0) == 0 : path.rfind(ctx->base, 0) != 0) return false;
+    // tinygltf has percent-decoded the URI already (dlib::urldecode).
+    const std::string reference = path.substr(ctx->base.size());
+    try {
+        std::filesystem::path r = ctx->files->resolve(reference, kExternalFile);
+        ctx->resolved[path] = r;
+        return SceneFiles::exists(r);
+    } catch (const SceneError& e) {
+        if (!ctx->refusal) ctx->refusal = e;
+        return false;
+    }
 }
 
 std::string fsExpandPath(const std::string& path, void*) { return path; }
 
-bool readFileBytes(const std::string& path, std::vector<unsigned char>* out, std::string* err) {
-    std::error_code ec;
-    uint64_t size = std::filesystem::file_size(path, ec);
-    if (ec) {
-        *err = "cannot read file: " + ec.message();
-        return false;
-    }
-    if (size > kMaxFileBytes) {
-        *err = "file larger than " + std::to_string(kMaxFileBytes) + " bytes";
-        return false;
-    }
-    std::ifstream in(path, std::ios::binary);
-    if (!in) {
-        *err = "cannot open file";
-        return false;
-    }
-    out->resize(size_t(size));
-    if (size > 0 && !in.read(reinterpret_cast<char*>(out->data()), std::streamsize(size))) {
-        *err = "read error";
-        return false;
-    }
-    return true;
-}
-
 bool fsReadWholeFile(std::vector<unsigned char>* out, std::string* err, const std::string& path,
-                     void*) {
-    std::string why;
-    if (!readFileBytes(path, out, &why)) {
-        if (err) *err += path + ": " + why;
+                     void* user) {
+    auto* ctx = static_cast<FsContext*>(user);
+    auto found = ctx->resolved.find(path);
+    try {
+        if (found == ctx->resolved.end()) throw SceneError(ctx->files->sceneFile(), kExternalFile, "not resolved");
+        *out = ctx->files->read(found->second, kExternalFile);
+        return true;
+    } catch (const SceneError& e) {
+        if (!ctx->refusal) ctx->refusal = e;
+        if (err) *err += "refused";
         return false;
     }
-    return true;
 }
 
 bool fsWriteWholeFile(std::string* err, const std::string&, const std::vector<unsigned char>&,
@@ -150,24 +148,39 @@ std::string elementFromTinygltfError(const std::string& err) {
 // million deep would overflow the stack. Real glTF nests a handful of levels.
 constexpr int kMaxJsonDepth = 256;
 
-// Nesting depth of the JSON text in [p, p + n), ignoring brackets inside strings.
-int jsonDepth(const unsigned char* p, size_t n) {
-    int depth = 0, maxDepth = 0;
+// One pass over the JSON text in [p, p + n), ignoring brackets inside strings: its nesting
+// depth and the characters of string values that are data: URIs (tinygltf decodes those into
+// buffers and images before anything else could look at them).
+struct JsonScan {
+    int depth = 0;
+    uint64_t dataUriChars = 0;
+};
+
+JsonScan scanJson(const unsigned char* p, size_t n) {
+    JsonScan scan;
+    int depth = 0;
     bool inString = false;
+    size_t stringStart = 0;
     for (size_t i = 0; i < n; ++i) {
         unsigned char c = p[i];
         if (inString) {
-            if (c == '\\') ++i;
-            else if (c == '"') inString = false;
+            if (c == '\\') {
+                ++i;
+            } else if (c == '"') {
+                inString = false;
+                if (i - stringStart >= 5 && std::memcmp(p + stringStart, "data:", 5) == 0)
+                    scan.dataUriChars += i - stringStart;
+            }
         } else if (c == '"') {
             inString = true;
+            stringStart = i + 1;
         } else if (c == '[' || c == '{') {
-            maxDepth = std::max(maxDepth, ++depth);
+            scan.depth = std::max(scan.depth, ++depth);
         } else if (c == ']' || c == '}') {
             --depth;
         }
     }
-    return maxDepth;
+    return scan;
 }
 
 std::string trimmed(std::string s) {
@@ -227,8 +240,8 @@ std::string componentTypeName(int componentType) {
 
 class GltfImporter {
 public:
-    GltfImporter(const tinygltf::Model& model, std::string fileName)
-        : model_(model), file_(std::move(fileName)) {}
+    GltfImporter(const tinygltf::Model& model, SceneFiles& files)
+        : model_(model), file_(files.sceneFile()), files_(&files) {}
 
     Scene run();
 
@@ -269,6 +282,7 @@ private:
 
     const tinygltf::Model& model_;
     std::string file_;
+    SceneFiles* files_;  // the budget every decoded array is charged to before allocation
     Scene scene_;
     std::map<int, std::vector<uint32_t>> meshPrimitives_;  // glTF mesh → rtpm meshes
     std::map<int, int32_t> imageTextures_;                  // glTF image → Scene::textures
@@ -302,9 +316,8 @@ GltfImporter::View GltfImporter::checkedAccessor(int index, const std::string& e
     if (acc.count > (uint64_t(1) << 32))
         fail(element, accName + " count " + std::to_string(acc.count) + " is absurd");
     if (acc.bufferView < 0) {
-        // Spec: no bufferView means all zeros; still bound the count by the file size.
-        if (uint64_t(acc.count) * elemBytes > kMaxFileBytes)
-            fail(element, accName + " count " + std::to_string(acc.count) + " is absurd");
+        // Spec: no bufferView means all zeros (the file holds none of it): the count is bounded
+        // only by the budget, charged by the caller before it allocates.
         return v;
     }
     if (size_t(acc.bufferView) >= model_.bufferViews.size())
@@ -373,6 +386,7 @@ std::vector<float> GltfImporter::readFloats(int index, const std::string& elemen
                  : checkedAccessor(index, element, {type}, {TINYGLTF_COMPONENT_TYPE_FLOAT});
     if (v.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && !v.normalized)
         fail(element, "integer texture coordinates must be normalized");
+    files_->charge(uint64_t(v.count) * uint64_t(v.components) * sizeof(float), element);
     std::vector<float> out(v.count * size_t(v.components), 0.0f);
     if (!v.data) return out;
     const size_t cb = size_t(componentBytes(v.componentType));
@@ -392,6 +406,7 @@ std::vector<uint32_t> GltfImporter::readIndices(int index, const std::string& el
                              {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
                               TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
                               TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT});
+    files_->charge(uint64_t(v.count) * sizeof(uint32_t), element);
     std::vector<uint32_t> out(v.count, 0u);
     if (!v.data) return out;
     for (size_t i = 0; i < v.count; ++i) {
@@ -483,7 +498,8 @@ int GltfImporter::textureFor(int gltfTexture, const std::string& element) {
         return -1;
     }
 
-    Texture tex = decodeSrgbTexture(encoded, img.mimeType == "image/jpeg" ? "jpg" : "png", file_, imgEl);
+    Texture tex = decodeSrgbTexture(encoded, img.mimeType == "image/jpeg" ? "jpg" : "png", file_, imgEl,
+                                    files_);
     if (!img.name.empty()) tex.name = img.name;
     int32_t id = int32_t(scene_.textures.size());
     scene_.textures.push_back(std::move(tex));
@@ -672,8 +688,30 @@ std::vector<uint32_t> GltfImporter::convertMesh(int meshIndex) {
         Mesh mesh;
         mesh.name = (gmesh.name.empty() ? meshEl : gmesh.name) +
                     (gmesh.primitives.size() > 1 ? "/" + std::to_string(pi) : "");
+        // Without a bufferView (and sparse is refused) every position is the origin and every
+        // index 0: nothing to render, whatever the count claims.
+        auto noData = [&](int accessor) {
+            return accessor >= 0 && size_t(accessor) < model_.accessors.size() &&
+                   model_.accessors[size_t(accessor)].bufferView < 0;
+        };
+        if (noData(posIt->second))
+            fail(el + ".attributes.POSITION", "accessors[" + std::to_string(posIt->second) +
+                                                  "] has no bufferView (every vertex would be the origin)");
+        if (noData(prim.indices))
+            fail(el + ".indices", "accessors[" + std::to_string(prim.indices) +
+                                      "] has no bufferView (every triangle would be degenerate)");
         std::vector<float> p = readFloats(posIt->second, el + ".attributes.POSITION", TINYGLTF_TYPE_VEC3);
         size_t nv = p.size() / 3;
+        // Every other attribute has one element per vertex: compare counts before reading.
+        for (const char* attribute : {"NORMAL", "TEXCOORD_0"}) {
+            auto it = prim.attributes.find(attribute);
+            if (it != prim.attributes.end() && it->second >= 0 &&
+                size_t(it->second) < model_.accessors.size() &&
+                model_.accessors[size_t(it->second)].count != nv)
+                fail(el + ".attributes." + attribute, "count differs from POSITION count");
+        }
+        // The mesh's own arrays: positions, normals (read or computed), texture coordinates.
+        files_->charge(uint64_t(nv) * (2 * sizeof(Vec3) + sizeof(Vec2)), el);
         mesh.positions.resize(nv);
         for (size_t i = 0; i < nv; ++i) mesh.positions[i] = Vec3(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
 
@@ -685,6 +723,7 @@ std::vector<uint32_t> GltfImporter::convertMesh(int meshIndex) {
                                               std::to_string(i) + " out of range (" +
                                               std::to_string(nv) + " vertices)");
         } else {
+            files_->charge(uint64_t(nv) * sizeof(uint32_t), el + ".indices");
             mesh.indices.resize(nv);
             for (size_t i = 0; i < nv; ++i) mesh.indices[i] = uint32_t(i);
         }
@@ -996,15 +1035,18 @@ Scene GltfImporter::run() {
 
 }  // namespace
 
-Scene loadGltfFromMemory(const std::vector<uint8_t>& bytes, const std::string& fileName,
-                         const std::string& baseDir) {
+namespace {
+
+// Parses `bytes` (the scene file, already charged to `files`) and imports it; every external
+// file goes through `files`.
+Scene loadGltfBytes(const std::vector<uint8_t>& bytes, SceneFiles& files) {
+    const std::string& fileName = files.sceneFile();
     if (bytes.empty()) throw SceneError(fileName, "file", "file is empty (0 bytes)");
     FsContext ctx;
-    if (!baseDir.empty()) {
-        std::error_code ec;
-        auto abs = std::filesystem::absolute(baseDir, ec);
-        ctx.baseDir = ec ? baseDir : abs.lexically_normal().string();
-        if (!ctx.baseDir.empty() && ctx.baseDir.back() != '/') ctx.baseDir += '/';
+    ctx.files = &files;
+    if (!files.baseDir().empty()) {
+        ctx.base = files.baseDir().string();
+        if (ctx.base.back() != '/') ctx.base += '/';
     }
     tinygltf::TinyGLTF loader;
     loader.SetFsCallbacks(
@@ -1025,45 +1067,57 @@ Scene loadGltfFromMemory(const std::vector<uint8_t>& bytes, const std::string& f
             json = bytes.data() + std::min<size_t>(20, bytes.size());
             jsonBytes = std::min<size_t>(chunkLength, bytes.size() - std::min<size_t>(20, bytes.size()));
         }
-        if (jsonDepth(json, jsonBytes) > kMaxJsonDepth)
+        const JsonScan scan = scanJson(json, jsonBytes);
+        if (scan.depth > kMaxJsonDepth)
             throw SceneError(fileName, "JSON", "nesting deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+        // Base64 decodes 4 characters into 3 bytes: charge what the data: URIs will become.
+        files.charge(scan.dataUriChars / 4 * 3, "data: URIs");
     }
     try {
         if (binary) {
             ok = loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(),
                                              unsigned(std::min<size_t>(bytes.size(), UINT32_MAX)),
-                                             ctx.baseDir);
+                                             ctx.base);
         } else {
             ok = loader.LoadASCIIFromString(&model, &err, &warn,
                                             reinterpret_cast<const char*>(bytes.data()),
                                             unsigned(std::min<size_t>(bytes.size(), UINT32_MAX)),
-                                            ctx.baseDir);
+                                            ctx.base);
         }
     } catch (const std::exception& e) {
         ok = false;
         err += e.what();
     }
+    // A refused reference is an error even where tinygltf would only warn (images).
+    if (ctx.refusal) throw *ctx.refusal;
     if (!ok) {
         if (err.empty()) err = "cannot parse glTF";
-        err = trimmed(err);
+        err = printableText(trimmed(err), 400);
         if (!binary && bytes[0] != '{' && bytes[0] != ' ' && bytes[0] != '\n' && bytes[0] != '\t' &&
             bytes[0] != '\r')
             throw SceneError(fileName, "JSON", "not a glTF file (neither JSON nor GLB): " + err);
         throw SceneError(fileName, elementFromTinygltfError(err), err);
     }
-    GltfImporter importer(model, fileName);
+    GltfImporter importer(model, files);
     Scene scene = importer.run();
-    if (!warn.empty()) scene.warnings.insert(scene.warnings.begin(), fileName + ": " + trimmed(warn));
+    if (!warn.empty())
+        scene.warnings.insert(scene.warnings.begin(), fileName + ": " + printableText(trimmed(warn), 400));
     return scene;
 }
 
-Scene loadGltf(const std::string& path) {
-    std::vector<unsigned char> bytes;
-    std::string why;
-    if (!readFileBytes(path, &bytes, &why)) throw SceneError(path, "file", why);
-    std::filesystem::path p(path);
-    std::string dir = p.has_parent_path() ? p.parent_path().string() : std::string(".");
-    return loadGltfFromMemory(bytes, path, dir);
+}  // namespace
+
+Scene loadGltfFromMemory(const std::vector<uint8_t>& bytes, const std::string& fileName,
+                         const std::string& baseDir, const SceneInputPolicy& policy) {
+    SceneFiles files(fileName, baseDir, policy);
+    files.charge(bytes.size(), "file");
+    return loadGltfBytes(bytes, files);
+}
+
+Scene loadGltf(const std::string& path, const SceneInputPolicy& policy) {
+    SceneFiles files(path, policy);
+    const std::vector<uint8_t> bytes = files.read(path, "file");
+    return loadGltfBytes(bytes, files);
 }
 
 }  // namespace rtpm

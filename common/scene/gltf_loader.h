@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "common/scene/scene.h"
+#include "common/scene/scene_files.h"
 
 namespace rtpm {
 
@@ -30,13 +31,20 @@ namespace rtpm {
 /// Throws SceneError{file, element, message} for any malformed input (bad JSON or GLB framing,
 /// missing buffers, out-of-range indices, accessor bounds, wrong component types, NaN/Inf
 /// vertices). Never reads outside a buffer and never allocates more than the file justifies.
+/// Files: buffer and image URIs are percent-decoded (by tinygltf, which also reads `+` as a
+/// space) and read through SceneFiles: only regular files inside the scene's folder or
+/// `policy.allowedDirs`, symlinks resolved first; a reference outside is an error, never read.
+/// Budget: the file, every external file, every data: URI (decoded size) and every decoded
+/// array (accessor values, mesh arrays, textures) count against `policy.maxSceneBytes` before
+/// they are allocated; transient peaks are a small multiple of it (tinygltf holds a data: URI
+/// as JSON text and decoded bytes at once).
 /// Thread-safe. Cost: O(file size + triangles).
-Scene loadGltf(const std::string& path);
+Scene loadGltf(const std::string& path, const SceneInputPolicy& policy = {});
 
 /// Same as loadGltf for bytes already in memory. `fileName` names the source in errors;
-/// `baseDir` resolves external buffer and image URIs (empty: external URIs are not resolvable
-/// from the current directory either, they are errors). Used by the fuzz target.
+/// `baseDir` plays the scene folder's role for external buffer and image URIs (empty: every
+/// external URI is an error). Used by the fuzz target.
 Scene loadGltfFromMemory(const std::vector<uint8_t>& bytes, const std::string& fileName,
-                         const std::string& baseDir);
+                         const std::string& baseDir, const SceneInputPolicy& policy = {});
 
 }  // namespace rtpm

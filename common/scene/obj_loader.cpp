@@ -9,10 +9,13 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <tuple>
 #include <unordered_map>
 
+#include "common/core/printable_text.h"
+#include "common/scene/scene_files.h"
 #include "common/scene/scene_loader.h"
 
 namespace rtpm {
@@ -105,15 +108,44 @@ void prescanObj(const std::string& text, const std::string& file) {
         }
 }
 
-Material convertMaterial(const tinyobj::material_t& m, const std::string& baseDir,
-                         const std::string& file, Scene& scene) {
+// tinyobjloader's MaterialReader for `mtllib`: the library is resolved and read through
+// SceneFiles (confined, regular file, budget). A refusal is kept and rethrown after parsing.
+class ConfinedMtlReader : public tinyobj::MaterialReader {
+public:
+    explicit ConfinedMtlReader(SceneFiles& files) : files_(files) {}
+    bool operator()(const std::string& matId, std::vector<tinyobj::material_t>* materials,
+                    std::map<std::string, int>* matMap, std::string* warn, std::string* err) override {
+        const std::string el = "mtllib '" + printableText(matId) + "'";
+        try {
+            const std::filesystem::path r = files_.resolve(matId, el);
+            if (!SceneFiles::exists(r)) {
+                if (warn) *warn += "material library " + el + " not found\n";
+                return false;
+            }
+            const std::vector<uint8_t> bytes = files_.read(r, el);
+            std::istringstream in(std::string(bytes.begin(), bytes.end()));
+            tinyobj::LoadMtl(matMap, materials, &in, warn, err);
+            return true;
+        } catch (const SceneError& e) {
+            if (!refusal) refusal = e;
+            return false;
+        }
+    }
+    std::optional<SceneError> refusal;
+
+private:
+    SceneFiles& files_;
+};
+
+Material convertMaterial(const tinyobj::material_t& m, SceneFiles& files, Scene& scene) {
+    const std::string& file = files.sceneFile();
     Material out;
     out.name = m.name;
     const Vec3 kd(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
     const Vec3 ks(m.specular[0], m.specular[1], m.specular[2]);
     const Vec3 tf(m.transmittance[0], m.transmittance[1], m.transmittance[2]);
     const Vec3 ke(m.emission[0], m.emission[1], m.emission[2]);
-    const std::string el = "material '" + m.name + "'";
+    const std::string el = "material '" + printableText(m.name) + "'";
     if (!finite3(kd) || !finite3(ks) || !finite3(tf) || !finite3(ke) || !std::isfinite(m.ior) ||
         !std::isfinite(m.dissolve))
         throw SceneError(file, el, "non-finite value");
@@ -145,15 +177,14 @@ Material convertMaterial(const tinyobj::material_t& m, const std::string& baseDi
         out.type = MaterialType::Diffuse;
         out.baseColor = glm::clamp(kd, Vec3(0.0f), Vec3(1.0f));
         if (!m.diffuse_texname.empty()) {
-            std::filesystem::path tp = std::filesystem::path(baseDir) / m.diffuse_texname;
-            std::ifstream tin(tp, std::ios::binary);
-            if (!tin) {
-                scene.warnings.push_back(file + ": " + el + ": map_Kd '" + m.diffuse_texname +
+            const std::string mapEl = el + " map_Kd";
+            const std::filesystem::path tp = files.resolve(m.diffuse_texname, mapEl);
+            if (!SceneFiles::exists(tp)) {
+                scene.warnings.push_back(file + ": " + mapEl + " '" + printableText(m.diffuse_texname) +
                                          "' not found; ignored");
             } else {
-                std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(tin)),
-                                           std::istreambuf_iterator<char>());
-                Texture t = decodeSrgbTexture(bytes, m.diffuse_texname, file, el + " map_Kd");
+                std::vector<uint8_t> bytes = files.read(tp, mapEl);
+                Texture t = decodeSrgbTexture(bytes, m.diffuse_texname, file, mapEl, &files);
                 t.name = m.diffuse_texname;
                 out.baseColorTexture = int32_t(scene.textures.size());
                 scene.textures.push_back(std::move(t));
@@ -167,33 +198,36 @@ Material convertMaterial(const tinyobj::material_t& m, const std::string& baseDi
 
 }  // namespace
 
-Scene loadObj(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneError(path, "file", "cannot open file");
-    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+namespace {
+
+// Parses the OBJ text of files.sceneFile() (already charged to `files`) and its MTL libraries.
+Scene loadObjText(const std::string& text, SceneFiles& files) {
+    const std::string& path = files.sceneFile();
     if (text.empty()) throw SceneError(path, "file", "file is empty (0 bytes)");
     if (text.find('\0') != std::string::npos)
         throw SceneError(path, "file", "binary data (NUL byte) in an OBJ text file");
     prescanObj(text, path);
 
     std::filesystem::path p(path);
-    const std::string baseDir = p.has_parent_path() ? p.parent_path().string() : ".";
-    tinyobj::ObjReaderConfig config;
-    config.triangulate = true;
-    config.vertex_color = false;
-    config.mtl_search_path = baseDir;
-    tinyobj::ObjReader reader;
-    // ParseFromFile reads `mtllib` files from mtl_search_path (the OBJ's directory).
-    if (!reader.ParseFromFile(path, config))
-        throw SceneError(path, "OBJ", reader.Error().empty() ? "cannot parse" : reader.Error());
-    tinyobj::attrib_t attrib = reader.GetAttrib();
-    std::vector<tinyobj::shape_t> shapes = reader.GetShapes();
-    std::vector<tinyobj::material_t> mtls = reader.GetMaterials();
+    // tinyobjloader keeps a few floats per value and one index triple per corner, each within a
+    // small multiple of the text that wrote it: charge that multiple before parsing.
+    files.charge(uint64_t(text.size()) * 2, "OBJ arrays");
+    tinyobj::attrib_t attrib;
+    std::vector<tinyobj::shape_t> shapes;
+    std::vector<tinyobj::material_t> mtls;
+    std::string warn, err;
+    ConfinedMtlReader mtlReader(files);
+    std::istringstream in(text);
+    const bool parsed = tinyobj::LoadObj(&attrib, &shapes, &mtls, &warn, &err, &in, &mtlReader,
+                                         /*triangulate=*/true, /*default_vcols_fallback=*/false);
+    if (mtlReader.refusal) throw *mtlReader.refusal;
+    if (!parsed)
+        throw SceneError(path, "OBJ", err.empty() ? "cannot parse" : printableText(err, 400));
 
     Scene scene;
     scene.name = p.stem().string();
-    if (!reader.Warning().empty()) scene.warnings.push_back(path + ": " + reader.Warning());
-    for (size_t i = 0; i < mtls.size(); ++i) scene.materials.push_back(convertMaterial(mtls[i], baseDir, path, scene));
+    if (!warn.empty()) scene.warnings.push_back(path + ": " + printableText(warn, 400));
+    for (size_t i = 0; i < mtls.size(); ++i) scene.materials.push_back(convertMaterial(mtls[i], files, scene));
     const uint32_t defaultMat = uint32_t(scene.materials.size());
     {
         Material d;
@@ -282,6 +316,21 @@ Scene loadObj(const std::string& path) {
     }
     if (scene.meshes.empty()) throw SceneError(path, "faces", "no triangles in the OBJ file");
     return scene;
+}
+
+}  // namespace
+
+Scene loadObj(const std::string& path, const SceneInputPolicy& policy) {
+    SceneFiles files(path, policy);
+    const std::vector<uint8_t> bytes = files.read(path, "file");
+    return loadObjText(std::string(bytes.begin(), bytes.end()), files);
+}
+
+Scene loadObjFromMemory(const std::string& text, const std::string& fileName,
+                        const std::string& baseDir, const SceneInputPolicy& policy) {
+    SceneFiles files(fileName, baseDir, policy);
+    files.charge(text.size(), "file");
+    return loadObjText(text, files);
 }
 
 }  // namespace rtpm

@@ -17,15 +17,25 @@
 #include <string>
 
 #include "common/scene/scene.h"
+#include "common/scene/scene_files.h"
 
 namespace rtpm {
 
 /// Loads `path` (.obj) and the MTL libraries it names (relative to its directory).
+/// `mtllib` and `map_Kd` files are read through SceneFiles: regular files inside the OBJ's
+/// folder or `policy.allowedDirs` only (symlinks resolved first; outside is an error), and
+/// the file, the MTL libraries, the parsed arrays and the textures count against
+/// `policy.maxSceneBytes` before they are allocated.
 /// One rtpm Mesh per (object/group, material) pair, each with one identity Instance.
 /// Throws SceneError{file, element, message}; element is "line N" where the fault has a line
 /// (bad number, face index out of range, NaN/Inf vertex), or the MTL material's name.
 /// A missing MTL file or texture is a warning (Scene::warnings), not an error.
 /// Thread-safe. Cost: O(file size).
-Scene loadObj(const std::string& path);
+Scene loadObj(const std::string& path, const SceneInputPolicy& policy = {});
+
+/// Same as loadObj for OBJ text in memory named `fileName`; `baseDir` plays the OBJ folder's
+/// role for `mtllib`/`map_Kd` (empty: every file reference is an error). Used by the fuzz target.
+Scene loadObjFromMemory(const std::string& text, const std::string& fileName,
+                        const std::string& baseDir, const SceneInputPolicy& policy = {});
 
 }  // namespace rtpm

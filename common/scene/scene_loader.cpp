@@ -77,16 +77,17 @@ bool isBuiltinScene(const std::string& name) {
     return std::find(names.begin(), names.end(), toUpper(name)) != names.end();
 }
 
-Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides) {
+Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides,
+                const SceneInputPolicy& input) {
     Scene scene;
     if (isBuiltinScene(nameOrPath)) {
         scene = buildBuiltinScene(toUpper(nameOrPath));
     } else {
         const std::string ext = toLower(std::filesystem::path(nameOrPath).extension().string());
         if (ext == ".gltf" || ext == ".glb") {
-            scene = loadGltf(nameOrPath);
+            scene = loadGltf(nameOrPath, input);
         } else if (ext == ".obj") {
-            scene = loadObj(nameOrPath);
+            scene = loadObj(nameOrPath, input);
         } else {
             std::string known;
             for (const auto& n : builtinSceneNames()) known += n + " ";
@@ -148,7 +149,7 @@ std::vector<Vec3> smoothVertexNormals(const std::vector<Vec3>& positions,
 }
 
 Texture decodeSrgbTexture(const std::vector<uint8_t>& encoded, const std::string& formatHint,
-                          const std::string& file, const std::string& element) {
+                          const std::string& file, const std::string& element, SceneFiles* files) {
     if (encoded.empty()) throw SceneError(file, element, "image data is empty");
     // stb_image recognises the format from its signature (PNG, JPEG, BMP, TGA, GIF, …); the hint
     // only names what was expected in the error message.
@@ -162,6 +163,8 @@ Texture decodeSrgbTexture(const std::vector<uint8_t>& encoded, const std::string
     if (width <= 0 || height <= 0 || nch <= 0 || uint64_t(width) * uint64_t(height) > kMaxTexels)
         throw SceneError(file, element,
                          "image size " + std::to_string(width) + "x" + std::to_string(height) + " unsupported");
+    // The decoded texture is charged before any pixel is decoded (the decode needs as much again).
+    if (files) files->charge(uint64_t(width) * uint64_t(height) * 3 * sizeof(float), element);
     // Values as stored, scaled to [0, 1]; 16-bit images keep their precision.
     const size_t count = size_t(width) * size_t(height) * size_t(nch);
     std::vector<float> pixels(count);

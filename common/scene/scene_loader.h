@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "common/scene/scene.h"
+#include "common/scene/scene_files.h"
 
 namespace rtpm {
 
@@ -54,9 +55,13 @@ bool isBuiltinScene(const std::string& name);
 /// and a warning naming the file, or, with `overrides.defaultLight` false, is an error
 /// (SceneError naming the file). Warnings (unsupported features) are in Scene::warnings.
 /// Throws SceneError{file, element, message} on any bad input; never crashes on malformed files.
+/// Files are read through SceneFiles under `input`: the files a scene names must lie in its
+/// folder or `input.allowedDirs`, be regular files, and fit `input.maxSceneBytes` with every
+/// decoded array (see loadGltf, loadObj).
 /// The returned scene passes Scene::validate. Thread-safe (no shared state). Cost: O(file size)
 /// for files, O(triangles) for built-ins.
-Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides = {});
+Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides = {},
+                const SceneInputPolicy& input = {});
 
 }  // namespace rtpm
 
@@ -72,7 +77,10 @@ std::vector<Vec3> smoothVertexNormals(const std::vector<Vec3>& positions,
 /// signature) holding sRGB colour to a linear RGB Texture (grey replicated, alpha dropped).
 /// `formatHint` (a file name or extension) names the expected format in error messages.
 /// Throws SceneError{file, element, …} for undecodable or absurdly large (> 2^26 texels) images.
+/// When `files` is given, the decoded texture (width·height·3 floats) is charged to its budget
+/// before any pixel is decoded; the decode needs as much again while it runs.
 Texture decodeSrgbTexture(const std::vector<uint8_t>& encoded, const std::string& formatHint,
-                          const std::string& file, const std::string& element);
+                          const std::string& file, const std::string& element,
+                          SceneFiles* files = nullptr);
 
 }  // namespace rtpm
