@@ -11,6 +11,9 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "common/core/printable_text.h"
+#include "common/scene/scene_files.h"
+
 namespace rtpm::server {
 
 namespace {
@@ -49,16 +52,16 @@ public:
         try {
             v = std::stof(t, &used);
         } catch (const std::exception&) {
-            fail(std::string("expected a number for ") + what + ", got '" + t + "'");
+            fail(std::string("expected a number for ") + what + ", got '" + printableText(t) + "'");
         }
         if (used != t.size() || !std::isfinite(v))
-            fail(std::string("expected a finite number for ") + what + ", got '" + t + "'");
+            fail(std::string("expected a finite number for ") + what + ", got '" + printableText(t) + "'");
         return v;
     }
     uint64_t integer(const char* what) {
         std::string t = word(what);
         if (t.empty() || t.size() > 18 || !std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; }))
-            fail(std::string("expected a non-negative integer for ") + what + ", got '" + t + "'");
+            fail(std::string("expected a non-negative integer for ") + what + ", got '" + printableText(t) + "'");
         return std::stoull(t);
     }
     Vec3 vec3(const char* what) {
@@ -79,8 +82,10 @@ void setOnce(LineParser& p, std::optional<T>& slot, T value, const std::string& 
     slot = value;
 }
 
+std::string lineEl(int line) { return line > 0 ? "line " + std::to_string(line) : "edit"; }
+
 [[noreturn]] void fail(const std::string& file, int line, const std::string& msg) {
-    throw SceneError(file, "line " + std::to_string(line), msg);
+    throw SceneError(file, lineEl(line), msg);
 }
 
 bool inUnit(Vec3 v) { return v.x >= 0 && v.y >= 0 && v.z >= 0 && v.x <= 1 && v.y <= 1 && v.z <= 1; }
@@ -153,7 +158,7 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
         } else if (kind == "transform") {
             e.kind = ScriptEdit::Kind::Transform;
         } else {
-            p.fail("unknown edit '" + kind + "' (expected camera, light, material or transform)");
+            p.fail("unknown edit '" + printableText(kind) + "' (expected camera, light, material or transform)");
         }
         if (e.kind != ScriptEdit::Kind::Camera) {
             uint64_t i = p.integer("the index");
@@ -177,7 +182,7 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
                 if (t == "diffuse") mt = MaterialType::Diffuse;
                 else if (t == "mirror") mt = MaterialType::Mirror;
                 else if (t == "dielectric") mt = MaterialType::Dielectric;
-                else p.fail("unknown material type '" + t + "' (expected diffuse, mirror or dielectric)");
+                else p.fail("unknown material type '" + printableText(t) + "' (expected diffuse, mirror or dielectric)");
                 setOnce(p, e.type, mt, key);
             } else if (e.kind == K::Material && key == "color") setOnce(p, e.color, p.vec3("color"), key);
             else if (e.kind == K::Material && key == "ior") setOnce(p, e.ior, p.number("ior"), key);
@@ -195,7 +200,7 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
                     for (int r = 0; r < 4; ++r) m[c][r] = p.number("matrix");
                 setOnce(p, e.matrix, m, key);
             } else {
-                p.fail("unknown keyword '" + key + "' for a " + kind + " edit");
+                p.fail("unknown keyword '" + printableText(key) + "' for a " + kind + " edit");
             }
         }
         if (!any) p.fail("a " + kind + " edit needs at least one keyword");
@@ -204,6 +209,8 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
         if (e.rotate && glm::length(Vec3(*e.rotate)) == 0.0f) p.fail("rotate axis is zero");
         if (e.scale && !(*e.scale > 0.0f)) p.fail("scale must be > 0");
         if (e.yfov && !(*e.yfov > 0.0f && *e.yfov < kPi)) p.fail("yfov must be in (0, pi) radians");
+        if (edits.size() >= kMaxScriptEdits)
+            p.fail("more than " + std::to_string(kMaxScriptEdits) + " edits in one script");
         edits.push_back(e);
         if (end == text.size()) break;
     }
@@ -213,16 +220,21 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
 }
 
 std::vector<ScriptEdit> loadEditScript(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneError(path, "file", "cannot open edit script");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return parseEditScript(ss.str(), path);
+    // Regular files only (a FIFO or /dev/zero would block or never end), size checked first.
+    const std::vector<uint8_t> bytes = readRegularFile(path, path, "file", [&](uint64_t size) {
+        if (size > kMaxScriptBytes)
+            throw SceneError(path, "file", "edit script of " + std::to_string(size) +
+                                               " bytes is larger than the " +
+                                               std::to_string(kMaxScriptBytes) + "-byte limit");
+    });
+    return parseEditScript(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), path);
 }
 
 LiveScene::LiveScene(Scene loaded) : loaded_(std::move(loaded)), scene_(loaded_) {
     if (!scene_.camera) throw std::invalid_argument("scene has no camera");
     camera_ = *scene_.camera;
+    meshBoxes_.reserve(loaded_.meshes.size());
+    for (const Mesh& m : loaded_.meshes) meshBoxes_.push_back(meshBounds(m));
 }
 
 void LiveScene::record(const proto::SceneEdit& e) {
@@ -246,6 +258,7 @@ void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<
                 c = Camera::lookAt(c.position, *e.target, Vec3(0, 1, 0), c.yfov);
             }
             if (e.yfov) c.yfov = *e.yfov;
+            validateCamera(c, file, lineEl(e.line));
             camera_ = c;
             return;
         }
@@ -263,6 +276,7 @@ void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<
                 if (!nonNegative(*e.intensity)) fail(file, e.line, "light intensity must be >= 0");
                 l.intensity = *e.intensity;
             }
+            validateLight(l, file, lineEl(e.line));  // the rule every client applies
             scene_.lights[e.index] = l;
             out.emplace_back(bridge::lightToWire(scene_, e.index));
             return;
@@ -289,6 +303,7 @@ void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<
                 if (!nonNegative(*e.emission)) fail(file, e.line, "emission must be >= 0");
                 m.emission = *e.emission;
             }
+            validateMaterial(m, scene_.textures.size(), file, lineEl(e.line));
             scene_.materials[e.index] = m;
             out.emplace_back(bridge::materialToWire(scene_, e.index));
             return;
@@ -307,6 +322,7 @@ void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<
                 if (e.scale) t = glm::scale(t, Vec3(*e.scale));
                 m = t * loaded_.instances[e.index].transform;
             }
+            validateInstanceTransform(m, meshBoxes_[scene_.instances[e.index].mesh], file, lineEl(e.line));
             scene_.instances[e.index].transform = m;
             out.emplace_back(bridge::transformToWire(scene_, e.index));
             return;
@@ -325,20 +341,28 @@ std::optional<Animation> parseAnimation(std::string_view name) {
 
 void checkAnimation(Animation a, const Scene& s) {
     switch (a) {
-        case Animation::None:
-        case Animation::Orbit: return;
+        case Animation::None: return;
+        case Animation::Orbit: break;
         case Animation::Light:
             if (s.lights.empty() && !firstInstanceWith(s, isEmissive))
                 throw std::invalid_argument("--animate light: the scene has no punctual light and no emissive object");
-            return;
+            break;
         case Animation::Ior:
             if (!firstDielectric(s))
                 throw std::invalid_argument("--animate ior: the scene has no dielectric material");
-            return;
+            break;
         case Animation::Object:
             if (!firstInstanceWith(s, isSpecular))
                 throw std::invalid_argument("--animate object: the scene has no mirror or dielectric object");
-            return;
+            break;
+    }
+    // Every preset repeats within kAnimationPeriod frames: run them all once on a copy, so a
+    // state a client would refuse (an object spun beyond the world's bounds, …) fails now.
+    LiveScene dry(s);
+    std::vector<proto::SceneEdit> sink;
+    for (uint64_t f = 1; f <= kAnimationPeriod; ++f) {
+        animate(a, f, dry, sink);
+        sink.clear();
     }
 }
 
@@ -355,6 +379,7 @@ void animate(Animation a, uint64_t frame, LiveScene& live, std::vector<proto::Sc
             c.position = Vec3(r * glm::vec4(c.position, 1.0f));
             c.forward = glm::normalize(Vec3(r * glm::vec4(c.forward, 0.0f)));
             c.up = glm::normalize(Vec3(r * glm::vec4(c.up, 0.0f)));
+            validateCamera(c, "--animate orbit", "camera");
             live.setCamera(c);
             return;
         }

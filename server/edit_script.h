@@ -47,17 +47,25 @@ struct ScriptEdit {
     std::optional<Mat4> matrix;
 };
 
+/// Largest edit script file read, and most edits one script may hold (each ScriptEdit is a few
+/// hundred bytes): a script beyond either is refused before it can take the master's memory.
+constexpr uint64_t kMaxScriptBytes = uint64_t(16) << 20;
+constexpr size_t kMaxScriptEdits = 250000;
+
 /// Parses a whole script. Throws SceneError{fileName, "line N", what is wrong} on the first bad
-/// line (unknown keyword, missing or non-finite number, trailing words, negative frame…).
+/// line (unknown keyword, missing or non-finite number, trailing words, negative frame…, more
+/// than kMaxScriptEdits edits).
 /// Edits come back sorted by frame (stable: lines of one frame keep their order). Pure.
 std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string& fileName);
 
-/// Reads and parses a script file; SceneError{path, "file", …} if it cannot be read.
+/// Reads and parses a script file; SceneError{path, "file", …} if it cannot be read, is not a
+/// regular file or is larger than kMaxScriptBytes (checked before reading).
 std::vector<ScriptEdit> loadEditScript(const std::string& path);
 
 /// The server's authoritative view of the scene: the scene as loaded, its current state, and the
-/// camera. Edits are checked here (index ranges, value ranges the protocol enforces) before they
-/// are sent, so a client never receives an edit it must refuse. Not thread-safe.
+/// camera. Edits are checked here (index ranges, and the rules of common/scene/scene.h every
+/// client applies: validateLight, validateMaterial, validateInstanceTransform, validateCamera)
+/// before they are sent, so a client never receives an edit it must refuse. Not thread-safe.
 class LiveScene {
 public:
     explicit LiveScene(Scene loaded);
@@ -83,6 +91,7 @@ private:
     Scene loaded_;
     Scene scene_;
     Camera camera_;
+    std::vector<Bounds> meshBoxes_;  // object-space bounds per mesh, for transform checks
     std::vector<proto::SceneEdit> compacted_;
 };
 
@@ -103,7 +112,12 @@ enum class Animation { None, Orbit, Light, Ior, Object };
 /// Parses "orbit", "light", "ior", "object" (or "" / "none"); std::nullopt otherwise.
 std::optional<Animation> parseAnimation(std::string_view name);
 
-/// Throws std::invalid_argument naming what is missing when `scene` cannot be animated so.
+/// Frames after which every preset repeats (Light and Ior: 60, Orbit and Object: 120).
+constexpr uint64_t kAnimationPeriod = 120;
+
+/// Throws std::invalid_argument naming what is missing when `scene` cannot be animated so, and
+/// SceneError when a frame of the preset would break the scene rules (every state of the
+/// preset, frames 1…kAnimationPeriod, is tried on a copy). Cost: kAnimationPeriod edits.
 void checkAnimation(Animation a, const Scene& scene);
 
 /// Applies preset `a` for `frame` to `live` (camera or scene) and appends scene edits to `out`.

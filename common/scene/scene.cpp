@@ -2,6 +2,7 @@
 #include "common/scene/scene.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -145,7 +146,110 @@ void validateMesh(const Mesh& m, const std::string& fileName, const std::string&
         if (!finite(p)) throw SceneError(fileName, el, "non-finite vertex position");
 }
 
+namespace {
+
+bool withinWorld(Vec3 p) {
+    return finite(p) && std::abs(p.x) <= kMaxWorldCoordinate && std::abs(p.y) <= kMaxWorldCoordinate &&
+           std::abs(p.z) <= kMaxWorldCoordinate;
+}
+
+bool inRange(Vec3 v, float lo, float hi) {
+    return finite(v) && glm::all(glm::greaterThanEqual(v, Vec3(lo))) && glm::all(glm::lessThanEqual(v, Vec3(hi)));
+}
+
+std::string num(float v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", double(v));
+    return buf;
+}
+
+}  // namespace
+
+Bounds meshBounds(const Mesh& mesh) {
+    Bounds b;
+    for (Vec3 p : mesh.positions) b.extend(p);
+    return b;
+}
+
+void validateLight(const Light& l, const std::string& fileName, const std::string& el) {
+    if (!finite(l.position) || !finite(l.direction) || !finite(l.intensity))
+        throw SceneError(fileName, el, "non-finite value");
+    if (l.type != LightType::Directional && !withinWorld(l.position))
+        throw SceneError(fileName, el, "position beyond " + num(kMaxWorldCoordinate) + " m");
+    if (glm::any(glm::lessThan(l.intensity, Vec3(0.0f)))) throw SceneError(fileName, el, "negative intensity");
+    if (!inRange(l.intensity, 0.0f, kMaxRadiantValue))
+        throw SceneError(fileName, el, "intensity above " + num(kMaxRadiantValue));
+    if (l.type != LightType::Point && std::abs(glm::length(l.direction) - 1.0f) > 1e-3f)
+        throw SceneError(fileName, el, "direction is not a unit vector");
+    if (l.type == LightType::Spot &&
+        !(l.innerConeAngle >= 0.0f && l.innerConeAngle < l.outerConeAngle && l.outerConeAngle <= 1.5707964f))
+        throw SceneError(fileName, el, "spot cone angles must satisfy 0 <= inner < outer <= pi/2");
+}
+
+void validateMaterial(const Material& m, size_t textureCount, const std::string& fileName,
+                      const std::string& el) {
+    if (!finite(m.baseColor) || !finite(m.emission) || !finite(m.absorption) || !std::isfinite(m.ior))
+        throw SceneError(fileName, el, "non-finite value");
+    if (glm::any(glm::lessThan(m.emission, Vec3(0.0f))) || glm::any(glm::lessThan(m.absorption, Vec3(0.0f))))
+        throw SceneError(fileName, el, "negative emission or absorption");
+    if (!inRange(m.emission, 0.0f, kMaxRadiantValue))
+        throw SceneError(fileName, el, "emission above " + num(kMaxRadiantValue));
+    if (!inRange(m.absorption, 0.0f, kMaxAbsorption))
+        throw SceneError(fileName, el, "absorption above " + num(kMaxAbsorption) + " per metre");
+    if (m.type == MaterialType::Dielectric && !(m.ior >= 1.0f && m.ior <= 4.0f))
+        throw SceneError(fileName, el, "ior " + std::to_string(m.ior) + " outside [1, 4]");
+    if ((m.baseColorTexture >= 0 && size_t(m.baseColorTexture) >= textureCount) ||
+        (m.emissiveTexture >= 0 && size_t(m.emissiveTexture) >= textureCount))
+        throw SceneError(fileName, el, "texture index out of range");
+    const TextureTransform& tt = m.baseColorTransform;
+    if (!finite(Vec3(tt.offset, tt.rotation)) || !finite(Vec3(tt.scale, 0.0f)))
+        throw SceneError(fileName, el, "non-finite texture transform");
+    if (!(m.transmission > 0.0f && m.transmission <= 1.0f))
+        throw SceneError(fileName, el, "transmission " + std::to_string(m.transmission) + " outside (0, 1]");
+}
+
+void validateInstanceTransform(const Mat4& t, const Bounds& box, const std::string& fileName,
+                               const std::string& el) {
+    if (!finiteMatrix(t)) throw SceneError(fileName, el, "non-finite transform");
+    if (std::abs(t[0][3]) > 1e-6f || std::abs(t[1][3]) > 1e-6f || std::abs(t[2][3]) > 1e-6f ||
+        std::abs(t[3][3] - 1.0f) > 1e-6f)
+        throw SceneError(fileName, el, "transform is not affine (last row must be 0 0 0 1)");
+    const glm::mat3 lin(t);
+    for (int c = 0; c < 3; ++c) {
+        const float len = glm::length(lin[c]);
+        if (!(len >= kMinTransformScale && len <= kMaxTransformScale))
+            throw SceneError(fileName, el, "transform scales an axis by " + num(len) + " (allowed " +
+                                               num(kMinTransformScale) + " to " + num(kMaxTransformScale) + ")");
+    }
+    // Invertible: |det| against the product of the column lengths (1 for a rotation).
+    const double det = double(glm::determinant(lin));
+    const double scale = double(glm::length(lin[0])) * glm::length(lin[1]) * glm::length(lin[2]);
+    if (!(std::abs(det) > 1e-6 * scale))
+        throw SceneError(fileName, el, "transform flattens the object (its linear part is singular)");
+    if (!box.empty())
+        for (int k = 0; k < 8; ++k) {
+            const Vec3 corner((k & 1) ? box.hi.x : box.lo.x, (k & 2) ? box.hi.y : box.lo.y,
+                              (k & 4) ? box.hi.z : box.lo.z);
+            if (!withinWorld(Vec3(t * glm::vec4(corner, 1.0f))))
+                throw SceneError(fileName, el, "transform places the object beyond " +
+                                                   num(kMaxWorldCoordinate) + " m");
+        }
+}
+
+void validateCamera(const Camera& c, const std::string& fileName, const std::string& el) {
+    if (!finite(c.position) || !finite(c.forward) || !finite(c.up) || !std::isfinite(c.yfov))
+        throw SceneError(fileName, el, "non-finite value");
+    if (!withinWorld(c.position))
+        throw SceneError(fileName, el, "position beyond " + num(kMaxWorldCoordinate) + " m");
+    const float fl = glm::length(c.forward), ul = glm::length(c.up);
+    if (!(fl > 1e-6f) || !(ul > 1e-6f)) throw SceneError(fileName, el, "forward and up must be non-zero");
+    if (!(glm::length(glm::cross(c.forward, c.up)) > 1e-6f * fl * ul))
+        throw SceneError(fileName, el, "up is parallel to forward");
+    if (!(c.yfov > 1e-4f && c.yfov < 3.1f)) throw SceneError(fileName, el, "yfov outside (0, pi)");
+}
+
 void Scene::validate(const std::string& fileName) const {
+    std::vector<Bounds> boxes(meshes.size());
     for (size_t mi = 0; mi < meshes.size(); ++mi) {
         const Mesh& m = meshes[mi];
         std::string el = "mesh " + std::to_string(mi) + " (" + m.name + ")";
@@ -157,49 +261,19 @@ void Scene::validate(const std::string& fileName) const {
         if (!m.uvs.empty() && m.uvs.size() != m.positions.size())
             throw SceneError(fileName, el, "uv count differs from vertex count");
         if (m.material >= materials.size()) throw SceneError(fileName, el, "material index out of range");
+        boxes[mi] = meshBounds(m);
     }
     for (size_t ii = 0; ii < instances.size(); ++ii) {
         std::string el = "instance " + std::to_string(ii) + " (" + instances[ii].name + ")";
         if (instances[ii].mesh >= meshes.size()) throw SceneError(fileName, el, "mesh index out of range");
-        if (!finiteMatrix(instances[ii].transform)) throw SceneError(fileName, el, "non-finite transform");
+        validateInstanceTransform(instances[ii].transform, boxes[instances[ii].mesh], fileName, el);
     }
-    for (size_t mi = 0; mi < materials.size(); ++mi) {
-        const Material& m = materials[mi];
-        std::string el = "material " + std::to_string(mi) + " (" + m.name + ")";
-        if (!finite(m.baseColor) || !finite(m.emission) || !finite(m.absorption) || !std::isfinite(m.ior))
-            throw SceneError(fileName, el, "non-finite value");
-        if (glm::any(glm::lessThan(m.emission, Vec3(0.0f))) || glm::any(glm::lessThan(m.absorption, Vec3(0.0f))))
-            throw SceneError(fileName, el, "negative emission or absorption");
-        if (m.type == MaterialType::Dielectric && !(m.ior >= 1.0f && m.ior <= 4.0f))
-            throw SceneError(fileName, el, "ior " + std::to_string(m.ior) + " outside [1, 4]");
-        if (m.baseColorTexture >= int32_t(textures.size()) || m.emissiveTexture >= int32_t(textures.size()))
-            throw SceneError(fileName, el, "texture index out of range");
-        const TextureTransform& tt = m.baseColorTransform;
-        if (!finite(Vec3(tt.offset, tt.rotation)) || !finite(Vec3(tt.scale, 0.0f)))
-            throw SceneError(fileName, el, "non-finite texture transform");
-        if (!(m.transmission > 0.0f && m.transmission <= 1.0f))
-            throw SceneError(fileName, el, "transmission " + std::to_string(m.transmission) +
-                                               " outside (0, 1]");
-    }
-    for (size_t li = 0; li < lights.size(); ++li) {
-        const Light& l = lights[li];
-        std::string el = "light " + std::to_string(li) + " (" + l.name + ")";
-        if (!finite(l.position) || !finite(l.direction) || !finite(l.intensity))
-            throw SceneError(fileName, el, "non-finite value");
-        if (glm::any(glm::lessThan(l.intensity, Vec3(0.0f))))
-            throw SceneError(fileName, el, "negative intensity");
-        if (l.type != LightType::Point && std::abs(glm::length(l.direction) - 1.0f) > 1e-3f)
-            throw SceneError(fileName, el, "direction is not a unit vector");
-        if (l.type == LightType::Spot &&
-            !(l.innerConeAngle >= 0.0f && l.innerConeAngle < l.outerConeAngle && l.outerConeAngle <= 1.5707964f))
-            throw SceneError(fileName, el, "spot cone angles must satisfy 0 <= inner < outer <= pi/2");
-    }
-    if (camera) {
-        const Camera& c = *camera;
-        if (!finite(c.position) || !finite(c.forward) || !finite(c.up))
-            throw SceneError(fileName, "camera", "non-finite value");
-        if (!(c.yfov > 1e-4f && c.yfov < 3.1f)) throw SceneError(fileName, "camera", "yfov outside (0, pi)");
-    }
+    for (size_t mi = 0; mi < materials.size(); ++mi)
+        validateMaterial(materials[mi], textures.size(), fileName,
+                         "material " + std::to_string(mi) + " (" + materials[mi].name + ")");
+    for (size_t li = 0; li < lights.size(); ++li)
+        validateLight(lights[li], fileName, "light " + std::to_string(li) + " (" + lights[li].name + ")");
+    if (camera) validateCamera(*camera, fileName);
     for (size_t ti = 0; ti < textures.size(); ++ti) {
         const Texture& t = textures[ti];
         if (t.width <= 0 || t.height <= 0 || t.rgb.size() != size_t(t.width) * size_t(t.height) * 3)

@@ -157,7 +157,9 @@ struct Scene {
     /// World bounds of every instance (empty scene → empty bounds). Cost O(vertices).
     Bounds bounds() const;
     size_t triangleCount() const;
-    /// Throws SceneError naming the element if an index is out of range or a value is not finite.
+    /// Throws SceneError naming the element if an index is out of range or a value breaks the
+    /// rules below (validateLight, validateMaterial, validateInstanceTransform, validateCamera).
+    /// Cost O(vertices).
     void validate(const std::string& fileName) const;
 };
 
@@ -165,6 +167,48 @@ struct Scene {
 /// multiple of 3, every index in range, finite positions. The one geometry rule: EmbreeScene
 /// applies it before building, Scene::validate with the attribute checks (normals, uvs, material).
 void validateMesh(const Mesh& mesh, const std::string& fileName, const std::string& element);
+
+// ---- The one rule set for scene values ------------------------------------------------------
+// Whatever a value comes from (a scene file, an edit script, --animate, the viewer, the wire), it
+// is checked by these functions: Scene::validate calls them for the whole scene, the server for
+// each edit before it is sent, each client for each edit it receives. So an edit the server
+// accepts is one every client accepts, and Embree only ever sees finite values of sane size.
+
+/// Largest |coordinate| in metres of anything in world space: vertices after their instance
+/// transform, punctual lights, the camera. Float rays still resolve ~60 m there, squared
+/// distances stay far from overflow, and Bounds' 1e30 sentinels stay outside.
+constexpr float kMaxWorldCoordinate = 1e9f;
+/// Range of the length of each column of an instance transform's linear part (its scale).
+constexpr float kMinTransformScale = 1e-6f;
+constexpr float kMaxTransformScale = 1e6f;
+/// Largest per-channel light intensity (W/sr, or W/m² for directional lights) and material
+/// emission (W/(m²·sr)): beyond the Sun's radiant intensity, far below float overflow once
+/// multiplied by areas, 4π and photon counts.
+constexpr float kMaxRadiantValue = 1e26f;
+/// Largest absorption coefficient of a dielectric, per metre.
+constexpr float kMaxAbsorption = 1e9f;
+
+/// Object-space bounds of a mesh's positions (empty for a mesh without any). Cost O(vertices).
+Bounds meshBounds(const Mesh& mesh);
+
+/// Each throws SceneError{fileName, element, what is wrong} unless the value keeps the rules:
+/// Light: finite; position within kMaxWorldCoordinate; intensity in [0, kMaxRadiantValue];
+/// spot/directional direction a unit vector; spot cones 0 ≤ inner < outer ≤ π/2.
+void validateLight(const Light& light, const std::string& fileName, const std::string& element);
+/// Material: finite; colour, emission ≤ kMaxRadiantValue and absorption ≤ kMaxAbsorption
+/// non-negative; a dielectric's ior in [1, 4]; texture index < `textureCount`.
+void validateMaterial(const Material& material, size_t textureCount, const std::string& fileName,
+                      const std::string& element);
+/// Instance transform: finite; affine (last row 0 0 0 1); every column of the linear part of
+/// length in [kMinTransformScale, kMaxTransformScale] and the part invertible (no all-zero or
+/// flattening matrix); the corners of `meshBoxObject` (the mesh's object-space bounds) within
+/// kMaxWorldCoordinate once transformed.
+void validateInstanceTransform(const Mat4& transform, const Bounds& meshBoxObject,
+                               const std::string& fileName, const std::string& element);
+/// Camera: finite; position within kMaxWorldCoordinate; forward and up non-zero and not
+/// parallel; yfov in (1e-4, 3.1) radians.
+void validateCamera(const Camera& camera, const std::string& fileName,
+                    const std::string& element = "camera");
 
 /// A spot light's cone in the form its falloff and solid angle use: s = 1 / max(0.001, cosI − cosO),
 /// c₁ = min(1, cosO + 1/s), ramp = ∫_{cosO}^{c₁} falloff dc, flat = 1 − c₁.

@@ -111,11 +111,17 @@ void SceneFiles::charge(uint64_t bytes, const std::string& element) {
 }
 
 std::vector<uint8_t> SceneFiles::read(const fs::path& resolved, const std::string& element) {
+    return readRegularFile(resolved, sceneFile_, element, [&](uint64_t size) { charge(size, element); });
+}
+
+std::vector<uint8_t> readRegularFile(const fs::path& path, const std::string& fileName,
+                                     const std::string& element,
+                                     const std::function<void(uint64_t size)>& admit) {
     // Non-blocking open: a FIFO must not wait for a writer; then fstat on the open descriptor
     // decides, so the file checked is the file read.
-    const int fd = ::open(resolved.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
     if (fd < 0)
-        throw SceneError(sceneFile_, element,
+        throw SceneError(fileName, element,
                          errno == ENOENT ? "file not found" : std::string("cannot open file: ") +
                                                                   std::strerror(errno));
     struct Closer {
@@ -123,19 +129,19 @@ std::vector<uint8_t> SceneFiles::read(const fs::path& resolved, const std::strin
         ~Closer() { ::close(fd); }
     } closer{fd};
     struct stat st;
-    if (::fstat(fd, &st) != 0) throw SceneError(sceneFile_, element, "cannot read file");
+    if (::fstat(fd, &st) != 0) throw SceneError(fileName, element, "cannot read file");
     if (!S_ISREG(st.st_mode))
-        throw SceneError(sceneFile_, element,
+        throw SceneError(fileName, element,
                          S_ISDIR(st.st_mode) ? "is a folder, not a file"
                                              : "not a regular file (FIFO, device or socket)");
     const uint64_t size = uint64_t(st.st_size);
-    charge(size, element);
+    admit(size);
     std::vector<uint8_t> bytes(size_t(size), 0);
     size_t got = 0;
     while (got < bytes.size()) {
         ssize_t n = ::read(fd, bytes.data() + got, bytes.size() - got);
         if (n < 0 && errno == EINTR) continue;
-        if (n < 0) throw SceneError(sceneFile_, element, std::string("read error: ") + std::strerror(errno));
+        if (n < 0) throw SceneError(fileName, element, std::string("read error: ") + std::strerror(errno));
         if (n == 0) break;  // shrank while reading
         got += size_t(n);
     }

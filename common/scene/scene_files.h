@@ -4,10 +4,19 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
 namespace rtpm {
+
+/// Reads the regular file at `path` whole. It is opened non-blocking (a FIFO never waits for a
+/// writer) and refused unless fstat on the open descriptor says it is a regular file; `admit`
+/// gets its size before anything is allocated and throws to refuse it. Throws
+/// SceneError{fileName, element, …} (not found, not a regular file, read error).
+std::vector<uint8_t> readRegularFile(const std::filesystem::path& path, const std::string& fileName,
+                                     const std::string& element,
+                                     const std::function<void(uint64_t size)>& admit);
 
 /// Default of --max-scene-bytes: bytes a scene may read from files plus decode into arrays.
 /// 512 MiB holds a scene of about 5 million triangles with its files; loading peaks at a few

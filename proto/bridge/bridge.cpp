@@ -82,13 +82,13 @@ Camera fromWire(const proto::CameraState& c) {
     cam.forward = fromWire(c.forward);
     cam.up = fromWire(c.up);
     cam.yfov = c.yfov;
-    // The decoder guarantees finite values; these would still give NaN rays or a mirrored image.
-    const float fl = glm::length(cam.forward), ul = glm::length(cam.up);
-    if (!(fl > 1e-6f) || !(ul > 1e-6f)) throw std::invalid_argument("camera: forward and up must be non-zero vectors");
-    if (glm::length(glm::cross(cam.forward, cam.up)) <= 1e-6f * fl * ul)
-        throw std::invalid_argument("camera: up is parallel to forward");
-    if (!(cam.yfov > 0.0f && cam.yfov < kPi))
-        throw std::invalid_argument("camera: yfov " + std::to_string(cam.yfov) + " rad not in (0, pi)");
+    // The rule the server checked before sending (validateCamera, common/scene/scene.h): zero
+    // or parallel axes would give NaN rays, an eye at 1e38 overflows inside Embree.
+    try {
+        validateCamera(cam, "FrameBegin");
+    } catch (const SceneError& e) {
+        throw std::invalid_argument(e.what());
+    }
     return cam;
 }
 

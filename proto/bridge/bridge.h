@@ -26,8 +26,9 @@ RenderSettings fromWire(const proto::Settings& settings);
 
 /// Bit-exact camera conversion (FrameBegin and camera edits carry it).
 proto::CameraState toWire(const Camera& camera);
-/// Inverse of toWire(Camera). Throws std::invalid_argument for a camera that would give NaN
-/// rays or a mirrored image (zero forward or up, up parallel to forward, yfov outside (0, π)).
+/// Inverse of toWire(Camera). Throws std::invalid_argument for a camera validateCamera refuses
+/// (common/scene/scene.h: non-finite, eye beyond kMaxWorldCoordinate, zero or parallel axes,
+/// yfov outside (1e-4, 3.1)), the rule the server applied before sending it.
 Camera fromWire(const proto::CameraState& camera);
 
 /// The wire edit that sets light / material / instance `index` of `scene` to its current value.
