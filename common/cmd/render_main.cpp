@@ -102,8 +102,10 @@ int run(int argc, char** argv) {
 
     std::string stem = toLower(std::filesystem::path(o.scene).stem().string());
     std::string outPath = o.out.empty() ? "out/" + stem + ".exr" : o.out;
-    std::filesystem::path outDir = std::filesystem::path(outPath).parent_path();
-    if (!outDir.empty()) std::filesystem::create_directories(outDir);
+    const std::string pngPath = std::filesystem::path(outPath).replace_extension(".png").string();
+    // Refuse now, not after the last frame: every frame rendered into an unwritable --out is lost.
+    checkImageWritable(outPath);
+    checkImageWritable(pngPath);
 
     const int setCount = rs.interleave * rs.interleave;
     std::vector<uint32_t> sets(static_cast<size_t>(setCount));
@@ -151,7 +153,6 @@ int run(int argc, char** argv) {
     if (csv) std::fclose(csv);
 
     writeExr(outPath, image);
-    std::string pngPath = std::filesystem::path(outPath).replace_extension(".png").string();
     ToneMap tm;
     if (o.exposureSet) tm.exposureStops = o.exposure;
     writePng(pngPath, rs.width, rs.height, image.final(), tm);

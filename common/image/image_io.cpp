@@ -13,9 +13,17 @@
 #include <stb_image.h>
 #include <stb_image_write.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <functional>
 #include <memory>
 #include <set>
 #include <stdexcept>
@@ -38,7 +46,86 @@ void checkSize(const char* what, int width, int height, size_t floats) {
 
 float finiteOrZero(float v) { return std::isfinite(v) ? v : 0.0f; }
 
+// A fresh name in `path`'s folder: hidden, unique per process and call, removed or renamed away.
+std::string temporaryNameBeside(const std::string& path) {
+    static std::atomic<uint64_t> counter{0};
+    const std::filesystem::path p(path);
+    const std::string name = "." + p.filename().string() + ".tmp-" + std::to_string(::getpid()) + "-" +
+                             std::to_string(counter.fetch_add(1));
+    return (p.has_parent_path() ? p.parent_path() / name : std::filesystem::path(name)).string();
+}
+
+// Flushes `path`'s data to disk, so the rename that follows never publishes an empty file after
+// a crash.
+bool syncFile(const std::string& path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return false;
+    const bool ok = ::fsync(fd) == 0;
+    ::close(fd);
+    return ok;
+}
+
+// Runs `write` on a temporary file beside `path`, flushes it and renames it over `path`; on any
+// failure the temporary file is removed and `path` is left as it was.
+void writeThroughTemporary(const std::string& path, const std::function<void(const std::string& tmp)>& write) {
+    const std::string tmp = temporaryNameBeside(path);
+    auto removeTmp = [&] {
+        std::error_code ec;
+        std::filesystem::remove(tmp, ec);
+    };
+    try {
+        write(tmp);
+    } catch (...) {
+        removeTmp();
+        throw;
+    }
+    if (!syncFile(tmp)) {
+        const std::string why = std::strerror(errno);
+        removeTmp();
+        throw std::runtime_error(path + ": cannot flush to disk: " + why);
+    }
+    std::error_code ec;
+    std::filesystem::rename(tmp, path, ec);
+    if (ec) {
+        removeTmp();
+        throw std::runtime_error(path + ": cannot move the written image into place: " + ec.message());
+    }
+}
+
 }  // namespace
+
+void checkImageWritable(const std::string& path, bool createFolders) {
+    namespace fs = std::filesystem;
+    auto refuse = [&](const std::string& why) {
+        throw std::runtime_error("cannot write images to " + path + ": " + why);
+    };
+    if (path.empty()) refuse("empty path");
+    const fs::path p(path);
+    const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+    std::error_code ec;
+    if (createFolders && !fs::exists(dir, ec)) {
+        fs::create_directories(dir, ec);
+        if (ec) refuse("cannot create folder " + dir.string() + ": " + ec.message());
+    }
+    if (!fs::is_directory(dir, ec)) refuse(dir.string() + " is not a folder");
+    const fs::file_status st = fs::symlink_status(p, ec);
+    if (fs::exists(st)) {
+        const fs::file_status target = fs::status(p, ec);
+        if (fs::is_directory(target)) refuse("it is a folder");
+        if (!fs::is_regular_file(target)) refuse("it exists and is not a regular file");
+    }
+    // The real test of writability (permissions, read-only mounts, quotas, ACLs, root squash):
+    // create, write and remove a file beside it, the way every write will.
+    const std::string probe = temporaryNameBeside(path);
+    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd < 0) refuse("cannot create a file in " + dir.string() + ": " + std::strerror(errno));
+    const char byte = 0;
+    const bool wrote = ::write(fd, &byte, 1) == 1;
+    const int writeErrno = errno;
+    ::close(fd);
+    ::unlink(probe.c_str());
+    if (!wrote) refuse("cannot write a file in " + dir.string() + ": " + std::strerror(writeErrno));
+}
 
 void writeExr(const std::string& path, int width, int height, std::span<const ImageLayer> layers,
               bool half) {
@@ -78,13 +165,15 @@ void writeExr(const std::string& path, int width, int height, std::span<const Im
             frameBuffer.insert(name, Imf::Slice(type, base, bytes, bytes * size_t(width)));
         }
     }
-    try {
-        Imf::OutputFile file(path.c_str(), header);
-        file.setFrameBuffer(frameBuffer);
-        file.writePixels(height);
-    } catch (const std::exception& e) {
-        throw std::runtime_error(path + ": cannot write EXR: " + e.what());
-    }
+    writeThroughTemporary(path, [&](const std::string& tmp) {
+        try {
+            Imf::OutputFile file(tmp.c_str(), header);
+            file.setFrameBuffer(frameBuffer);
+            file.writePixels(height);
+        } catch (const std::exception& e) {
+            throw std::runtime_error(path + ": cannot write EXR: " + e.what());
+        }
+    });
 }
 
 void writeExr(const std::string& path, const FrameImage& frame, bool half) {
@@ -214,8 +303,10 @@ float writePng(const std::string& path, int width, int height, std::span<const f
     std::vector<unsigned char> bytes(rgb.size());
     for (size_t i = 0; i < rgb.size(); ++i)
         bytes[i] = static_cast<unsigned char>(std::lround(255.0f * linearToSrgb(finiteOrZero(rgb[i] * scale))));
-    if (!stbi_write_png(path.c_str(), width, height, 3, bytes.data(), width * 3))
-        throw std::runtime_error(path + ": cannot write PNG");
+    writeThroughTemporary(path, [&](const std::string& tmp) {
+        if (!stbi_write_png(tmp.c_str(), width, height, 3, bytes.data(), width * 3))
+            throw std::runtime_error(path + ": cannot write PNG");
+    });
     return scale;
 }
 

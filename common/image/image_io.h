@@ -18,6 +18,17 @@ struct ImageLayer {
     std::span<const float> rgb;
 };
 
+/// Every writer below writes a temporary file in the destination's folder, flushes it to disk and
+/// renames it over `path`: a reader (or a second process writing the same path) sees the old
+/// image or the new one, never a partial file, and a failed write leaves the old file as it was.
+
+/// Checks, before any work is done, that an image can later be written to `path`: the folder
+/// exists (`createFolders`: it is created if missing) and a
+/// file can be created, written and removed in it, and `path` is not a folder or a non-regular
+/// file (a device would be replaced by the rename). Throws std::runtime_error naming the path
+/// and the reason. Cost: one small file created and removed.
+void checkImageWritable(const std::string& path, bool createFolders = true);
+
 /// Writes a multi-layer OpenEXR file (zip compression, float32 or half). Non-finite values are
 /// written as 0. Throws std::runtime_error naming the file on any I/O error, or
 /// std::invalid_argument if a layer's size is not width·height·3 or two layers share a name.

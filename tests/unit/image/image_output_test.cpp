@@ -1,0 +1,157 @@
+// Nothing rendered is lost to the file system: images replace their file through a temporary
+// file and a rename, an unwritable --out is refused before rendering (issue 13, item 5).
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include "common/image/image_io.h"
+
+namespace rtpm {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ScratchDir {
+public:
+    ScratchDir() {
+        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+        path_ = fs::temp_directory_path() / ("rtpm_out_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+        fs::remove_all(path_);
+        fs::create_directories(path_);
+    }
+    ~ScratchDir() {
+        std::error_code ec;
+        fs::remove_all(path_, ec);
+    }
+    fs::path operator/(const std::string& name) const { return path_ / name; }
+    const fs::path& path() const { return path_; }
+
+private:
+    fs::path path_;
+};
+
+std::vector<float> constant(int w, int h, float v) { return std::vector<float>(size_t(w * h * 3), v); }
+
+std::string readAll(std::FILE* f) {
+    std::string out;
+    char buf[4096];
+    std::rewind(f);
+    for (size_t n; (n = std::fread(buf, 1, sizeof buf, f)) > 0;) out.append(buf, n);
+    return out;
+}
+
+size_t entries(const fs::path& dir) {
+    size_t n = 0;
+    for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++n;
+    return n;
+}
+
+TEST(ImageOutput, WritesReplaceTheFileByRenameNeverInPlace) {
+    ScratchDir dir;
+    const std::string path = (dir / "frame.exr").string();
+    const std::vector<float> first = constant(16, 8, 0.25f), second = constant(16, 8, 0.75f);
+    writeExr(path, 16, 8, std::vector<ImageLayer>{{"", first}});
+    // A reader that opened the old image keeps reading a whole old image (its inode), while the
+    // path now names a whole new one: the write went to another file that was renamed over it.
+    std::FILE* reader = std::fopen(path.c_str(), "rb");
+    ASSERT_NE(reader, nullptr);
+    const std::string before = readAll(reader);
+    struct stat oldStat {};
+    ASSERT_EQ(::stat(path.c_str(), &oldStat), 0);
+    writeExr(path, 16, 8, std::vector<ImageLayer>{{"", second}});
+    struct stat newStat {};
+    ASSERT_EQ(::stat(path.c_str(), &newStat), 0);
+    EXPECT_NE(oldStat.st_ino, newStat.st_ino);
+    EXPECT_EQ(readAll(reader), before);
+    std::fclose(reader);
+    EXPECT_FLOAT_EQ(readExr(path).layerRgb("")[0], 0.75f);
+    writePng((dir / "frame.png").string(), 16, 8, second);
+    EXPECT_EQ(entries(dir.path()), 2u) << "a temporary file was left behind";
+}
+
+TEST(ImageOutput, AFailedWriteLeavesTheOldImageAndNoTemporaryFile) {
+    ScratchDir dir;
+    const std::string path = (dir / "frame.exr").string();
+    const std::vector<float> good = constant(4, 4, 0.5f);
+    writeExr(path, 4, 4, std::vector<ImageLayer>{{"", good}});
+    // The folder becomes a file's place that cannot be renamed over: a folder at the target.
+    const std::string blocked = (dir / "blocked.exr").string();
+    fs::create_directories(blocked);
+    EXPECT_THROW(writeExr(blocked, 4, 4, std::vector<ImageLayer>{{"", good}}), std::runtime_error);
+    EXPECT_TRUE(fs::is_directory(blocked));
+    EXPECT_FLOAT_EQ(readExr(path).layerRgb("")[0], 0.5f);
+    EXPECT_EQ(entries(dir.path()), 2u) << "a temporary file was left behind";
+}
+
+std::string refusal(const std::string& path) {
+    try {
+        checkImageWritable(path);
+    } catch (const std::runtime_error& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(ImageOutput, UnwritableDestinationsAreRefusedWithTheReason) {
+    ScratchDir dir;
+    // Fine: an existing folder, a folder to create, an existing image to replace.
+    EXPECT_EQ(refusal((dir / "a.exr").string()), "");
+    EXPECT_EQ(refusal((dir / "new/sub/a.exr").string()), "");
+    EXPECT_TRUE(fs::is_directory(dir / "new/sub"));
+    std::ofstream(dir / "old.png") << "x";
+    EXPECT_EQ(refusal((dir / "old.png").string()), "");
+    EXPECT_EQ(entries(dir.path()), 2u) << "the probe file was left behind";
+    // Refused (these hold for root too, which ignores permission bits): a folder no file can be
+    // created in, a path whose folder is a file, a folder at the path.
+    std::ofstream(dir / "file") << "x";
+    // A FIFO (or a device) at the path: the rename would replace it.
+    ASSERT_EQ(::mkfifo((dir / "fifo.exr").c_str(), 0600), 0);
+    EXPECT_NE(refusal((dir / "fifo.exr").string()).find("not a regular file"), std::string::npos);
+    const std::string cases[][2] = {
+        {"/proc/rtpm_issue13.exr", "cannot create a file in /proc"},
+        {(dir / "file/a.exr").string(), "folder"},
+        {(dir / "new").string() + ".exr", "it is a folder"},
+        {"/sys/rtpm_issue13.exr", "cannot create a file in /sys"},
+    };
+    fs::create_directories(dir / "new.exr");
+    for (const auto& c : cases) {
+        const std::string err = refusal(c[0]);
+        EXPECT_NE(err, "") << c[0];
+        EXPECT_NE(err.find(c[0]), std::string::npos) << err;
+        EXPECT_NE(err.find(c[1]), std::string::npos) << err;
+    }
+    if (::geteuid() != 0) {  // permission bits only bind other users
+        fs::create_directories(dir / "ro");
+        fs::permissions(dir / "ro", fs::perms::owner_read | fs::perms::owner_exec);
+        EXPECT_NE(refusal((dir / "ro/a.exr").string()), "");
+        fs::permissions(dir / "ro", fs::perms::owner_all);
+    }
+}
+
+TEST(ImageOutput, RenderRefusesAnUnwritableOutBeforeRendering) {
+    const std::string exe = std::string(RTPM_BINARY_DIR) + "/common/cmd/rtpm-render";
+    if (!fs::exists(exe)) GTEST_SKIP() << "rtpm-render not built in " << RTPM_BINARY_DIR;
+    ScratchDir dir;
+    const std::string log = (dir / "log.txt").string();
+    // Before: 200 frames rendered, then "cannot write images" (the result lost).
+    const std::string cmd = exe + " --scene RING --width 32 --height 24 --frames 200 --out /proc/rtpm_issue13/x.exr > " +
+                            log + " 2>&1";
+    const int status = std::system(cmd.c_str());
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_NE(WEXITSTATUS(status), 0);
+    std::ifstream in(log);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const std::string out = ss.str();
+    EXPECT_NE(out.find("cannot write images to /proc/rtpm_issue13/x.exr"), std::string::npos) << out;
+    EXPECT_EQ(out.find("interaction"), std::string::npos) << "frames were rendered first:\n" << out;
+}
+
+}  // namespace
+}  // namespace rtpm
