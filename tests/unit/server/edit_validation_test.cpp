@@ -14,6 +14,7 @@
 
 #include "client/frame_renderer.h"
 #include "common/render/render_job.h"
+#include "proto/bridge/bridge.h"
 #include "server/edit_script.h"
 
 namespace rtpm::server {
@@ -128,7 +129,7 @@ TEST(EditValidation, WhatTheServerAcceptsEveryClientAccepts) {
         ++accepted;
         for (const proto::SceneEdit& wire : out)
             EXPECT_NO_THROW(client::applyWireEdit(clientScene, wire)) << line;
-        EXPECT_NO_THROW(client::toCamera(toCameraState(live.camera()))) << line;
+        EXPECT_NO_THROW(client::toCamera(bridge::toWire(live.camera()))) << line;
     }
     EXPECT_GT(accepted, 100);
     EXPECT_GT(refused, 100);
@@ -155,7 +156,7 @@ TEST(EditValidation, RenderJobRefusesWhatEmbreeMustNotSee) {
     EXPECT_THROW(job.applyEdit(light), SceneError);
     EXPECT_EQ(job.scene().instances[1].transform, Mat4(1.0f));  // nothing changed
     // And the client's camera conversion refuses the eye that aborted Embree.
-    proto::CameraState far = toCameraState(*smallScene().camera);
+    proto::CameraState far = bridge::toWire(*smallScene().camera);
     far.position = {1e38f, 0.0f, 0.0f};
     EXPECT_THROW(client::toCamera(far), client::ProtocolViolation);
 }
