@@ -1,6 +1,8 @@
 // Hello validation: message type, protocol version, token.
 #include "server/handshake.h"
 
+#include "common/core/printable_text.h"
+
 #include <algorithm>
 
 namespace rtpm::server {
@@ -37,7 +39,9 @@ HandshakeResult checkHello(const proto::Message& first, const std::string& token
         return r;
     }
     r.accepted = true;
-    r.clientName = hello->clientName.empty() ? "unnamed" : hello->clientName;
+    // The name only ever reaches logs: escaped and bounded here, where it enters, so no log line
+    // can be forged or flooded through it.
+    r.clientName = hello->clientName.empty() ? "unnamed" : printableText(hello->clientName, kMaxLoggedNameBytes);
     return r;
 }
 

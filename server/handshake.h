@@ -7,6 +7,9 @@
 
 namespace rtpm::server {
 
+/// Bytes of a client name kept for logs (after escaping; see printableText).
+constexpr size_t kMaxLoggedNameBytes = 64;
+
 /// Outcome of a peer's first message.
 struct HandshakeResult {
     bool accepted = false;

@@ -48,5 +48,16 @@ TEST(Handshake, TokenMatchesOnlyEqualStrings) {
     EXPECT_TRUE(tokenMatches("", ""));
 }
 
+TEST(Handshake, ClientNamesCannotForgeOrFloodLogLines) {
+    // Before: a name with newlines wrote whole fake lines into the master's log.
+    proto::Hello h = hello("s3cret-token");
+    h.clientName = "w1\nrtpm-server: client 7 (admin, 10.0.0.1, 64 cores) joined\r\x1b[2J" + std::string(200, 'x');
+    HandshakeResult r = checkHello(h, "s3cret-token", false);
+    ASSERT_TRUE(r.accepted);
+    for (unsigned char c : r.clientName) EXPECT_FALSE(c < 0x20 || c == 0x7F) << r.clientName;
+    EXPECT_NE(r.clientName.find("w1\\nrtpm-server"), std::string::npos) << r.clientName;
+    EXPECT_LE(r.clientName.size(), kMaxLoggedNameBytes + 32);
+}
+
 }  // namespace
 }  // namespace rtpm::server
