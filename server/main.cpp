@@ -10,6 +10,7 @@
 #include "common/core/strings.h"
 #include "common/scene/scene_loader.h"
 #include "server/edit_script.h"
+#include "common/image/image_io.h"
 #include "server/master.h"
 
 namespace {
@@ -28,6 +29,8 @@ int run(int argc, char** argv) {
                  "writes the image rtpm-render writes for the same settings."};
     // Rendering settings: the same names, meanings and defaults as rtpm-render.
     addRenderFlags(app, rs, o.sceneName, plain, noDefaultLight);
+    SceneInputPolicy sceneInput;
+    addSceneInputFlags(app, sceneInput);
     app.add_option("--frames", o.frames, "frames to render; the last one is written to --out")->capture_default_str();
     // Cluster.
     app.add_option("--listen", o.listen, "address to listen on")->capture_default_str();
@@ -81,13 +84,16 @@ int run(int argc, char** argv) {
     if (o.builtin) o.sceneName = toUpper(o.sceneName);
     SceneOverrides overrides;
     overrides.defaultLight = !noDefaultLight;
-    Scene scene = loadScene(o.sceneName, overrides);
+    Scene scene = loadScene(o.sceneName, overrides, sceneInput);
     for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     if (!editScript.empty()) {
         o.script = server::loadEditScript(editScript);
         o.scriptFile = editScript;
     }
     if (o.out.empty()) o.out = "out/" + toLower(std::filesystem::path(o.sceneName).stem().string()) + ".exr";
+    // Refuse now, not after the last frame: every frame rendered into an unwritable --out is lost.
+    checkImageWritable(o.out);
+    checkImageWritable(std::filesystem::path(o.out).replace_extension(".png").string());
 
     server::Master master(std::move(o), std::move(scene));
     return master.run();

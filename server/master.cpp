@@ -2,6 +2,8 @@
 // assembler and image output stage together on one io_context (Asio's server-example shape).
 #include "server/master.h"
 
+#include "common/core/printable_text.h"
+
 #include <asio.hpp>
 
 #include <algorithm>
@@ -17,6 +19,7 @@
 #include "common/scene/gltf_export.h"
 #include "proto/bridge/bridge.h"
 #include "proto/net/connection.h"
+#include "proto/pixel_codec.h"
 #include "server/client_registry.h"
 #include "server/frame_assembler.h"
 #include "server/frame_policy.h"
@@ -91,6 +94,7 @@ struct Master::Impl : net::ConnectionHandler {
     size_t outputsQueued = 0;
     bool started = false;
     bool finishing = false;
+    bool imageWriteFailed = false;  // an image could not be written: the run must not end with 0
     int exitCode = 0;
     TimePoint startTime{};
     std::deque<TimePoint> shownTimes;  // retirement times of the last kFpsWindow + 1 frames
@@ -279,7 +283,7 @@ struct Master::Impl : net::ConnectionHandler {
         } else if (auto* st = std::get_if<proto::Stats>(&m)) {
             onStats(c, *client, *st);
         } else if (auto* bye = std::get_if<proto::Bye>(&m)) {
-            std::string why = "said Bye (" + std::to_string(static_cast<int>(bye->reason)) + ") " + bye->text;
+            std::string why = "said Bye (" + std::to_string(static_cast<int>(bye->reason)) + ") " + printableText(bye->text);
             c.closeAfterFlush();
             dropClientOf(c, why);
         } else {
@@ -315,6 +319,13 @@ struct Master::Impl : net::ConnectionHandler {
             protocolError(c, "frame " + std::to_string(fd.frame) + " set " + std::to_string(fd.set) + ": " +
                                  std::to_string(fd.pixelCount) + " pixels, the set has " +
                                  std::to_string(pattern.pixelCount(static_cast<int>(fd.set))));
+            return;
+        }
+        // The negotiated encoding (issue 13: the master asked for rgb9e5-zstd and took float32).
+        if (!proto::encodingAnswers(opt.encoding, fd.encoding)) {
+            protocolError(c, "frame " + std::to_string(fd.frame) + " set " + std::to_string(fd.set) +
+                                 ": pixel encoding " + std::to_string(static_cast<int>(fd.encoding)) +
+                                 ", the master asked for " + std::to_string(static_cast<int>(opt.encoding)));
             return;
         }
         Verdict v = assembler.onFrameData(client.id, fd.frame, fd.set);
@@ -366,7 +377,7 @@ struct Master::Impl : net::ConnectionHandler {
             beginFrame(now);
         armDeadline();
         if (nextFrame == static_cast<uint64_t>(opt.frames) && assembler.inFlight() == 0 && outputsQueued == 0)
-            shutdown(0, proto::ByeReason::Normal, "all frames rendered");
+            shutdown(imageWriteFailed ? kExitImageNotWritten : 0, proto::ByeReason::Normal, "all frames rendered");
     }
 
     void armDeadline() {
@@ -457,6 +468,7 @@ struct Master::Impl : net::ConnectionHandler {
         output.post(std::move(job), [this](OutputResult result) {
             asio::post(io, [this, result = std::move(result)] {
                 --outputsQueued;
+                imageWriteFailed |= result.writeFailed;
                 for (const auto& [id, why] : result.badPayloads)
                     if (ClientInfo* c = registry.find(id)) protocolError(*c->connection, why);
                 pump();

@@ -14,6 +14,9 @@
 
 namespace rtpm::server {
 
+/// Exit code of a run that rendered its frames but could not write an image (--out, --save-every).
+constexpr int kExitImageNotWritten = 5;
+
 /// Everything rtpm-server's flags decide.
 struct MasterOptions {
     std::string listen = "127.0.0.1";  ///< address to bind

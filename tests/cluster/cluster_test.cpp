@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
 
@@ -482,6 +484,48 @@ TEST(ClusterResilience, ClientWhoseServerDiesExitsThreeWithAClearMessage) {
     EXPECT_NE(cl.err().find("rtpm-client: server 127.0.0.1:" + std::to_string(c.port) + " closed the connection"),
               std::string::npos)
         << c.logs();
+}
+
+// Start-up refusals (issue 13): an --out no image can be written to (before: every frame rendered,
+// then "cannot write images" and exit 0), and a scene whose buffer lies outside its folder
+// (before: the outside file's bytes were sent to clients in the Scene message).
+TEST(ClusterResilience, ServerRefusesAnUnwritableOutAndAConfinementBreakingSceneAtStartUp) {
+    TempDir tmp;
+    {
+        Child server({binaryPath("server/rtpm-server"), "--insecure-no-token", "--port", "0", "--scene", "RING",
+                      "--out", "/proc/rtpm_issue13/x.exr"},
+                     tmp.file("out"));
+        const auto st = server.wait(60s);
+        ASSERT_TRUE(st && st->exited) << server.logs();
+        EXPECT_NE(st->code, 0);
+        EXPECT_NE(server.err().find("cannot write images to /proc/rtpm_issue13/x.exr"), std::string::npos)
+            << server.logs();
+    }
+    {
+        std::filesystem::create_directories(tmp.file("scene"));
+        const float tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+        std::ofstream(tmp.file("secret.bin"), std::ios::binary).write(reinterpret_cast<const char*>(tri), sizeof tri);
+        std::ofstream(tmp.file("scene/s.gltf"))
+            << R"({"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],)"
+            << R"("materials":[{"emissiveFactor":[1,1,1]}],)"
+            << R"("meshes":[{"primitives":[{"attributes":{"POSITION":0},"material":0}]}],)"
+            << R"("accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}],)"
+            << R"("bufferViews":[{"buffer":0,"byteLength":36}],"buffers":[{"byteLength":36,"uri":"%2e%2e/secret.bin"}]})";
+        Child server({binaryPath("server/rtpm-server"), "--insecure-no-token", "--port", "0", "--scene",
+                      tmp.file("scene/s.gltf"), "--out", tmp.file("o.exr")},
+                     tmp.file("scene"));
+        const auto st = server.wait(60s);
+        ASSERT_TRUE(st && st->exited) << server.logs();
+        EXPECT_EQ(st->code, 1);
+        EXPECT_NE(server.err().find("outside the scene's folder"), std::string::npos) << server.logs();
+        // Allowed explicitly, the same scene loads (the server then waits for clients).
+        Child allowed({binaryPath("server/rtpm-server"), "--insecure-no-token", "--port", "0", "--port-file",
+                       tmp.file("port"), "--scene", tmp.file("scene/s.gltf"), "--allow-scene-dir", tmp.file(""),
+                       "--out", tmp.file("o.exr")},
+                      tmp.file("allowed"));
+        EXPECT_NE(waitForPortFile(tmp.file("port"), allowed, 60s), 0) << allowed.logs();
+        allowed.signal(SIGKILL);
+    }
 }
 
 }  // namespace
