@@ -160,6 +160,13 @@ Status checkPixelPayloadSize(PixelEncoding encoding, uint64_t pixelCount, size_t
                          std::to_string(pixelCount) + " pixels need at least " +
                              std::to_string(minBytes) + " bytes in RGB9E5+zstd, payload has " +
                              std::to_string(payloadBytes)};
+        // The zstd plane is sent only when it is smaller than the plain one (encodePixels), so
+        // an honest payload is below plain Rgb9e5's 8·n: a frame padded with empty blocks is not.
+        if (pixelCount > 0 && payloadBytes >= pixelCount * 8)
+            return Error{ErrorCode::LengthTooLarge,
+                         std::to_string(pixelCount) + " pixels in RGB9E5+zstd must take fewer than " +
+                             std::to_string(pixelCount * 8) + " bytes (plain RGB9E5), payload has " +
+                             std::to_string(payloadBytes)};
         return okStatus();
     }
     const uint64_t want = pixelCount * bytesPerPixel(encoding);

@@ -80,6 +80,12 @@ inline EncodedPixels encodePixels(std::span<const PixelPair> pixels, PixelEncodi
 /// frame. Cheap; the message decoder calls it so hostile counts fail before any allocation.
 Status checkPixelPayloadSize(PixelEncoding encoding, uint64_t pixelCount, size_t payloadBytes);
 
+/// Whether a FrameData in `sent` answers Settings.encoding `requested` (PROTOCOL.md §6): the same
+/// encoding, or plain Rgb9e5 for Rgb9e5Zstd ("compress when it pays"). Pure.
+inline bool encodingAnswers(PixelEncoding requested, PixelEncoding sent) {
+    return sent == requested || (requested == PixelEncoding::Rgb9e5Zstd && sent == PixelEncoding::Rgb9e5);
+}
+
 /// Decodes `payload` holding `out.size()` pixels in `encoding` into `out`. Fails (never asserts)
 /// on a size mismatch or a zstd frame that is corrupt or does not hold exactly the caustic plane.
 /// Every decoded value is finite and ≥ 0 (non-finite Float32 inputs become 0). On error `out`

@@ -4,6 +4,8 @@
 #include <tbb/parallel_for.h>
 
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <stdexcept>
 
@@ -48,6 +50,7 @@ OutputResult ImageOutput::process(OutputJob& job) {
     const auto t0 = Clock::now();
     OutputResult result;
     std::vector<std::string> errors(job.data.size());
+    std::vector<uint64_t> clamped(job.data.size(), 0);
     // Decoding is the master's heaviest step: sets decode in parallel, each straight into its
     // own radiance buffer (a set appears once per frame); scatter stays serial (FrameImage contract).
     tbb::parallel_for(size_t(0), job.data.size(), [&](size_t i) {
@@ -56,7 +59,23 @@ OutputResult ImageOutput::process(OutputJob& job) {
         rad.resize(d.pixelCount);
         proto::Status st = proto::decodePixels(d.encoding, d.pixels, bridge::pixelView(std::span(rad)));
         if (!st.ok()) errors[i] = st.error().message;
+        // Decoded values are finite and >= 0; a peer may still send 3e38, which overflows to +Inf
+        // once direct and caustic are added or the box filter sums a window.
+        for (PixelRadiance& p : rad)
+            for (Vec3* v : {&p.direct, &p.caustic})
+                for (int c = 0; c < 3; ++c)
+                    if (!((*v)[c] <= kMaxPixelRadiance)) {
+                        (*v)[c] = std::isfinite((*v)[c]) ? kMaxPixelRadiance : 0.0f;
+                        ++clamped[i];
+                    }
     });
+    for (size_t i = 0; i < job.data.size(); ++i)
+        if (clamped[i] > 0) {
+            result.clampedValues += clamped[i];
+            std::fprintf(stderr, "rtpm-server: frame %llu set %u from client %u: %llu radiance values above %g clamped\n",
+                         (unsigned long long)job.data[i].frame, job.data[i].set, job.owners[job.data[i].set],
+                         (unsigned long long)clamped[i], double(kMaxPixelRadiance));
+        }
     for (size_t i = 0; i < job.data.size(); ++i) {
         const proto::FrameData& d = job.data[i];
         if (!errors[i].empty()) {

@@ -50,7 +50,13 @@ struct OutputResult {
     std::vector<std::pair<ClientId, std::string>> badPayloads;  ///< client, why
     double masterMs = 0.0;  ///< decode + scatter + filter + compose
     bool writeFailed = false;
+    uint64_t clampedValues = 0;  ///< decoded radiance values above kMaxPixelRadiance, clamped
 };
+
+/// Largest radiance (W/(m²·sr)) the master accepts from a client; larger values are clamped and
+/// counted. Far above anything a scene within the rules of common/scene/scene.h produces, and
+/// low enough that direct + caustic and the box filter's window sums stay finite.
+constexpr float kMaxPixelRadiance = 1e30f;
 
 /// Decodes each set's pixels straight into its radiance buffer (sets in parallel), scatters them
 /// into the full frame, box-filters the caustics, composes and writes EXR + PNG and the CSV row.
