@@ -58,7 +58,9 @@ void FramePolicy::clientLeft(ClientId id) {
 
 void FramePolicy::stats(ClientId id, proto::FrameMode mode, uint64_t photonsShot) {
     ClientState& s = state_[id];
-    if (mode != proto::FrameMode::Interaction) s.capped = photonsShot == 0;
+    // Only an Accumulate frame asks for photons: Walkthrough frames (camera moving) shoot none by
+    // design and say nothing about the cap.
+    if (mode == proto::FrameMode::Accumulate) s.capped = photonsShot == 0;
     s.skips = 0;
 }
 

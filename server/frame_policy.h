@@ -56,8 +56,8 @@ public:
     /// A client joined or left: the next plan rebalances (within an epoch).
     void clientsChanged() { clientsChanged_ = true; }
     void clientLeft(ClientId id);
-    /// A client's Stats for a frame of mode `mode` arrived in time: it finished a frame, and in a
-    /// non-interaction frame `photonsShot == 0` means its sets are capped.
+    /// A client's Stats for a frame of mode `mode` arrived in time: it finished a frame, and in an
+    /// Accumulate frame `photonsShot == 0` means its sets are capped.
     void stats(ClientId id, proto::FrameMode mode, uint64_t photonsShot);
     /// Sets `id` would hold if a frame began now (for Welcome; FrameBegin is binding).
     std::vector<uint32_t> tentativeSets(ClientId id, const std::vector<ClientId>& joinOrder) const;

@@ -579,11 +579,27 @@ struct Master::Impl : net::ConnectionHandler {
                                  {"type", m.type == MaterialType::Mirror ? "mirror" : m.type == MaterialType::Dielectric ? "dielectric" : "diffuse"},
                                  {"color", vec(m.baseColor)}, {"ior", m.ior}, {"absorption", vec(m.absorption)}});
         }
+        // Emissive instances are the lights of scenes without punctual ones (RING): the viewer moves
+        // them with transform edits (translation from the loaded pose) and sets their emission.
+        nlohmann::json emitters = nlohmann::json::array();
+        for (size_t i = 0; i < s.instances.size() && emitters.size() < 64; ++i) {
+            const uint32_t mat = s.meshes[s.instances[i].mesh].material;
+            if (!s.materials[mat].isEmissive()) continue;
+            auto centreOf = [&](const Scene& sc) {
+                Bounds ib;
+                const Instance& in = sc.instances[i];
+                for (const Vec3& p : sc.meshes[in.mesh].positions) ib.extend(Vec3(in.transform * glm::vec4(p, 1.0f)));
+                return ib.centre();
+            };
+            emitters.push_back({{"index", i}, {"name", s.instances[i].name}, {"material", mat},
+                                {"loadedCentre", vec(centreOf(live.loaded()))}, {"centre", vec(centreOf(s))},
+                                {"emission", vec(s.materials[mat].emission)}});
+        }
         const Bounds b = s.bounds();
         const RenderSettings& rs = pendingResize ? *pendingResize : opt.settings;
         viewer->publishScene(nlohmann::json{
             {"type", "scene"}, {"name", opt.sceneName}, {"width", rs.width}, {"height", rs.height},
-            {"centre", vec(b.centre())}, {"diagonal", b.diagonal()}, {"lights", lights}, {"materials", materials},
+            {"centre", vec(b.centre())}, {"diagonal", b.diagonal()}, {"lights", lights}, {"emitters", emitters}, {"materials", materials},
             {"settings", {{"M", rs.interleave}, {"F", rs.filter}, {"k", rs.photons.k}, {"P", rs.photons.photonsPerBatch},
                           {"tree", photonTreeName(rs.photons.tree)}}}}.dump());
     }

@@ -133,13 +133,21 @@ ViewerCommand parseObject(const json& j) {
         optionalField(j, "intensity", e.intensity, v3(0, 1e9));
         if (!e.position && !e.intensity) throw Refused{"a light control needs position or intensity"};
     } else if (type == "material") {
-        onlyKeys(j, {"index", "color", "ior", "absorption"});
+        onlyKeys(j, {"index", "color", "ior", "absorption", "emission"});
         e.kind = K::Material;
         index();
         optionalField(j, "color", e.color, v3(0, 1));
         if (j.contains("ior")) e.ior = float(number(j, "ior", 1.0, 4.0));
         optionalField(j, "absorption", e.absorption, v3(0, 1e6));
-        if (!e.color && !e.ior && !e.absorption) throw Refused{"a material control needs color, ior or absorption"};
+        optionalField(j, "emission", e.emission, v3(0, 1e9));
+        if (!e.color && !e.ior && !e.absorption && !e.emission)
+            throw Refused{"a material control needs color, ior, absorption or emission"};
+    } else if (type == "transform") {
+        onlyKeys(j, {"index", "translate"});
+        e.kind = K::Transform;
+        index();
+        if (!j.contains("translate")) throw Refused{"a transform control needs translate"};
+        e.translate = vec3(j, "translate", -kMaxCoord, kMaxCoord);
     } else if (type == "settings") {
         onlyKeys(j, {"M", "F", "k", "P", "tree"});
         e.kind = K::Settings;

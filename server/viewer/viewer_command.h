@@ -49,7 +49,10 @@ struct ViewerParse {
 ///   {"type":"ack","frame":n}
 ///   {"type":"camera","eye":[x,y,z],"target":[x,y,z],"yfov":r∈(0,π)}           (each optional)
 ///   {"type":"light","index":i,"position":[x,y,z],"intensity":[r,g,b]≥0}
-///   {"type":"material","index":i,"color":[r,g,b]∈[0,1],"ior":[1,4],"absorption":[r,g,b]≥0}
+///   {"type":"material","index":i,"color":[r,g,b]∈[0,1],"ior":[1,4],"absorption":[r,g,b]≥0,
+///    "emission":[r,g,b]≥0}
+///   {"type":"transform","index":i,"translate":[x,y,z]}   (instance i moved from its loaded pose;
+///    how the viewer moves an emissive object, the area light of scenes without a punctual one)
 ///   {"type":"settings","M":[1,16],"F":[0,64],"k":[1,1024],"P":[1,10^7],"tree":"middle|median|grid"}
 ///   {"type":"pause","paused":bool}   {"type":"snapshot"}   {"type":"script"}
 /// Coordinates are bounded by |v| ≤ 1e6, intensities by 1e9, absorption by 1e6. Pure.

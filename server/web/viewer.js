@@ -6,7 +6,7 @@
 const $ = (id) => document.getElementById(id);
 const state = {
   ws: null, control: false, scene: null, status: null, camera: null,
-  framesDrawn: 0, lastFrame: -1, errors: [], oks: [], lastScript: null, events: [], epochs: [],
+  framesDrawn: 0, lastFrame: -1, errors: [], oks: [], lastScript: null, events: [], epochs: [], modes: [],
   chart: [],
 };
 window.rtpmViewer = state;  // figures for tests and the curious
@@ -104,7 +104,9 @@ async function onFrame(buf) {
 function onStatus(s) {
   const prev = state.status;
   state.status = s;
-  if (!prev || prev.epoch !== s.epoch) state.epochs.push({ epoch: s.epoch, frame: s.frame });
+  if (!prev || prev.epoch !== s.epoch) state.epochs.push({ epoch: s.epoch, frame: s.frame, mode: s.mode });
+  state.modes.push({ frame: s.frame, mode: s.mode });
+  if (state.modes.length > 1000) state.modes.shift();
   $('frame').textContent = s.frame;
   $('fps').textContent = s.fps.toFixed(2);
   $('mode').textContent = (s.paused ? 'paused · ' : '') + s.mode;
@@ -181,7 +183,7 @@ function onScene(s) {
   const first = !state.scene;
   state.scene = s;
   $('scene-name').textContent = `${s.name} ${s.width}×${s.height}`;
-  fillSelect($('light-index'), s.lights.map((l) => `light ${l.index}`));
+  fillSelect($('light-index'), lightItems().map((l) => l.label));
   fillSelect($('material-index'), s.materials.map((m) => `material ${m.index} (${m.type})`));
   showLight();
   showMaterial();
@@ -199,8 +201,18 @@ function fillSelect(sel, labels) {
   }
 }
 
+// Punctual lights (light edits) and emissive objects (moved by transform edits from their loaded
+// pose, intensity = their material's emission): one list, as a person thinks of "the light".
+function lightItems() {
+  const s = state.scene;
+  if (!s) return [];
+  return s.lights.map((l) => ({ kind: 'light', index: l.index, label: `light ${l.index}`, position: l.position, intensity: l.intensity }))
+    .concat(s.emitters.map((e) => ({ kind: 'emitter', index: e.index, material: e.material, label: `emitter ${e.name || e.index}`,
+      position: e.centre, loadedCentre: e.loadedCentre, intensity: e.emission })));
+}
+
 function showLight() {
-  const s = state.scene, i = Number($('light-index').value || 0), l = s && s.lights[i];
+  const s = state.scene, i = Number($('light-index').value || 0), l = lightItems()[i];
   const box = $('light-pos');
   if (!l) { box.textContent = 'no punctual light'; return; }
   if (box.dataset.light !== String(i) || !box.children.length) {
@@ -231,7 +243,10 @@ function sendLight() {  // at most ~30 light edits per second while a slider is 
   lightTimer = setTimeout(() => {
     lightTimer = null;
     const position = ['x', 'y', 'z'].map((a) => Number($(`light-${a}-n`).value));
-    send({ type: 'light', index: Number($('light-index').value), position });
+    const l = lightItems()[Number($('light-index').value)];
+    if (!l) return;
+    if (l.kind === 'light') send({ type: 'light', index: l.index, position });
+    else send({ type: 'transform', index: l.index, translate: sub(position, l.loadedCentre) });
   }, 33);
 }
 
@@ -329,7 +344,10 @@ function setup() {
   $('light-index').onchange = () => { $('light-pos').dataset.light = ''; showLight(); };
   $('light-intensity').onchange = () => {
     const v = Number($('light-intensity').value);
-    send({ type: 'light', index: Number($('light-index').value), intensity: [v, v, v] });
+    const l = lightItems()[Number($('light-index').value)];
+    if (!l) return;
+    if (l.kind === 'light') send({ type: 'light', index: l.index, intensity: [v, v, v] });
+    else send({ type: 'material', index: l.material, emission: [v, v, v] });
   };
   $('material-index').onchange = showMaterial;
   $('material-apply').onclick = () => {
