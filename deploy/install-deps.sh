@@ -6,7 +6,7 @@ packages=(
     build-essential cmake ninja-build pkg-config git
     libembree-dev libtbb-dev libglm-dev
     libopenimageio-dev libopenexr-dev openimageio-tools
-    libasio-dev
+    libasio-dev libwebsocketpp-dev libturbojpeg0-dev libwebp-dev libpng-dev
     libtinygltf-dev nlohmann-json3-dev libstb-dev libtinyobjloader-dev
     libcli11-dev libspdlog-dev libfmt-dev
     libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
