@@ -1,4 +1,4 @@
-// Display tone mapping: linear RGB → 8-bit sRGB through a table, for frames shown live.
+// Display tone mapping: linear RGB → 8-bit sRGB, fast enough for every frame shown live.
 #pragma once
 
 #include <cstdint>
@@ -12,9 +12,9 @@ namespace rtpm {
 float displayScale(std::span<const float> rgb, float exposureStops, size_t stride = 8);
 
 /// out[i] = 8-bit sRGB of clamp(rgb[i] · scale, 0, 1) — writePng's operator, with the transfer
-/// curve read from a 16384-entry table (≤ 0.25 of an 8-bit step from the exact curve) instead of
-/// a pow() per channel. Non-finite values become 0. Precondition (checked): out.size() ==
-/// rgb.size(). Thread-safe. Cost: one multiply and one table read per channel.
+/// curve from a vectorisable fit (within one 8-bit step of the exact curve) instead of a pow()
+/// per channel. NaN and negative values become 0, +Inf 255. Precondition (checked): out.size() ==
+/// rgb.size(). Thread-safe. Cost: three square roots per channel, SIMD.
 void toneMapSrgb8(std::span<const float> rgb, float scale, std::span<uint8_t> out);
 
 }  // namespace rtpm
