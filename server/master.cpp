@@ -495,6 +495,7 @@ struct Master::Impl : net::ConnectionHandler {
         policy.resize(setCount);
         assembler.resize(setCount);
         output.reconfigure(opt.settings.interleave, opt.settings.filterSize());
+        settingsMsg = std::make_shared<const std::vector<uint8_t>>(proto::encode(bridge::toWire(opt.settings, opt.encoding)));
         settingsChanged = true;
         std::fprintf(stderr, "rtpm-server: M is now %d (%u sets)\n", opt.settings.interleave, setCount);
     }
@@ -547,6 +548,7 @@ struct Master::Impl : net::ConnectionHandler {
             pump();
         } else if (auto* p = std::get_if<ViewerPause>(&cmd)) {
             paused = p->paused;
+            if (lastStatus) publishStatus(lastStatus->first, lastStatus->second);
             std::fprintf(stderr, "rtpm-server: %s by a viewer\n", paused ? "paused" : "resumed");
             ok(paused ? "paused" : "resumed");
             pump();
@@ -615,8 +617,11 @@ struct Master::Impl : net::ConnectionHandler {
         std::vector<ClientId> owners;
     };
 
+    std::optional<std::pair<FrameStatus, double>> lastStatus;  // re-sent when pausing
+
     void publishStatus(const FrameStatus& f, double masterMs) {
         if (!viewer) return;
+        lastStatus.emplace(f, masterMs);
         nlohmann::json clients = nlohmann::json::array();
         for (ClientId id : registry.joinOrder()) {
             const ClientInfo* c = registry.find(id);

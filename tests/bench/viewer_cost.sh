@@ -16,6 +16,7 @@ export RTPM_TOKEN=cost-$$
 
 run() {  # $1 = with|without
     local tag=$1
+    shift
     rm -f "$work/port" "$work/server.out"
     /usr/bin/time -f "server CPU: user %U s, sys %S s, wall %e s" -o "$work/time.$tag" \
         "$build/server/rtpm-server" --port 0 --port-file "$work/port" --http 127.0.0.1:0 --frames "$frames" \
