@@ -4,7 +4,7 @@
 // control, and that the page logs no console error. Saves a screenshot of the viewer.
 //
 //   node viewer_test.mjs --server rtpm-server --client rtpm-client --work DIR [--screenshot PNG]
-//                        [--chromium /usr/bin/chromium]
+//                        [--chromium /usr/bin/chromium] [--width 320 --height 240]
 //
 // Every wait is bounded; every process started is stopped by PID at the end.
 import { spawn } from 'node:child_process';
@@ -59,7 +59,7 @@ let server;
 try {
   const portFile = path.join(args.work, 'port');
   server = start(args.server, ['--port', '0', '--port-file', portFile, '--http', '127.0.0.1:0', '--scene', 'RING',
-    '--width', '320', '--height', '240', '-P', '8000', '--out', path.join(args.work, 'ring.exr'), '--quiet'], 'server');
+    '--width', args.width || '320', '--height', args.height || '240', '-P', '8000', '--out', path.join(args.work, 'ring.exr'), '--quiet'], 'server');
   const url = await waitFor('the viewer URL', () => /viewer: (http:\/\/\S+)/.exec(server.out)?.[1], 60000);
   await waitFor('the port file', () => existsSync(portFile), 60000);
   for (const n of [1, 2])
