@@ -20,6 +20,8 @@ float displayScale(std::span<const float> rgb, float exposureStops, size_t strid
     return std::isfinite(s) && s > 0.0f ? s : 1.0f;
 }
 
+// AVX2 doubles the SIMD width where the CPU has it (runtime dispatch); the default is SSE2.
+__attribute__((target_clones("avx2", "default")))
 void toneMapSrgb8(std::span<const float> rgb, float scale, std::span<uint8_t> out) {
     RTPM_CHECK(out.size() == rgb.size());
     // The sRGB curve above the linear toe as three nested square roots (Ian Taylor's fit of
