@@ -15,18 +15,18 @@ build=(
     build-essential cmake ninja-build pkg-config
     libembree-dev libtbb-dev libglm-dev
     libopenexr-dev libstb-dev
-    libasio-dev
+    libasio-dev libwebsocketpp-dev libturbojpeg0-dev
     libtinygltf-dev nlohmann-json3-dev libtinyobjloader-dev
     libcli11-dev libspdlog-dev libfmt-dev
     libzstd-dev
 )
 runtime=(
     libembree3-3 libtbb12 libopenexr-3-1-30 libstb0 libtinyobjloader2rc10 libzstd1
-    libspdlog1.10 libfmt9
+    libspdlog1.10 libfmt9 libturbojpeg0
 )
 dev=(
     "${build[@]}" git
-    libopenimageio-dev openimageio-tools
+    libopenimageio-dev openimageio-tools libwebp-dev libpng-dev
     libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
     clang libclang-rt-14-dev
     python3 python3-matplotlib python3-numpy

@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
 # Runs a whole rtpm cluster on this machine: one rtpm-server and N rtpm-client processes.
 #
-#   deploy/run-local.sh --clients N --scene NAME [any rtpm-server flag ...]
+#   deploy/run-local.sh --clients N --scene NAME [--view] [any rtpm-server flag ...]
 #
+# --view runs the cluster as a service with the browser viewer (rtpm-server --http 127.0.0.1:0,
+# rendering until Ctrl-C) and prints the viewer's URL with the token; without it the server
+# renders its --frames (default 10) and exits.
 # Builds first (deploy/build.sh, incremental, into ${RTPM_BUILD_DIR:-build}).
 # The server listens on an ephemeral port (--port 0) and announces it through a port file; the
 # clients start once that file exists (bounded poll, no sleep-as-readiness). The token is
@@ -19,9 +22,10 @@ clients=2
 scene=RING
 server_args=()
 user_csv=""
+view=0
 
 usage() {
-    sed -n '2,14p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
+    sed -n '2,18p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
 }
 
 while (($#)); do
@@ -32,6 +36,7 @@ while (($#)); do
         --scene=*) scene=${1#*=}; shift ;;
         --csv) user_csv=${2:?--csv needs a file}; shift 2 ;;
         --csv=*) user_csv=${1#*=}; shift ;;
+        --view) view=1; shift ;;
         -h|--help) usage; exit 0 ;;
         *) server_args+=("$1"); shift ;;
     esac
@@ -52,6 +57,12 @@ pids=()
 cleanup() {
     local status=$?
     trap - EXIT INT TERM
+    # The server first: it finishes the frames in flight, writes the last image and says Bye to
+    # the clients, which then exit by themselves.
+    if [[ -n ${server_pid:-} ]] && kill -0 "$server_pid" 2>/dev/null; then
+        kill "$server_pid" 2>/dev/null || true
+        for ((i = 0; i < 300; i++)); do kill -0 "$server_pid" 2>/dev/null || break; sleep 0.1; done
+    fi
     for pid in "${pids[@]}"; do
         kill "$pid" 2>/dev/null || true
     done
@@ -72,8 +83,17 @@ export RTPM_TOKEN
 
 csv=${user_csv:-$work/stats.csv}
 port_file=$work/port
-"$server_bin" --port 0 --port-file "$port_file" --min-clients "$clients" --scene "$scene" --csv "$csv" \
-    "${server_args[@]}" &
+view_args=()
+if ((view)); then
+    has_http=0
+    for a in "${server_args[@]}"; do [[ $a == --http || $a == --http=* ]] && has_http=1; done
+    ((has_http)) || view_args=(--http 127.0.0.1:0)
+fi
+server_out=$work/server.out
+# Server and clients run in their own sessions: Ctrl-C reaches this script alone, whose cleanup
+# signals the server once (a second signal would make it stop without finishing its frame).
+setsid "$server_bin" --port 0 --port-file "$port_file" --min-clients "$clients" --scene "$scene" --csv "$csv" \
+    "${view_args[@]}" "${server_args[@]}" > >(trap '' INT TERM; exec tee "$server_out") &
 server_pid=$!
 pids+=("$server_pid")
 
@@ -92,10 +112,26 @@ if [[ ! -s $port_file ]]; then
     exit 1
 fi
 
+if ((view)); then
+    url=""
+    for ((i = 0; i < 600; i++)); do
+        url=$(sed -n 's/^viewer: \(http:[^ ]*\)$/\1/p' "$server_out" | head -n 1)
+        [[ -n $url ]] && break
+        sleep 0.05
+    done
+    if [[ -z $url ]]; then
+        echo "run-local.sh: rtpm-server printed no viewer URL" >&2
+        exit 1
+    fi
+    echo
+    echo "run-local.sh: open ${url}#token=${RTPM_TOKEN}   (rendering until Ctrl-C)"
+    echo
+fi
+
 cores=$(nproc 2>/dev/null || echo 1)
 threads=${RTPM_CLIENT_THREADS:-$(((cores / clients) > 0 ? cores / clients : 1))}
 for ((c = 1; c <= clients; c++)); do
-    "$client_bin" --port-file "$port_file" --name "local-$c" --threads "$threads" \
+    setsid "$client_bin" --port-file "$port_file" --name "local-$c" --threads "$threads" \
         >"$work/client-$c.log" 2>&1 &
     pids+=("$!")
 done

@@ -157,10 +157,12 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
             e.kind = ScriptEdit::Kind::Material;
         } else if (kind == "transform") {
             e.kind = ScriptEdit::Kind::Transform;
+        } else if (kind == "settings") {
+            e.kind = ScriptEdit::Kind::Settings;
         } else {
-            p.fail("unknown edit '" + printableText(kind) + "' (expected camera, light, material or transform)");
+            p.fail("unknown edit '" + printableText(kind) + "' (expected camera, light, material, transform or settings)");
         }
-        if (e.kind != ScriptEdit::Kind::Camera) {
+        if (e.kind != ScriptEdit::Kind::Camera && e.kind != ScriptEdit::Kind::Settings) {
             uint64_t i = p.integer("the index");
             if (i > 0xffffffffull) p.fail("index too large");
             e.index = static_cast<uint32_t>(i);
@@ -199,6 +201,19 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
                 for (int c = 0; c < 4; ++c)
                     for (int r = 0; r < 4; ++r) m[c][r] = p.number("matrix");
                 setOnce(p, e.matrix, m, key);
+            } else if (e.kind == K::Settings && key == "M") {
+                setOnce(p, e.interleave, int(std::min<uint64_t>(p.integer("M"), 1u << 20)), key);
+            } else if (e.kind == K::Settings && key == "F") {
+                setOnce(p, e.filter, int(std::min<uint64_t>(p.integer("F"), 1u << 20)), key);
+            } else if (e.kind == K::Settings && key == "k") {
+                setOnce(p, e.k, uint32_t(std::min<uint64_t>(p.integer("k"), 0xffffffffu)), key);
+            } else if (e.kind == K::Settings && key == "P") {
+                setOnce(p, e.photons, uint32_t(std::min<uint64_t>(p.integer("P"), 0xffffffffu)), key);
+            } else if (e.kind == K::Settings && key == "tree") {
+                std::string t = p.word("middle, median or grid");
+                std::optional<PhotonTree> tree = parsePhotonTree(t);
+                if (!tree) p.fail("unknown tree '" + t + "' (expected middle, median or grid)");
+                setOnce(p, e.tree, *tree, key);
             } else {
                 p.fail("unknown keyword '" + printableText(key) + "' for a " + kind + " edit");
             }
@@ -247,9 +262,70 @@ void LiveScene::record(const proto::SceneEdit& e) {
     compacted_.push_back(e);
 }
 
+std::string formatScriptEdit(const ScriptEdit& e) {
+    std::ostringstream o;
+    o.imbue(std::locale::classic());
+    o.precision(9);
+    auto v3 = [&](const char* key, const std::optional<Vec3>& v) {
+        if (v) o << ' ' << key << ' ' << v->x << ' ' << v->y << ' ' << v->z;
+    };
+    using K = ScriptEdit::Kind;
+    o << "frame " << e.frame << ' ';
+    switch (e.kind) {
+        case K::Camera: o << "camera"; break;
+        case K::Light: o << "light " << e.index; break;
+        case K::Material: o << "material " << e.index; break;
+        case K::Transform: o << "transform " << e.index; break;
+        case K::Settings: o << "settings"; break;
+    }
+    v3("eye", e.eye);
+    v3("target", e.target);
+    if (e.yfov) o << " yfov " << *e.yfov;
+    v3("position", e.position);
+    v3("direction", e.direction);
+    v3("intensity", e.intensity);
+    if (e.type)
+        o << " type "
+          << (*e.type == MaterialType::Mirror ? "mirror" : *e.type == MaterialType::Dielectric ? "dielectric" : "diffuse");
+    v3("color", e.color);
+    if (e.ior) o << " ior " << *e.ior;
+    v3("absorption", e.absorption);
+    v3("emission", e.emission);
+    v3("translate", e.translate);
+    if (e.rotate) o << " rotate " << e.rotate->x << ' ' << e.rotate->y << ' ' << e.rotate->z << ' ' << e.rotate->w;
+    if (e.scale) o << " scale " << *e.scale;
+    if (e.matrix) {
+        o << " matrix";
+        for (int c = 0; c < 4; ++c)
+            for (int r = 0; r < 4; ++r) o << ' ' << (*e.matrix)[c][r];
+    }
+    if (e.interleave) o << " M " << *e.interleave;
+    if (e.filter) o << " F " << *e.filter;
+    if (e.k) o << " k " << *e.k;
+    if (e.photons) o << " P " << *e.photons;
+    if (e.tree) o << " tree " << photonTreeName(*e.tree);
+    return o.str();
+}
+
+void applySettingsEdit(const ScriptEdit& e, const std::string& file, RenderSettings& settings) {
+    RenderSettings s = settings;
+    if (e.interleave) s.interleave = *e.interleave;
+    if (e.filter) s.filter = *e.filter;
+    if (e.k) s.photons.k = *e.k;
+    if (e.photons) s.photons.photonsPerBatch = *e.photons;
+    if (e.tree) s.photons.tree = *e.tree;
+    try {
+        validateSettings(s);
+    } catch (const std::invalid_argument& ex) {
+        fail(file, e.line, std::string("settings refused: ") + ex.what());
+    }
+    settings = s;
+}
+
 void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<proto::SceneEdit>& out) {
     using K = ScriptEdit::Kind;
     switch (e.kind) {
+        case K::Settings: fail(file, e.line, "settings edits are applied by the master, not the scene");
         case K::Camera: {
             Camera c = camera_;
             if (e.eye) c.position = *e.eye;

@@ -7,6 +7,7 @@
 #include <string_view>
 #include <vector>
 
+#include "common/core/render_settings.h"
 #include "common/scene/scene.h"
 #include "proto/messages.h"
 
@@ -22,14 +23,18 @@ namespace rtpm::server {
 ///                            [absorption r g b] [emission r g b]
 ///     frame <n> transform <i> [translate x y z] [rotate ax ay az degrees] [scale s]
 ///                             [matrix m0 … m15]
+///     frame <n> settings [M m] [F f] [k k] [P paths] [tree middle|median|grid]
 ///
 /// `transform` builds T·R·S from its keywords and applies it to the instance's transform as
 /// loaded (not to the current one), so a script can state absolute poses; `matrix` (16 floats,
 /// column-major object → world) replaces the loaded transform and excludes the other three.
 /// `camera eye` alone translates the camera (orientation kept); with `target` the camera looks at
-/// that point (up stays near +Y). Edits take effect at the start of frame n.
+/// that point (up stays near +Y). `settings` changes rendering settings (interleave M, filter F,
+/// photons per estimate k, paths per set per frame P, photon index): the master sends every client
+/// new Settings and starts a new epoch (F alone changes only the master's filter). Edits take
+/// effect at the start of frame n.
 struct ScriptEdit {
-    enum class Kind { Camera, Light, Material, Transform };
+    enum class Kind { Camera, Light, Material, Transform, Settings };
     uint64_t frame = 0;
     int line = 0;  ///< 1-based line in the file, for error messages
     Kind kind = Kind::Camera;
@@ -45,12 +50,24 @@ struct ScriptEdit {
     std::optional<glm::vec4> rotate;  ///< axis xyz, angle in degrees
     std::optional<float> scale;
     std::optional<Mat4> matrix;
+    std::optional<int> interleave, filter;          ///< settings: M, F (0 = M)
+    std::optional<uint32_t> k, photons;             ///< settings: k, P
+    std::optional<PhotonTree> tree;                 ///< settings: photon index
 };
 
 /// Largest edit script file read, and most edits one script may hold (each ScriptEdit is a few
 /// hundred bytes): a script beyond either is refused before it can take the master's memory.
 constexpr uint64_t kMaxScriptBytes = uint64_t(16) << 20;
 constexpr size_t kMaxScriptEdits = 250000;
+
+/// One script line (without a trailing newline) that parseEditScript reads back as `edit`
+/// (floats printed with 9 significant digits, so the round trip is exact). Pure.
+std::string formatScriptEdit(const ScriptEdit& edit);
+
+/// Applies the settings keywords of a Kind::Settings edit to `settings` and validates the result
+/// (validateSettings); throws SceneError{fileName, "line N", …} and leaves `settings` unchanged
+/// when the result is refused. Pure.
+void applySettingsEdit(const ScriptEdit& edit, const std::string& fileName, RenderSettings& settings);
 
 /// Parses a whole script. Throws SceneError{fileName, "line N", what is wrong} on the first bad
 /// line (unknown keyword, missing or non-finite number, trailing words, negative frame…, more

@@ -22,6 +22,11 @@ const char* verdictName(Verdict v) {
 FrameAssembler::FrameAssembler(uint32_t setCount, std::chrono::milliseconds deadline)
     : setCount_(setCount), deadline_(deadline) {}
 
+void FrameAssembler::resize(uint32_t setCount) {
+    RTPM_CHECK(frames_.empty());
+    setCount_ = setCount;
+}
+
 FrameAssembler::Frame* FrameAssembler::findFrame(uint64_t frame) {
     for (Frame& f : frames_)
         if (f.frame == frame) return &f;

@@ -69,6 +69,10 @@ public:
     /// (its unfinished sets become missing). Cost O(sets) per frame retired.
     std::vector<RetiredFrame> takeReady(TimePoint now);
 
+    /// Changes M² (a settings change of M). Precondition (checked): no frame in flight. Frames
+    /// already retired stay known, so their late data is still recognised as Late.
+    void resize(uint32_t setCount);
+
     /// Deadline of the oldest frame in flight, if any.
     std::optional<TimePoint> nextDeadline() const;
     /// Frames begun and not yet retired.

@@ -7,7 +7,7 @@ FramePolicy::FramePolicy(uint32_t setCount, bool walkthrough, size_t pipeline, u
     : setCount_(setCount), walkthrough_(walkthrough), pipeline_(pipeline), evictAfter_(evictAfter) {}
 
 FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<ClientId>& joinOrder,
-                            const std::function<size_t(ClientId)>& outstanding) {
+                            const std::function<size_t(ClientId)>& outstanding, bool cameraMoved) {
     for (ClientId id : joinOrder) state_.try_emplace(id);
     bool newEpoch = frame == 0;
     if (edited) {
@@ -34,7 +34,7 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
     p.frame = frame;
     p.epoch = epoch_;
     p.mode = frame == epochStart_              ? proto::FrameMode::Interaction
-             : walkthrough_ || allCapped ? proto::FrameMode::Walkthrough
+             : walkthrough_ || cameraMoved || allCapped ? proto::FrameMode::Walkthrough
                                          : proto::FrameMode::Accumulate;
     p.owners = assignment_.owner;
     for (ClientId& o : p.owners)
@@ -58,7 +58,9 @@ void FramePolicy::clientLeft(ClientId id) {
 
 void FramePolicy::stats(ClientId id, proto::FrameMode mode, uint64_t photonsShot) {
     ClientState& s = state_[id];
-    if (mode != proto::FrameMode::Interaction) s.capped = photonsShot == 0;
+    // Only an Accumulate frame asks for photons: Walkthrough frames (camera moving) shoot none by
+    // design and say nothing about the cap.
+    if (mode == proto::FrameMode::Accumulate) s.capped = photonsShot == 0;
     s.skips = 0;
 }
 

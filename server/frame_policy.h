@@ -28,8 +28,8 @@ struct FramePlan {
 ///    the epoch number); all clients
 ///    reset their photon maps at it, and the plain round-robin deal is used (maps restart anyway).
 ///  * Modes: the first frame of an epoch is Interaction; later frames are Walkthrough when asked
-///    for, or when every client with sets reported that it shot nothing (capped); otherwise
-///    Accumulate.
+///    for, when the camera moved for that frame, or when every client with sets reported that it
+///    shot nothing (capped); otherwise Accumulate.
 ///  * Reassignment: clients joining or leaving within an epoch move as few sets as possible
 ///    (rebalance()); moved sets restart accumulation on their new owner.
 ///  * Pipelining: a client with `pipeline` frames outstanding is skipped (its sets shown with
@@ -39,16 +39,25 @@ class FramePolicy {
 public:
     FramePolicy(uint32_t setCount, bool walkthrough, size_t pipeline, uint32_t evictAfter);
 
-    /// Plans frame `frame` (strictly increasing). `edited`: scene edits are sent with it.
+    /// Plans frame `frame` (strictly increasing). `edited`: scene edits (or settings that change
+    /// photons) are sent with it. `cameraMoved`: the camera changed for it — photons are kept and
+    /// the frame is a Walkthrough (no shooting while the view moves) unless it starts an epoch.
     /// `outstanding(id)`: frames sent to client id that it has not finished.
     FramePlan plan(uint64_t frame, bool edited, const std::vector<ClientId>& joinOrder,
-                   const std::function<size_t(ClientId)>& outstanding);
+                   const std::function<size_t(ClientId)>& outstanding, bool cameraMoved = false);
+
+    /// Changes M² (a settings change of M); the next plan deals the sets afresh. Call with no
+    /// frame in flight and with `edited` set on the next plan (the maps restart).
+    void resize(uint32_t setCount) {
+        setCount_ = setCount;
+        assignment_ = Assignment{};
+    }
 
     /// A client joined or left: the next plan rebalances (within an epoch).
     void clientsChanged() { clientsChanged_ = true; }
     void clientLeft(ClientId id);
-    /// A client's Stats for a frame of mode `mode` arrived in time: it finished a frame, and in a
-    /// non-interaction frame `photonsShot == 0` means its sets are capped.
+    /// A client's Stats for a frame of mode `mode` arrived in time: it finished a frame, and in an
+    /// Accumulate frame `photonsShot == 0` means its sets are capped.
     void stats(ClientId id, proto::FrameMode mode, uint64_t photonsShot);
     /// Sets `id` would hold if a frame began now (for Welcome; FrameBegin is binding).
     std::vector<uint32_t> tentativeSets(ClientId id, const std::vector<ClientId>& joinOrder) const;

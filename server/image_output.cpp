@@ -45,6 +45,26 @@ void ImageOutput::post(OutputJob job, std::function<void(OutputResult)> done) {
     asio::post(io_, [this, job = std::move(job), done = std::move(done)]() mutable { done(process(job)); });
 }
 
+void ImageOutput::reconfigure(int interleave, int filter) {
+    asio::post(io_, [this, interleave, filter] {
+        opt_.interleave = interleave;
+        opt_.filter = filter;
+        pattern_ = Interleave{opt_.width, opt_.height, interleave};
+        radiance_.assign(size_t(interleave) * size_t(interleave), {});
+    });
+}
+
+void ImageOutput::write(std::string exrPath, std::function<void(std::string error)> done) {
+    asio::post(io_, [this, exrPath = std::move(exrPath), done = std::move(done)] {
+        try {
+            writeImages(exrPath);
+            done("");
+        } catch (const std::exception& e) {
+            done(e.what());
+        }
+    });
+}
+
 OutputResult ImageOutput::process(OutputJob& job) {
     using Clock = std::chrono::steady_clock;
     const auto t0 = Clock::now();
@@ -88,6 +108,7 @@ OutputResult ImageOutput::process(OutputJob& job) {
     }
     image_.filterAndCompose(opt_.filter);
     result.masterMs = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    if (opt_.onComposed) opt_.onComposed(job.frame, image_);
     try {
         if (!job.saveAs.empty()) writeImages(job.saveAs);
         if (job.last && !opt_.out.empty()) writeImages(opt_.out);

@@ -25,6 +25,9 @@ struct ImageOutputOptions {
     std::string out;   ///< final EXR (PNG beside it); empty = none
     std::string csv;   ///< per-frame figures, appended (header when new); empty = none
     bool quiet = false;  ///< no per-frame line on stdout
+    /// Called on the output thread after each frame is composed, before files are written (the
+    /// browser viewer's feed). Must not keep the reference.
+    std::function<void(uint64_t frame, const FrameImage& image)> onComposed;
 };
 
 /// One retired frame and its figures, handed from the frame loop to the output stage.
@@ -72,6 +75,11 @@ public:
 
     /// Queues `job`; `done` is called on the output thread with its result.
     void post(OutputJob job, std::function<void(OutputResult)> done);
+    /// Queues a change of M and F (a settings edit): jobs queued after it use the new pattern.
+    void reconfigure(int interleave, int filter);
+    /// Queues writing the current image to `exrPath` (PNG beside it); `done` gets "" or the error,
+    /// on the output thread.
+    void write(std::string exrPath, std::function<void(std::string error)> done);
     /// Finishes every queued job and stops the thread; later post()s are not run. Idempotent.
     void drain();
     /// Runs `job` on the calling thread. Not concurrent with post()ed jobs.

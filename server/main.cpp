@@ -31,7 +31,10 @@ int run(int argc, char** argv) {
     addRenderFlags(app, rs, o.sceneName, plain, noDefaultLight);
     SceneInputPolicy sceneInput;
     addSceneInputFlags(app, sceneInput);
-    app.add_option("--frames", o.frames, "frames to render; the last one is written to --out")->capture_default_str();
+    auto* framesOpt = app.add_option("--frames", o.frames,
+                                     "frames to render; the last one is written to --out; 0 = until SIGINT/SIGTERM "
+                                     "(the default with --http)")
+                          ->capture_default_str();
     // Cluster.
     app.add_option("--listen", o.listen, "address to listen on")->capture_default_str();
     app.add_option("--port", o.port, "TCP port (0 = any free port; see --port-file)")->capture_default_str();
@@ -56,14 +59,23 @@ int run(int argc, char** argv) {
     app.add_option("--csv", o.csv,
                    "append per-frame figures: frame, fps, photons per set, mode, bytes, slowest client and ms");
     app.add_option("--animate", animate, "live edit preset: orbit (camera), light, ior or object (scene edits)");
-    app.add_option("--edit-script", editScript, "file of 'frame <n> camera|light|material|transform ...' lines");
+    app.add_option("--edit-script", editScript, "file of 'frame <n> camera|light|material|transform|settings ...' lines (server/edit_script.h)");
     app.add_flag("--quiet", o.quiet, "no per-frame line");
+    // Browser viewer.
+    app.add_option("--http", o.http,
+                   "serve the browser viewer on HOST:PORT (port 0 = any free port; the URL is printed as "
+                   "'viewer: http://HOST:PORT/'); e.g. 127.0.0.1:0");
+    app.add_option("--viewer-token", o.viewerToken, "token the viewer's controls need (default: the cluster token)");
+    app.add_flag("--viewer-public", o.viewerPublic, "viewers without a token may watch (controls still need it)");
+    app.add_option("--max-viewers", o.maxViewers, "viewers connected at once")->capture_default_str();
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
         return app.exit(e);
     }
     rs.photons.selective = !plain;
+    if (!o.http.empty() && framesOpt->count() == 0) o.frames = 0;
+    if (o.maxViewers < 1) throw std::invalid_argument("--max-viewers must be >= 1");
     if (deadlineMs < 1) throw std::invalid_argument("--deadline-ms must be >= 1");
     o.deadline = std::chrono::milliseconds(deadlineMs);
     if (o.token.empty())

@@ -25,6 +25,9 @@
 #include "server/frame_policy.h"
 #include "server/handshake.h"
 #include "server/image_output.h"
+#include "server/viewer/viewer_server.h"
+
+#include <nlohmann/json.hpp>
 
 namespace rtpm::server {
 
@@ -42,6 +45,19 @@ std::string framePath(const std::string& out, uint64_t frame, const char* ext) {
     std::snprintf(buf, sizeof buf, "_%05llu", static_cast<unsigned long long>(frame));
     return (p.parent_path() / (p.stem().string() + buf + ext)).string();
 }
+
+std::pair<std::string, uint16_t> parseHostPort(const std::string& s) {
+    const size_t colon = s.rfind(':');
+    std::string host = colon == std::string::npos ? s : s.substr(0, colon);
+    std::string port = colon == std::string::npos ? "0" : s.substr(colon + 1);
+    if (host.empty()) host = "127.0.0.1";
+    if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
+        std::stoul(port) > 65535)
+        throw std::invalid_argument("--http must be HOST:PORT (port 0-65535), got '" + s + "'");
+    return {host, static_cast<uint16_t>(std::stoul(port))};
+}
+
+nlohmann::json vec(Vec3 v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
 ImageOutputOptions outputOptions(const MasterOptions& o) {
     ImageOutputOptions io;
@@ -61,11 +77,13 @@ struct Master::Impl : net::ConnectionHandler {
     /// What the frame loop learns about a frame in flight, for its output line.
     struct FrameInfo {
         proto::FrameMode mode = proto::FrameMode::Accumulate;
+        uint32_t epoch = 0;
         uint64_t bytes = 0;
         uint64_t photonsStored = 0;
         uint64_t setsReported = 0;  // sets of the clients whose Stats arrived
         float slowestMs = -1.0f;
         std::string slowest = "-";
+        proto::Stats slowestStats;
         std::vector<ClientId> owners;  // who was asked for each set
         std::vector<proto::FrameData> data;
     };
@@ -99,6 +117,17 @@ struct Master::Impl : net::ConnectionHandler {
     TimePoint startTime{};
     std::deque<TimePoint> shownTimes;  // retirement times of the last kFpsWindow + 1 frames
     MasterSummary summary;
+
+    // Live control (viewer and edit script share applyEdit).
+    std::vector<proto::SceneEdit> pendingEdits;  // applied to `live`, sent with the next frame
+    bool cameraMoved = false;                    // the next frame is a walkthrough frame
+    bool settingsChanged = false;                // the next frame sends Settings and starts an epoch
+    std::optional<RenderSettings> pendingResize;  // an M change, applied once no frame is in flight
+    bool paused = false;
+    bool stopRequested = false;                  // finish frames in flight, write, Bye
+    std::vector<ScriptEdit> session;             // every edit applied, for "download script"
+    std::map<ClientId, proto::Stats> lastStats;
+    std::unique_ptr<ViewerServer> viewer;
     ImageOutput output;  // last member: its thread stops before the rest is destroyed
 
     Impl(MasterOptions o, Scene scene)
@@ -108,9 +137,9 @@ struct Master::Impl : net::ConnectionHandler {
           live(std::move(scene)),
           policy(setCount, opt.walkthrough, kPipeline, static_cast<uint32_t>(std::max(1, opt.evictAfter))),
           assembler(setCount, opt.deadline),
-          output(outputOptions(opt)) {
+          output(outputOptionsWithViewer()) {
         validateSettings(opt.settings);
-        if (opt.frames < 1) throw std::invalid_argument("--frames must be >= 1");
+        if (opt.frames < 0) throw std::invalid_argument("--frames must be >= 0 (0 = until stopped)");
         if (opt.minClients < 1) throw std::invalid_argument("--min-clients must be >= 1");
         if (opt.token.empty() && !opt.insecureNoToken)
             throw std::invalid_argument("no token: pass --token or set RTPM_TOKEN (or --insecure-no-token)");
@@ -120,8 +149,12 @@ struct Master::Impl : net::ConnectionHandler {
         // Dry-run the script on a copy so a bad line fails at start, not at frame n.
         {
             LiveScene dry(live.loaded());
+            RenderSettings drySettings = opt.settings;
             std::vector<proto::SceneEdit> sink;
-            for (const ScriptEdit& e : opt.script) dry.apply(e, opt.scriptFile, sink);
+            for (const ScriptEdit& e : opt.script) {
+                if (e.kind == ScriptEdit::Kind::Settings) applySettingsEdit(e, opt.scriptFile, drySettings);
+                else dry.apply(e, opt.scriptFile, sink);
+            }
         }
         settingsMsg = std::make_shared<const std::vector<uint8_t>>(
             proto::encode(bridge::toWire(opt.settings, opt.encoding)));
@@ -136,6 +169,27 @@ struct Master::Impl : net::ConnectionHandler {
         acceptor.set_option(asio::socket_base::reuse_address(true));
         acceptor.bind(ep);
         acceptor.listen();
+
+        if (!opt.http.empty()) {
+            auto [host, httpPort] = parseHostPort(opt.http);
+            ViewerOptions vo;
+            vo.host = host;
+            vo.port = httpPort;
+            vo.token = opt.viewerToken.empty() ? opt.token : opt.viewerToken;
+            vo.publicView = opt.viewerPublic;
+            vo.maxViewers = opt.maxViewers;
+            viewer = std::make_unique<ViewerServer>(vo, [this](const ViewerCommand& cmd, bool, ViewerServer::Reply reply) {
+                asio::post(io, [this, cmd, reply = std::move(reply)] { onViewerCommand(cmd, reply); });
+            });
+        }
+    }
+
+    ImageOutputOptions outputOptionsWithViewer() {
+        ImageOutputOptions io = outputOptions(opt);
+        io.onComposed = [this](uint64_t frame, const FrameImage& image) {
+            if (viewer) viewer->publishFrame(frame, image);
+        };
+        return io;
     }
 
     proto::Scene sceneMessage() const {
@@ -166,7 +220,12 @@ struct Master::Impl : net::ConnectionHandler {
             std::filesystem::rename(tmp, opt.portFile);
         }
         std::printf("rtpm-server listening on %s:%u\n", opt.listen.c_str(), static_cast<unsigned>(port()));
-        std::printf("scene %s, %dx%d, M=%d (%u sets), F=%d, P=%u, k=%u, %s, %d frames, waiting for %d client(s)\n",
+        if (viewer) {
+            auto [host, unused] = parseHostPort(opt.http);
+            std::printf("viewer: http://%s:%u/\n", host.c_str(), static_cast<unsigned>(viewer->port()));
+            publishScene();
+        }
+        std::printf("scene %s, %dx%d, M=%d (%u sets), F=%d, P=%u, k=%u, %s, %d frames (0 = until stopped), waiting for %d client(s)\n",
                     opt.sceneName.c_str(), opt.settings.width, opt.settings.height, opt.settings.interleave,
                     setCount, opt.settings.filterSize(), opt.settings.photons.photonsPerBatch,
                     opt.settings.photons.k, opt.settings.photons.selective ? "SPT" : "plain shooting", opt.frames,
@@ -174,16 +233,42 @@ struct Master::Impl : net::ConnectionHandler {
         std::fflush(stdout);
         signals.add(SIGINT);
         signals.add(SIGTERM);
-        signals.async_wait([this](const asio::error_code& ec, int sig) {
-            if (ec) return;
-            std::fprintf(stderr, "rtpm-server: signal %d, shutting down\n", sig);
-            shutdown(130, proto::ByeReason::Shutdown, "server interrupted");
-        });
+        waitForSignal();
         accept();
         io.run();
         output.drain();  // the frame in the output stage is written before run() returns
+        if (viewer) {
+            viewer->stop();
+            const ViewerReport r = viewer->report();
+            std::printf("viewer: %llu frames tone-mapped, %llu encoded, %llu drawn by pages; lag behind the newest "
+                        "frame mean %.2f max %llu frames; composed-to-drawn latency mean %.1f ms; viewer CPU %.3f s\n",
+                        (unsigned long long)r.framesPublished, (unsigned long long)r.framesEncoded,
+                        (unsigned long long)r.framesShown, r.meanLagFrames, (unsigned long long)r.maxLagFrames,
+                        r.meanLatencyMs, r.cpuSeconds);
+        }
         if (!opt.quiet || exitCode == 0) printSummary();
         return exitCode;
+    }
+
+    // First signal: finish the frames in flight, write the last image, Bye. Second: stop now.
+    void waitForSignal() {
+        signals.async_wait([this](const asio::error_code& ec, int sig) {
+            if (ec) return;
+            if (stopRequested) {
+                std::fprintf(stderr, "rtpm-server: signal %d again, stopping now\n", sig);
+                shutdown(130, proto::ByeReason::Shutdown, "server interrupted");
+                return;
+            }
+            std::fprintf(stderr, "rtpm-server: signal %d, finishing the frames in flight\n", sig);
+            requestStop();
+            waitForSignal();
+        });
+    }
+
+    void requestStop() {
+        if (stopRequested || finishing) return;
+        stopRequested = true;
+        pump();
     }
 
     void printSummary() {
@@ -247,6 +332,10 @@ struct Master::Impl : net::ConnectionHandler {
         assembler.dropClient(gone->id);
         policy.clientLeft(gone->id);
         std::fprintf(stderr, "rtpm-server: client %u (%s) left: %s\n", gone->id, gone->name.c_str(), why.c_str());
+        lastStats.erase(gone->id);
+        if (viewer)
+            viewer->publishEvent(nlohmann::json{{"type", "event"}, {"what", "left"}, {"id", gone->id},
+                                                {"name", gone->name}, {"why", why}}.dump());
         asio::post(io, [this] { pump(); });
     }
 
@@ -307,6 +396,9 @@ struct Master::Impl : net::ConnectionHandler {
         ++summary.clientsJoined;
         std::fprintf(stderr, "rtpm-server: client %u (%s, %s, %u cores) joined\n", id, h.clientName.c_str(),
                      c.peer().c_str(), cores);
+        if (viewer)
+            viewer->publishEvent(nlohmann::json{{"type", "event"}, {"what", "joined"}, {"id", id},
+                                                {"name", h.clientName}, {"cores", cores}}.dump());
         // Tentative sets: what the client would hold if a frame began now. FrameBegin is binding.
         c.send(proto::Welcome{id, policy.tentativeSets(id, registry.joinOrder())});
         c.send(settingsMsg);
@@ -315,12 +407,6 @@ struct Master::Impl : net::ConnectionHandler {
     }
 
     void onFrameData(net::Connection& c, ClientInfo& client, proto::FrameData&& fd, size_t wireBytes) {
-        if (fd.set < setCount && fd.pixelCount != static_cast<uint32_t>(pattern.pixelCount(static_cast<int>(fd.set)))) {
-            protocolError(c, "frame " + std::to_string(fd.frame) + " set " + std::to_string(fd.set) + ": " +
-                                 std::to_string(fd.pixelCount) + " pixels, the set has " +
-                                 std::to_string(pattern.pixelCount(static_cast<int>(fd.set))));
-            return;
-        }
         // The negotiated encoding (issue 13: the master asked for rgb9e5-zstd and took float32).
         if (!proto::encodingAnswers(opt.encoding, fd.encoding)) {
             protocolError(c, "frame " + std::to_string(fd.frame) + " set " + std::to_string(fd.set) +
@@ -335,7 +421,15 @@ struct Master::Impl : net::ConnectionHandler {
             return;
         }
         summary.bytesReceived += wireBytes;
+        // Late data may belong to a frame rendered before a change of M: only data of a frame in
+        // flight is checked against the current pattern.
         if (v == Verdict::Late) return;
+        if (fd.pixelCount != static_cast<uint32_t>(pattern.pixelCount(static_cast<int>(fd.set)))) {
+            protocolError(c, "frame " + std::to_string(fd.frame) + " set " + std::to_string(fd.set) + ": " +
+                                 std::to_string(fd.pixelCount) + " pixels, the set has " +
+                                 std::to_string(pattern.pixelCount(static_cast<int>(fd.set))));
+            return;
+        }
         FrameInfo& info = frameInfo[fd.frame];
         info.bytes += wireBytes;
         info.data.push_back(std::move(fd));
@@ -351,8 +445,10 @@ struct Master::Impl : net::ConnectionHandler {
             FrameInfo& info = frameInfo[st.frame];
             info.photonsStored += st.photonsStored;
             info.setsReported += static_cast<uint64_t>(std::count(info.owners.begin(), info.owners.end(), client.id));
+            lastStats[client.id] = st;
             if (st.frameMs > info.slowestMs) {
                 info.slowestMs = st.frameMs;
+                info.slowestStats = st;
                 info.slowest = std::to_string(client.id) + ":" + client.name;
             }
             policy.stats(client.id, info.mode, st.photonsShot);
@@ -372,12 +468,191 @@ struct Master::Impl : net::ConnectionHandler {
             startTime = now;
             std::fprintf(stderr, "rtpm-server: %zu client(s) connected, starting frames\n", registry.size());
         }
-        while (started && nextFrame < static_cast<uint64_t>(opt.frames) && assembler.inFlight() < kPipeline &&
-               outputsQueued < kPipeline && !registry.empty())
+        const bool idle = assembler.inFlight() == 0 && outputsQueued == 0;
+        if (pendingResize && idle) resize();
+        const bool unlimited = opt.frames == 0;
+        while (started && (unlimited || nextFrame < static_cast<uint64_t>(opt.frames)) && !paused && !stopRequested &&
+               !pendingResize && assembler.inFlight() < kPipeline && outputsQueued < kPipeline && !registry.empty())
             beginFrame(now);
         armDeadline();
-        if (nextFrame == static_cast<uint64_t>(opt.frames) && assembler.inFlight() == 0 && outputsQueued == 0)
+        if (assembler.inFlight() != 0 || outputsQueued != 0) return;
+        if (!unlimited && nextFrame == static_cast<uint64_t>(opt.frames)) {
             shutdown(imageWriteFailed ? kExitImageNotWritten : 0, proto::ByeReason::Normal, "all frames rendered");
+        } else if (stopRequested) {
+            // The last image is written only if a frame was shown (otherwise there is none).
+            finishing = true;
+            if (opt.out.empty() || summary.framesShown == 0) {
+                finishing = false;
+                shutdown(unlimited ? 0 : 130, proto::ByeReason::Shutdown, "server stopped");
+                return;
+            }
+            output.write(opt.out, [this, unlimited](std::string error) {
+                if (!error.empty()) std::fprintf(stderr, "rtpm-server: cannot write %s: %s\n", opt.out.c_str(), error.c_str());
+                asio::post(io, [this, unlimited] {
+                    finishing = false;
+                    shutdown(unlimited ? 0 : 130, proto::ByeReason::Shutdown, "server stopped");
+                });
+            });
+        }
+    }
+
+    // A change of M: every structure sized by M² is rebuilt while no frame is in flight; the
+    // clients get the new Settings with the next frame, which starts an epoch.
+    void resize() {
+        opt.settings = *pendingResize;
+        pendingResize.reset();
+        pattern = Interleave{opt.settings.width, opt.settings.height, opt.settings.interleave};
+        setCount = static_cast<uint32_t>(opt.settings.interleave * opt.settings.interleave);
+        policy.resize(setCount);
+        assembler.resize(setCount);
+        output.reconfigure(opt.settings.interleave, opt.settings.filterSize());
+        settingsMsg = std::make_shared<const std::vector<uint8_t>>(proto::encode(bridge::toWire(opt.settings, opt.encoding)));
+        settingsChanged = true;
+        std::fprintf(stderr, "rtpm-server: M is now %d (%u sets)\n", opt.settings.interleave, setCount);
+    }
+
+    // ---- live edits (edit script and viewer) ---------------------------------------------------
+
+    /// The one edit path: a script line or a viewer control. Throws SceneError (nothing changes)
+    /// when the edit does not fit the scene or the settings. Takes effect with the next frame.
+    void applyEdit(const ScriptEdit& e, const std::string& source) {
+        if (e.kind == ScriptEdit::Kind::Settings) {
+            RenderSettings s = pendingResize ? *pendingResize : opt.settings;
+            applySettingsEdit(e, source, s);
+            if (s.interleave != opt.settings.interleave || pendingResize) {
+                pendingResize = s;
+            } else {
+                const bool photonsChange = s.photons.k != opt.settings.photons.k ||
+                                           s.photons.photonsPerBatch != opt.settings.photons.photonsPerBatch ||
+                                           s.photons.tree != opt.settings.photons.tree;
+                if (s.filterSize() != opt.settings.filterSize())
+                    output.reconfigure(s.interleave, s.filterSize());
+                opt.settings = s;
+                settingsMsg = std::make_shared<const std::vector<uint8_t>>(
+                    proto::encode(bridge::toWire(opt.settings, opt.encoding)));
+                for (const auto& [id, c] : registry.clients()) c.connection->send(settingsMsg);
+                settingsChanged = settingsChanged || photonsChange;
+            }
+        } else {
+            live.apply(e, source, pendingEdits);
+            if (e.kind == ScriptEdit::Kind::Camera) cameraMoved = true;
+        }
+        ScriptEdit recorded = e;
+        recorded.frame = nextFrame;
+        session.push_back(recorded);
+    }
+
+    void onViewerCommand(const ViewerCommand& cmd, const ViewerServer::Reply& reply) {
+        auto ok = [&](const std::string& what) { reply(nlohmann::json{{"type", "ok"}, {"what", what}}.dump()); };
+        auto error = [&](const std::string& what) {
+            reply(nlohmann::json{{"type", "error"}, {"message", what}}.dump());
+        };
+        if (finishing || stopRequested) return error("the server is stopping");
+        if (auto* e = std::get_if<ViewerEdit>(&cmd)) {
+            try {
+                applyEdit(e->edit, "viewer");
+            } catch (const SceneError& ex) {
+                return error(std::string("edit refused: ") + ex.what());
+            }
+            if (e->edit.kind != ScriptEdit::Kind::Camera) publishScene();
+            ok(formatScriptEdit(session.back()));
+            pump();
+        } else if (auto* p = std::get_if<ViewerPause>(&cmd)) {
+            paused = p->paused;
+            if (lastStatus) publishStatus(lastStatus->first, lastStatus->second);
+            std::fprintf(stderr, "rtpm-server: %s by a viewer\n", paused ? "paused" : "resumed");
+            ok(paused ? "paused" : "resumed");
+            pump();
+        } else if (std::get_if<ViewerSnapshot>(&cmd)) {
+            if (opt.out.empty() || summary.framesShown == 0) return error("no image to save yet (or no --out)");
+            const std::string path = framePath(opt.out, summary.framesShown, "_snapshot.exr");
+            output.write(path, [reply, path](std::string err) {
+                reply(err.empty() ? nlohmann::json{{"type", "ok"}, {"what", "saved " + path}}.dump()
+                                  : nlohmann::json{{"type", "error"}, {"message", "snapshot failed: " + err}}.dump());
+            });
+        } else if (std::get_if<ViewerScriptRequest>(&cmd)) {
+            std::string text = "# rtpm edit script recorded by the viewer: replay with\n# rtpm-server --scene " +
+                               opt.sceneName + " --edit-script FILE";
+            if (opt.animation != Animation::None) text += "  (this session also ran an --animate preset)";
+            text += "\n";
+            for (const ScriptEdit& e : session) text += formatScriptEdit(e) + "\n";
+            reply(nlohmann::json{{"type", "script"}, {"text", text}}.dump());
+        }
+    }
+
+    void publishScene() {
+        if (!viewer) return;
+        const Scene& s = live.scene();
+        nlohmann::json lights = nlohmann::json::array(), materials = nlohmann::json::array();
+        for (size_t i = 0; i < s.lights.size() && i < 64; ++i)
+            lights.push_back({{"index", i}, {"position", vec(s.lights[i].position)}, {"intensity", vec(s.lights[i].intensity)}});
+        for (size_t i = 0; i < s.materials.size() && i < 64; ++i) {
+            const Material& m = s.materials[i];
+            materials.push_back({{"index", i},
+                                 {"type", m.type == MaterialType::Mirror ? "mirror" : m.type == MaterialType::Dielectric ? "dielectric" : "diffuse"},
+                                 {"color", vec(m.baseColor)}, {"ior", m.ior}, {"absorption", vec(m.absorption)}});
+        }
+        // Emissive instances are the lights of scenes without punctual ones (RING): the viewer moves
+        // them with transform edits (translation from the loaded pose) and sets their emission.
+        nlohmann::json emitters = nlohmann::json::array();
+        for (size_t i = 0; i < s.instances.size() && emitters.size() < 64; ++i) {
+            const uint32_t mat = s.meshes[s.instances[i].mesh].material;
+            if (!s.materials[mat].isEmissive()) continue;
+            auto centreOf = [&](const Scene& sc) {
+                Bounds ib;
+                const Instance& in = sc.instances[i];
+                for (const Vec3& p : sc.meshes[in.mesh].positions) ib.extend(Vec3(in.transform * glm::vec4(p, 1.0f)));
+                return ib.centre();
+            };
+            emitters.push_back({{"index", i}, {"name", s.instances[i].name}, {"material", mat},
+                                {"loadedCentre", vec(centreOf(live.loaded()))}, {"centre", vec(centreOf(s))},
+                                {"emission", vec(s.materials[mat].emission)}});
+        }
+        const Bounds b = s.bounds();
+        const RenderSettings& rs = pendingResize ? *pendingResize : opt.settings;
+        viewer->publishScene(nlohmann::json{
+            {"type", "scene"}, {"name", opt.sceneName}, {"width", rs.width}, {"height", rs.height},
+            {"centre", vec(b.centre())}, {"diagonal", b.diagonal()}, {"lights", lights}, {"emitters", emitters}, {"materials", materials},
+            {"settings", {{"M", rs.interleave}, {"F", rs.filter}, {"k", rs.photons.k}, {"P", rs.photons.photonsPerBatch},
+                          {"tree", photonTreeName(rs.photons.tree)}}}}.dump());
+    }
+
+    struct FrameStatus {
+        uint64_t frame = 0;
+        uint32_t epoch = 0;
+        proto::FrameMode mode{};
+        double fps = 0, photonsPerSet = 0;
+        proto::Stats slowest;
+        std::string slowestName;
+        size_t arrived = 0;
+        std::vector<ClientId> owners;
+    };
+
+    std::optional<std::pair<FrameStatus, double>> lastStatus;  // re-sent when pausing
+
+    void publishStatus(const FrameStatus& f, double masterMs) {
+        if (!viewer) return;
+        lastStatus.emplace(f, masterMs);
+        nlohmann::json clients = nlohmann::json::array();
+        for (ClientId id : registry.joinOrder()) {
+            const ClientInfo* c = registry.find(id);
+            auto st = lastStats.find(id);
+            clients.push_back({{"id", id}, {"name", c->name}, {"cores", c->cores},
+                               {"sets", policy.assignment().owner.size() == setCount ? policy.assignment().setsOf(id)
+                                                                                     : std::vector<uint32_t>{}},
+                               {"lastMs", st == lastStats.end() ? 0.0f : st->second.frameMs},
+                               {"photons", st == lastStats.end() ? 0 : st->second.photonsStored}});
+        }
+        const Camera& cam = live.camera();
+        viewer->publishStatus(nlohmann::json{
+            {"type", "status"}, {"frame", f.frame}, {"epoch", f.epoch}, {"mode", proto::frameModeName(f.mode)},
+            {"fps", f.fps}, {"photonsPerSet", f.photonsPerSet}, {"cap", opt.settings.photons.capPhotons},
+            {"M", opt.settings.interleave}, {"setsArrived", f.arrived}, {"paused", paused},
+            {"split", {{"photonMs", f.slowest.photonMs}, {"renderMs", f.slowest.renderMs},
+                       {"encodeMs", f.slowest.encodeMs}, {"clientMs", f.slowest.frameMs}, {"masterMs", masterMs}}},
+            {"slowest", f.slowestName}, {"owners", f.owners}, {"clients", clients},
+            {"camera", {{"eye", vec(cam.position)}, {"forward", vec(cam.forward)}, {"up", vec(cam.up)}, {"yfov", cam.yfov}}}}
+            .dump());
     }
 
     void armDeadline() {
@@ -407,11 +682,22 @@ struct Master::Impl : net::ConnectionHandler {
     }
 
     void beginFrame(TimePoint now) {
-        const uint64_t f = nextFrame++;
+        const uint64_t f = nextFrame;
         std::vector<proto::SceneEdit> edits;
         animate(opt.animation, f, live, edits);
-        while (scriptPos < opt.script.size() && opt.script[scriptPos].frame <= f)
-            live.apply(opt.script[scriptPos++], opt.scriptFile, edits);  // validated by the dry run
+        while (scriptPos < opt.script.size() && opt.script[scriptPos].frame <= f) {
+            try {
+                applyEdit(opt.script[scriptPos++], opt.scriptFile);  // validated by the dry run
+            } catch (const SceneError& e) {
+                std::fprintf(stderr, "rtpm-server: edit script: %s\n", e.what());
+            }
+        }
+        if (pendingResize) return;  // an M change waits for the frames in flight (pump resumes)
+        ++nextFrame;
+        edits.insert(edits.end(), pendingEdits.begin(), pendingEdits.end());
+        pendingEdits.clear();
+        if (settingsChanged)
+            for (const auto& [id, c] : registry.clients()) c.connection->send(settingsMsg);
         // Every client gets the edits before the FrameBegin of the new epoch (flow §6).
         for (const proto::SceneEdit& e : edits) {
             ++sceneVersion;
@@ -419,13 +705,16 @@ struct Master::Impl : net::ConnectionHandler {
             auto bytes = std::make_shared<const std::vector<uint8_t>>(proto::encode(proto::Edit{sceneVersion, e}));
             for (const auto& [id, c] : registry.clients()) c.connection->send(bytes);
         }
-        FramePlan plan = policy.plan(f, !edits.empty(), registry.joinOrder(),
-                                     [this](ClientId id) { return assembler.outstanding(id); });
+        FramePlan plan = policy.plan(f, !edits.empty() || settingsChanged, registry.joinOrder(),
+                                     [this](ClientId id) { return assembler.outstanding(id); }, cameraMoved);
+        settingsChanged = false;
+        cameraMoved = false;
         const proto::CameraState cam = bridge::toWire(live.camera());
         for (auto& [id, sets] : plan.sets)
             registry.find(id)->connection->send(
                 proto::FrameBegin{f, plan.epoch, sceneVersion, cam, plan.mode, std::move(sets)});
         frameInfo[f].mode = plan.mode;
+        frameInfo[f].epoch = plan.epoch;
         frameInfo[f].owners = plan.owners;
         assembler.beginFrame(f, plan.owners, now);
     }
@@ -453,6 +742,8 @@ struct Master::Impl : net::ConnectionHandler {
         job.owners = std::move(info.owners);
         job.data = std::move(info.data);
         job.last = r.frame + 1 == static_cast<uint64_t>(opt.frames);
+        FrameStatus status{r.frame, info.epoch, info.mode, job.fps, job.photonsPerSet, info.slowestStats,
+                           info.slowest, job.arrived, job.owners};
         if (!opt.out.empty() && opt.saveEvery > 0 && r.frame > 0 && r.frame % uint64_t(opt.saveEvery) == 0)
             job.saveAs = framePath(opt.out, r.frame, ".exr");
         ++summary.framesShown;
@@ -465,10 +756,11 @@ struct Master::Impl : net::ConnectionHandler {
                          (unsigned long long)r.frame, r.arrived.size(), setCount, late.c_str());
         }
         ++outputsQueued;
-        output.post(std::move(job), [this](OutputResult result) {
-            asio::post(io, [this, result = std::move(result)] {
+        output.post(std::move(job), [this, status = std::move(status)](OutputResult result) {
+            asio::post(io, [this, status, result = std::move(result)] {
                 --outputsQueued;
                 imageWriteFailed |= result.writeFailed;
+                publishStatus(status, result.masterMs);
                 for (const auto& [id, why] : result.badPayloads)
                     if (ClientInfo* c = registry.find(id)) protocolError(*c->connection, why);
                 pump();
@@ -504,9 +796,10 @@ struct Master::Impl : net::ConnectionHandler {
 Master::Master(MasterOptions options, Scene scene) : impl_(std::make_unique<Impl>(std::move(options), std::move(scene))) {}
 Master::~Master() = default;
 uint16_t Master::port() const { return impl_->port(); }
+uint16_t Master::viewerPort() const { return impl_->viewer ? impl_->viewer->port() : 0; }
 int Master::run() { return impl_->run(); }
 void Master::stop() {
-    asio::post(impl_->io, [this] { impl_->shutdown(130, proto::ByeReason::Shutdown, "server stopped"); });
+    asio::post(impl_->io, [this] { impl_->requestStop(); });
 }
 const MasterSummary& Master::summary() const { return impl_->summary; }
 

@@ -28,7 +28,7 @@ struct MasterOptions {
     std::string sceneName = "RING";    ///< built-in name or file path (for logs and output names)
     bool builtin = true;               ///< clients load sceneName themselves; else they get a .glb
     RenderSettings settings;
-    int frames = 10;
+    int frames = 10;                   ///< 0 = render until stopped (service mode)
     proto::PixelEncoding encoding = proto::PixelEncoding::Float32;
     bool walkthrough = false;          ///< no shooting after the first frame of each epoch
 
@@ -46,6 +46,12 @@ struct MasterOptions {
     std::vector<ScriptEdit> script;
     std::string scriptFile;
     bool quiet = false;                ///< no per-frame line on stdout
+
+    // Browser viewer (DESIGN §10).
+    std::string http;                  ///< HOST:PORT of the viewer's HTTP port; empty = no viewer
+    std::string viewerToken;           ///< controls need this (default: the cluster token)
+    bool viewerPublic = false;         ///< viewers without a token may watch (no controls)
+    int maxViewers = 8;
 };
 
 /// Totals of a run, for the summary line and tests.
@@ -73,8 +79,12 @@ public:
 
     /// Bound port (valid after construction).
     uint16_t port() const;
-    /// Runs until every frame is shown (then Bye{Normal} to all) or stop() / SIGINT / SIGTERM.
-    /// Returns the process exit code: 0 when all frames were shown.
+    /// The viewer's bound HTTP port, 0 without a viewer.
+    uint16_t viewerPort() const;
+    /// Runs until every frame is shown (then Bye{Normal} to all) or stop() / SIGINT / SIGTERM:
+    /// those finish the frames in flight, write the last image to `out` and say Bye{Shutdown};
+    /// a second signal stops at once. Returns the process exit code: 0 when all frames were
+    /// shown or a service (frames = 0) was stopped, 130 when a finite run was interrupted.
     int run();
     /// Thread-safe request to stop (clients get Bye{Shutdown}).
     void stop();

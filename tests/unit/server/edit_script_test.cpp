@@ -65,6 +65,48 @@ TEST(EditScript, ParsesEveryKindAndSortsByFrame) {
     EXPECT_FLOAT_EQ(edits[3].rotate->w, 90.0f);
 }
 
+TEST(EditScript, SettingsLinesParseAndValidate) {
+    auto e = parseEditScript("frame 4 settings M 2 F 5 k 32 P 1000 tree grid\n", "s.txt");
+    ASSERT_EQ(e.size(), 1u);
+    EXPECT_EQ(e[0].kind, ScriptEdit::Kind::Settings);
+    EXPECT_EQ(*e[0].interleave, 2);
+    EXPECT_EQ(*e[0].filter, 5);
+    EXPECT_EQ(*e[0].k, 32u);
+    EXPECT_EQ(*e[0].photons, 1000u);
+    EXPECT_EQ(*e[0].tree, PhotonTree::UniformGrid);
+    RenderSettings rs;
+    applySettingsEdit(e[0], "s.txt", rs);
+    EXPECT_EQ(rs.interleave, 2);
+    EXPECT_EQ(rs.photons.k, 32u);
+    // k = 0 is refused and leaves the settings as they were.
+    auto bad = parseEditScript("frame 1 settings k 0\n", "s.txt");
+    EXPECT_THROW(applySettingsEdit(bad[0], "s.txt", rs), SceneError);
+    EXPECT_EQ(rs.photons.k, 32u);
+    EXPECT_THROW(parseEditScript("frame 1 settings tree oak\n", "s.txt"), SceneError);
+}
+
+TEST(EditScript, FormattedEditsParseBackToTheSameEdit) {
+    const std::string text =
+        "frame 3 camera eye 0.1 0.2 0.3 target 1 2 3 yfov 0.7\n"
+        "frame 4 light 0 position 1.25 -2 3.0000001 intensity 10 20 30\n"
+        "frame 5 material 1 type dielectric color 0.5 0.25 1 ior 1.33333 absorption 0.1 0 0 emission 0 0 0\n"
+        "frame 6 transform 0 translate 0.1 0 -0.2 rotate 0 1 0 45 scale 2\n"
+        "frame 7 settings M 4 F 0 k 16 P 12345 tree median\n";
+    const auto edits = parseEditScript(text, "a.txt");
+    std::string formatted;
+    for (const ScriptEdit& e : edits) formatted += formatScriptEdit(e) + "\n";
+    const auto again = parseEditScript(formatted, "b.txt");
+    ASSERT_EQ(again.size(), edits.size());
+    for (size_t i = 0; i < edits.size(); ++i) {
+        EXPECT_EQ(formatScriptEdit(again[i]), formatScriptEdit(edits[i]));
+        EXPECT_EQ(again[i].eye, edits[i].eye);
+        EXPECT_EQ(again[i].position, edits[i].position);
+        EXPECT_EQ(again[i].ior, edits[i].ior);
+        EXPECT_EQ(again[i].rotate, edits[i].rotate);
+        EXPECT_EQ(again[i].photons, edits[i].photons);
+    }
+}
+
 TEST(EditScript, MalformedLinesNameTheLine) {
     EXPECT_NE(errorOf("frame 1 camera yfov 0.5\nframe x camera yfov 1\n").find("line 2"), std::string::npos);
     EXPECT_NE(errorOf("frame 1 lamp 0 position 1 2 3").find("unknown edit 'lamp'"), std::string::npos);

@@ -37,6 +37,31 @@ TEST(FramePolicy, EditsStartANewEpochInInteractionAndResetCapped) {
     EXPECT_EQ(p.plan(3, false, clients, none).mode, proto::FrameMode::Accumulate);
 }
 
+TEST(FramePolicy, CameraMovesAreWalkthroughFramesAndDoNotMarkClientsCapped) {
+    FramePolicy p(4, false, 2, 3);
+    std::vector<ClientId> clients{1};
+    p.plan(0, false, clients, none);
+    FramePlan moved = p.plan(1, false, clients, none, /*cameraMoved=*/true);
+    EXPECT_EQ(moved.mode, proto::FrameMode::Walkthrough);
+    EXPECT_EQ(moved.epoch, 0u);  // photons kept
+    p.stats(1, proto::FrameMode::Walkthrough, 0);  // walkthrough frames shoot nothing by design
+    EXPECT_EQ(p.plan(2, false, clients, none).mode, proto::FrameMode::Accumulate);
+    // A camera move in the frame that starts an epoch stays Interaction.
+    EXPECT_EQ(p.plan(3, true, clients, none, true).mode, proto::FrameMode::Interaction);
+}
+
+TEST(FramePolicy, ResizeDealsTheNewSetsAfresh) {
+    FramePolicy p(9, false, 2, 3);
+    std::vector<ClientId> clients{1, 2};
+    p.plan(0, false, clients, none);
+    p.resize(4);
+    FramePlan f = p.plan(1, true, clients, none);
+    EXPECT_EQ(f.owners.size(), 4u);
+    EXPECT_EQ(f.sets.at(1), (std::vector<uint32_t>{0, 2}));
+    EXPECT_EQ(f.sets.at(2), (std::vector<uint32_t>{1, 3}));
+    EXPECT_EQ(f.epoch, 1u);
+}
+
 TEST(FramePolicy, ForcedWalkthroughAfterTheFirstFrameOfAnEpoch) {
     FramePolicy p(4, /*walkthrough=*/true, 2, 3);
     std::vector<ClientId> clients{1};

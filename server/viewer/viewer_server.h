@@ -1,0 +1,71 @@
+// The browser viewer's HTTP and WebSocket server (websocketpp on standalone Asio), on its own thread.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "common/image/frame_image.h"
+#include "server/viewer/viewer_command.h"
+
+namespace rtpm::server {
+
+struct ViewerOptions {
+    std::string host = "127.0.0.1";  ///< address the HTTP port binds to
+    uint16_t port = 0;               ///< 0 = any free port
+    std::string token;               ///< controls need it (the viewer or the cluster token); "" = none needed
+    bool publicView = false;         ///< viewers without the token may watch (no controls)
+    int maxViewers = 8;              ///< WebSocket viewers at once; more are refused at the handshake
+    int jpegQuality = 85;
+};
+
+/// Lag and cost figures, for the summary line and tests.
+struct ViewerReport {
+    uint64_t framesPublished = 0;  ///< frames tone-mapped for at least one viewer
+    uint64_t framesEncoded = 0;    ///< JPEGs made (one per frame and display setting)
+    uint64_t framesShown = 0;      ///< acknowledged by a page (drawn)
+    double meanLagFrames = 0.0;    ///< newest composed frame − drawn frame, when the page drew it
+    uint64_t maxLagFrames = 0;
+    double meanLatencyMs = 0.0;    ///< composed → drawn (acknowledged)
+    double cpuSeconds = 0.0;       ///< viewer thread + tone mapping on the output thread
+};
+
+/// Serves server/web/ (embedded at build time) and one WebSocket per viewer. The page says hello
+/// with a token; it then receives JSON text (status, scene, clients, errors) and binary JPEG
+/// frames, and sends controls (viewer_command.h). A viewer gets a new frame only after it
+/// acknowledged the previous one, and then the newest: a slow viewer drops frames for itself
+/// only, and holds at most one frame. publishFrame() is cheap (one mutex) when nobody watches.
+/// Controls are validated on the viewer thread; edits, pause, snapshot and script requests go
+/// to `onCommand` (called on the viewer thread; `reply` may be called from any thread, once).
+class ViewerServer {
+public:
+    using Reply = std::function<void(std::string json)>;
+    using CommandHandler = std::function<void(const ViewerCommand&, bool control, Reply reply)>;
+
+    /// Binds and starts the thread. Throws std::runtime_error if it cannot listen.
+    ViewerServer(ViewerOptions options, CommandHandler onCommand);
+    ~ViewerServer();  ///< closes every viewer and joins the thread
+    ViewerServer(const ViewerServer&) = delete;
+    ViewerServer& operator=(const ViewerServer&) = delete;
+
+    uint16_t port() const;
+    /// Output thread: frame `frame` was composed into `image`. Tone-maps it for every display
+    /// setting some viewer uses (on the caller's thread) and hands it over for encoding.
+    void publishFrame(uint64_t frame, const FrameImage& image);
+    /// Any thread: the frame's figures and the clients (JSON object text), to every viewer.
+    void publishStatus(std::string json);
+    /// Any thread: the scene's editable state (JSON object text), kept for viewers joining later.
+    void publishScene(std::string json);
+    /// Any thread: a one-off event (client joined or left…), to every viewer.
+    void publishEvent(std::string json);
+    /// Closes every viewer and stops accepting (idempotent); the thread ends.
+    void stop();
+    ViewerReport report() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rtpm::server

@@ -1,0 +1,120 @@
+// Which library should encode the viewer's live frames? Tone mapping plus TurboJPEG, libwebp and
+// libpng on a real rendered frame (RTPM_VIEWER_BENCH_EXR, e.g. RING 640×480 from rtpm-render):
+// time per frame and bytes per frame (the viewer's CPU and bandwidth at 30 fps).
+//
+//   build/common/cmd/rtpm-render --scene RING --frames 4 --out /tmp/ring640.exr
+//   RTPM_VIEWER_BENCH_EXR=/tmp/ring640.exr build/tests/bench/viewer_encode_bench
+#include <benchmark/benchmark.h>
+
+#include <png.h>
+#include <webp/encode.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <stdexcept>
+#include <vector>
+
+#include "common/image/image_io.h"
+#include "common/image/tone_map.h"
+#include "server/viewer/jpeg_encoder.h"
+
+namespace {
+
+struct Frame {
+    int width = 0, height = 0;
+    std::vector<float> linear;
+    std::vector<uint8_t> srgb;
+};
+
+const Frame& frame() {
+    static const Frame f = [] {
+        const char* path = std::getenv("RTPM_VIEWER_BENCH_EXR");
+        if (!path) throw std::runtime_error("set RTPM_VIEWER_BENCH_EXR to a rendered EXR (see the file comment)");
+        rtpm::ExrImage img = rtpm::readExr(path);
+        Frame out;
+        out.width = img.width;
+        out.height = img.height;
+        out.linear = img.layerRgb("");
+        out.srgb.resize(out.linear.size());
+        rtpm::toneMapSrgb8(out.linear, rtpm::displayScale(out.linear, 0.0f), out.srgb);
+        return out;
+    }();
+    return f;
+}
+
+void BM_ToneMap(benchmark::State& state) {
+    const Frame& f = frame();
+    std::vector<uint8_t> out(f.linear.size());
+    for (auto _ : state) {
+        rtpm::toneMapSrgb8(f.linear, rtpm::displayScale(f.linear, 0.0f), out);
+        benchmark::DoNotOptimize(out.data());
+    }
+}
+
+void BM_DisplayScale(benchmark::State& state) {
+    const Frame& f = frame();
+    for (auto _ : state) benchmark::DoNotOptimize(rtpm::displayScale(f.linear, 0.0f));
+}
+
+void BM_TurboJpeg(benchmark::State& state) {
+    const Frame& f = frame();
+    rtpm::server::JpegEncoder enc(int(state.range(0)));
+    size_t bytes = 0;
+    for (auto _ : state) bytes = enc.encode(f.srgb, f.width, f.height).size();
+    state.counters["bytes"] = double(bytes);
+}
+
+void BM_WebP(benchmark::State& state) {
+    const Frame& f = frame();
+    WebPConfig config;
+    WebPConfigInit(&config);
+    config.quality = float(state.range(0));
+    config.method = 0;  // fastest
+    size_t bytes = 0;
+    for (auto _ : state) {
+        WebPPicture pic;
+        WebPPictureInit(&pic);
+        pic.width = f.width;
+        pic.height = f.height;
+        WebPMemoryWriter writer;
+        WebPMemoryWriterInit(&writer);
+        pic.writer = WebPMemoryWrite;
+        pic.custom_ptr = &writer;
+        WebPPictureImportRGB(&pic, f.srgb.data(), f.width * 3);
+        if (!WebPEncode(&config, &pic)) state.SkipWithError("WebPEncode failed");
+        bytes = writer.size;
+        WebPPictureFree(&pic);
+        WebPMemoryWriterClear(&writer);
+    }
+    state.counters["bytes"] = double(bytes);
+}
+
+void BM_Png(benchmark::State& state) {
+    const Frame& f = frame();
+    size_t bytes = 0;
+    std::vector<uint8_t> buf;
+    for (auto _ : state) {
+        png_image img{};
+        img.version = PNG_IMAGE_VERSION;
+        img.width = png_uint_32(f.width);
+        img.height = png_uint_32(f.height);
+        img.format = PNG_FORMAT_RGB;
+        png_alloc_size_t size = 0;
+        png_image_write_to_memory(&img, nullptr, &size, 0, f.srgb.data(), 0, nullptr);
+        buf.resize(size);
+        if (!png_image_write_to_memory(&img, buf.data(), &size, 0, f.srgb.data(), 0, nullptr))
+            state.SkipWithError(img.message);
+        bytes = size;
+    }
+    state.counters["bytes"] = double(bytes);
+}
+
+BENCHMARK(BM_ToneMap)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_DisplayScale)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TurboJpeg)->Arg(85)->Arg(75)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_WebP)->Arg(75)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Png)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

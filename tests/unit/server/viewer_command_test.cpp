@@ -1,0 +1,72 @@
+// Viewer controls: every accepted shape, and refusals naming the field for anything doubtful.
+#include "server/viewer/viewer_command.h"
+
+#include <gtest/gtest.h>
+
+namespace rtpm::server {
+namespace {
+
+const ScriptEdit& edit(const ViewerParse& p) { return std::get<ViewerEdit>(p.command()).edit; }
+
+TEST(ViewerCommand, AcceptsEveryControl) {
+    ViewerParse cam = parseViewerCommand(R"({"type":"camera","eye":[1,2,3],"target":[0,0,0]})");
+    ASSERT_TRUE(cam.ok()) << cam.error();
+    EXPECT_EQ(edit(cam).kind, ScriptEdit::Kind::Camera);
+    EXPECT_EQ(*edit(cam).eye, Vec3(1, 2, 3));
+    ViewerParse light = parseViewerCommand(R"({"type":"light","index":0,"position":[0.5,1,-2]})");
+    ASSERT_TRUE(light.ok()) << light.error();
+    EXPECT_EQ(edit(light).kind, ScriptEdit::Kind::Light);
+    ViewerParse mat = parseViewerCommand(R"({"type":"material","index":1,"ior":1.5,"color":[1,0.5,0]})");
+    ASSERT_TRUE(mat.ok()) << mat.error();
+    EXPECT_EQ(*edit(mat).ior, 1.5f);
+    ViewerParse tr = parseViewerCommand(R"({"type":"transform","index":2,"translate":[0.1,0,0]})");
+    ASSERT_TRUE(tr.ok()) << tr.error();
+    ViewerParse set = parseViewerCommand(R"({"type":"settings","M":4,"k":32,"tree":"grid"})");
+    ASSERT_TRUE(set.ok()) << set.error();
+    EXPECT_EQ(*edit(set).interleave, 4);
+    EXPECT_EQ(*edit(set).tree, PhotonTree::UniformGrid);
+    ViewerParse d = parseViewerCommand(R"({"type":"display","layer":"caustic_unfiltered","exposure":-1.5})");
+    ASSERT_TRUE(d.ok()) << d.error();
+    EXPECT_EQ(std::get<ViewerDisplay>(d.command()).layer, ViewerLayer::CausticUnfiltered);
+    EXPECT_TRUE(parseViewerCommand(R"({"type":"pause","paused":true})").ok());
+    EXPECT_TRUE(parseViewerCommand(R"({"type":"snapshot"})").ok());
+    EXPECT_TRUE(parseViewerCommand(R"({"type":"script"})").ok());
+    EXPECT_TRUE(parseViewerCommand(R"({"type":"ack","frame":12})").ok());
+    EXPECT_EQ(std::get<ViewerHello>(parseViewerCommand(R"({"type":"hello","token":"abc"})").command()).token, "abc");
+}
+
+TEST(ViewerCommand, RefusesMalformedControlsNamingWhatIsWrong) {
+    auto refused = [](const std::string& text, const std::string& mention) {
+        ViewerParse p = parseViewerCommand(text);
+        ASSERT_FALSE(p.ok()) << text;
+        EXPECT_NE(p.error().find(mention), std::string::npos) << text << " → " << p.error();
+    };
+    refused("not json", "not valid JSON");
+    refused("[1,2]", "JSON object");
+    refused(R"({"eye":[1,2,3]})", "type");
+    refused(R"({"type":"teleport"})", "unknown control type");
+    refused(R"({"type":"camera","eye":[1,"x",3]})", "eye");
+    refused(R"({"type":"camera","eye":[1,2]})", "3 numbers");
+    refused(R"({"type":"camera","yfov":1e999})", "not valid JSON");  // nlohmann refuses overflow
+    refused(R"({"type":"camera","eye":[1e300,0,0]})", "eye");
+    refused(R"({"type":"camera","yfov":4})", "yfov");
+    refused(R"({"type":"camera"})", "needs eye");
+    refused(R"({"type":"camera","eye":[0,0,0],"fov":1})", "unknown field \"fov\"");
+    refused(R"({"type":"light","position":[0,0,0]})", "index");
+    refused(R"({"type":"light","index":-1,"position":[0,0,0]})", "index");
+    refused(R"({"type":"light","index":0.5,"position":[0,0,0]})", "integer");
+    refused(R"({"type":"light","index":0,"intensity":[-1,0,0]})", "intensity");
+    refused(R"({"type":"material","index":0,"color":[2,0,0]})", "color");
+    refused(R"({"type":"material","index":0,"ior":0.5})", "ior");
+    refused(R"({"type":"settings","M":0})", "\"M\"");
+    refused(R"({"type":"settings","P":100000000})", "\"P\"");
+    refused(R"({"type":"settings","tree":"oak"})", "tree");
+    refused(R"({"type":"display","layer":"depth","exposure":0})", "layer");
+    refused(R"({"type":"display","layer":"final","exposure":99})", "exposure");
+    refused(R"({"type":"pause","paused":"yes"})", "paused");
+    refused(R"({"type":"hello","token":5})", "token");
+    refused(std::string(kMaxViewerMessageBytes + 1, ' '), "limit");
+}
+
+}  // namespace
+}  // namespace rtpm::server
