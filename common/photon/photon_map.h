@@ -9,25 +9,10 @@
 
 #include "common/core/render_settings.h"
 #include "common/trace/caustic_estimator.h"
-#include "common/photon/kd_tree.h"
-#include "common/photon/median_kd_tree.h"
-#include "common/photon/photon_grid.h"
+#include "common/photon/photon_index.h"
 #include "common/photon/photon_tracer.h"
 
 namespace rtpm {
-
-/// Uniform-grid resolution (cells along the photons' largest extent) for `photons` photons whose
-/// bounding box has sides `extent` (m), k photons per estimate and gather radius rMax (m):
-///  * cells no larger than rMax, so a query's initial search sphere overlaps at most 3 cells
-///    per axis (resolution ≥ extent / rMax);
-///  * and no larger than where a cell would hold about k photons if they covered one face of the
-///    bounds evenly (resolution ≥ √(photons / k)): caustic photons lie on surfaces, so a
-///    per-area count is the right measure, and k photons per cell keeps the scan near k;
-///  * at most PhotonGrid::kMaxResolution, and reduced until the cell table (4 B per cell) holds
-///    at most max(2 · photons, 4096) cells, so the table never costs more than 40 % of the
-///    photons' own memory (20 B each).
-/// Returns 1 … kMaxResolution. Pure function, O(kMaxResolution).
-uint32_t gridResolution(uint64_t photons, Vec3 extent, uint32_t k, float rMax);
 
 /// A set stops shooting after this many traced paths per capped photon (see capPhotons).
 inline constexpr uint64_t kCapPathsPerPhoton = 64;
@@ -68,6 +53,8 @@ struct PhotonSetStats {
 /// scene (a 1 mm scene with the same irradiance has 10⁻⁶ × the flux). Relative to the unit,
 /// stored values are below 2 and only SPT weights, absorption and colour make them smaller.
 /// Read photon powers in W through powerWatts() / storedPowerPerBatch(), never powerRgb().
+/// A batch runs in four stages per light: plan (the Halton indices and path power; SPT chooses
+/// them from the previous batch's outcomes), trace, weight (SPT refinement shares) and insert.
 /// Thread safety: `radiance` may be called concurrently; `shootBatch`, `reset` must not overlap
 /// any other call. `shootBatch` itself runs in parallel (TBB) and its result does not depend on
 /// the thread count.
@@ -92,9 +79,11 @@ public:
 
     /// Caustic radiance L_c = ρ/π · Σ Φ_p/(π r_k²) / batches at `hit` from `set`'s map
     /// (density.h causticRadiance with powerScale = powerUnit() / batches; photons from behind
-    /// `normal` are ignored). Zero for a set that is not owned or has no batch yet. Thread-safe;
-    /// a thread_local heap avoids allocation.
-    Vec3 radiance(uint32_t set, const SurfaceHit& hit, Vec3 normal, Vec3 albedo) const override;
+    /// `normal` are ignored). `scene` is the one the photons were shot in; it is read only with
+    /// settings().gatherVisibility (one shadow ray per gathered photon). Zero for a set that is
+    /// not owned or has no batch yet. Thread-safe; a thread_local heap avoids allocation.
+    Vec3 radiance(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
+                  Vec3 albedo) const override;
 
     const PhotonSettings& settings() const { return settings_; }
     /// Changes k (no reset needed: the stored photons do not depend on k).
@@ -102,12 +91,16 @@ public:
     const std::vector<uint32_t>& ownedSets() const { return ownedSets_; }
     /// Stats of an owned set. Precondition: `set` is owned.
     const PhotonSetStats& stats(uint32_t set) const;
-    /// The index of an owned set for the variant in use (settings().tree), or null before its
-    /// first batch or for the other variants. Precondition: `set` is owned.
-    /// Stored photon powers are in units of powerUnit().
-    const KdTree* tree(uint32_t set) const;
-    const MedianKdTree* medianTree(uint32_t set) const;
-    const PhotonGrid* grid(uint32_t set) const;
+    /// The index of an owned set if it is an `Index` (KdTree, MedianKdTree, PhotonGrid: the
+    /// variant settings().tree selects), else null; null before the set's first batch.
+    /// Precondition: `set` is owned. Stored photon powers are in units of powerUnit().
+    template <class Index>
+    const Index* index(uint32_t set) const {
+        const PhotonIndex* i = indexOf(set);
+        return i ? i->get<Index>() : nullptr;
+    }
+    /// The index of an owned set whatever its variant; null before its first batch.
+    const PhotonIndex* indexOf(uint32_t set) const;
     /// Copy of every photon of an owned set's map, any variant (powers in units of powerUnit()).
     /// O(photons); for tests and tools.
     std::vector<Photon> photons(uint32_t set) const;
@@ -125,9 +118,27 @@ public:
     float gatherRadius() const { return rMax_; }
 
 private:
+    struct LightSequence;
+    struct LightPlan;
     struct SetState;
     SetState* find(uint32_t set);
     const SetState* find(uint32_t set) const;
+
+    /// First batch after a reset: emitters, gather radius and power unit from `scene`.
+    void prepare(const EmbreeScene& scene);
+    /// Plan stage, first SPT batch only: traces one pilot period (not stored) to choose the
+    /// refine set; adds its cost to `traced`.
+    void probeRefineSet(const EmbreeScene& scene, const TraceSettings& ts, const PhotonSource& source,
+                        LightSequence& ls, TraceStats& traced) const;
+    /// Plan stage: the indices and path power of light `e`'s next batch (`budget` paths);
+    /// advances a plain sequence.
+    LightPlan planLight(LightSequence& ls, const Emitter& e, uint64_t budget) const;
+    /// Weight stage: members of refined SPT boxes share their box's power (× 1/(1+R)).
+    static void weightRefinedBoxes(const LightPlan& plan, const LightSequence& ls, TraceOutput& out);
+    /// The next batch's refine set from this batch's outcomes; advances an SPT sequence.
+    static void advanceLight(const LightPlan& plan, const TraceOutput& out, LightSequence& ls);
+    /// Traced photons → stored photons in units of powerUnit(), appended to `batch`.
+    void toStored(const TraceOutput& out, std::vector<Photon>& batch) const;
 
     PhotonSettings settings_;
     std::vector<uint32_t> ownedSets_;
@@ -135,7 +146,6 @@ private:
     std::vector<Emitter> emitters_;  ///< built at the first batch after a reset
     bool emittersReady_ = false;
     float rMax_ = 0.0f;
-    const EmbreeScene* scene_ = nullptr;  ///< of the last shootBatch, for gatherVisibility
     float powerUnit_ = 1.0f;
 };
 

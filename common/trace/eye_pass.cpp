@@ -226,7 +226,7 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, int width, const Came
                 const std::array<float, 3> rot{hashToUnit(h), hashToUnit(splitMix64(h + 1)), hashToUnit(splitMix64(h + 2))};
                 result.direct += path.throughput * directLight(ctx, hit, ns, ng, albedo, rot, count);
                 if (ctx.caustics)
-                    result.caustic += path.throughput * ctx.caustics->radiance(uint32_t(ctx.set), hit, ns, albedo);
+                    result.caustic += path.throughput * ctx.caustics->radiance(es, uint32_t(ctx.set), hit, ns, albedo);
                 break;
             }
             if (path.depth >= ctx.settings.maxDepth) break;

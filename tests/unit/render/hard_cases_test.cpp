@@ -335,7 +335,7 @@ TEST(HardCases, ThinWallLetsNoLightThrough) {
     uint64_t stored = 0;
     for (uint32_t set : job->sets()) {
         stored += job->photons().stats(set).photonsStored;
-        for (const Photon& p : job->photons().tree(set)->photons())
+        for (const Photon& p : job->photons().index<KdTree>(set)->photons())
             ASSERT_LT(p.position.x, 1e-3f) << "a photon went through the wall";
     }
     EXPECT_GT(stored, 0u);  // the slab does make a caustic on the lit side
@@ -348,7 +348,7 @@ TEST(HardCases, ThinWallLetsNoLightThrough) {
         hit.position = Vec3(x, 0.0f, 0.0f);
         hit.geometricNormal = hit.shadingNormal = Vec3(0, 1, 0);
         for (uint32_t set : job->sets())
-            EXPECT_EQ(job->photons().radiance(set, hit, Vec3(0, 1, 0), Vec3(0.5f)), Vec3(0.0f)) << "x = " << x;
+            EXPECT_EQ(job->photons().radiance(job->embree(), set, hit, Vec3(0, 1, 0), Vec3(0.5f)), Vec3(0.0f)) << "x = " << x;
     }
 }
 
@@ -371,12 +371,12 @@ TEST(HardCases, ThinWallCausticDoesNotLeakWithinGatherRadius) {
     dark.position = Vec3(0.005f, 0.0f, 0.0f);
     lit.position = Vec3(-0.005f, 0.0f, 0.0f);
     dark.geometricNormal = dark.shadingNormal = lit.geometricNormal = lit.shadingNormal = Vec3(0, 1, 0);
-    const float leaked = job->photons().radiance(0, dark, Vec3(0, 1, 0), Vec3(0.5f)).x;
-    const float beside = job->photons().radiance(0, lit, Vec3(0, 1, 0), Vec3(0.5f)).x;
+    const float leaked = job->photons().radiance(job->embree(), 0, dark, Vec3(0, 1, 0), Vec3(0.5f)).x;
+    const float beside = job->photons().radiance(job->embree(), 0, lit, Vec3(0, 1, 0), Vec3(0.5f)).x;
     EXPECT_EQ(leaked, 0.0f) << "lit side 1 cm away: " << beside;
     EXPECT_GT(beside, 0.0f);
-    EXPECT_EQ(beside, plainJob->photons().radiance(0, lit, Vec3(0, 1, 0), Vec3(0.5f)).x);
-    EXPECT_GT(plainJob->photons().radiance(0, dark, Vec3(0, 1, 0), Vec3(0.5f)).x, 0.0f)
+    EXPECT_EQ(beside, plainJob->photons().radiance(plainJob->embree(), 0, lit, Vec3(0, 1, 0), Vec3(0.5f)).x);
+    EXPECT_GT(plainJob->photons().radiance(plainJob->embree(), 0, dark, Vec3(0, 1, 0), Vec3(0.5f)).x, 0.0f)
         << "without the visibility test the leak this test guards against is expected";
 }
 
@@ -656,14 +656,14 @@ TEST(HardCases, KLargerThanPhotonCountUsesTheMaximumRadius) {
     ps.rMax = 0.5f;
     PhotonMaps maps(ps, {0});
     maps.shootBatch(es, 0);
-    const KdTree* tree = maps.tree(0);
+    const KdTree* tree = maps.index<KdTree>(0);
     ASSERT_NE(tree, nullptr);
     ASSERT_GT(tree->size(), 0u);
     ASSERT_LT(tree->size(), 4096u);
     SurfaceHit hit;
     hit.position = Vec3(0.0f);
     hit.geometricNormal = hit.shadingNormal = Vec3(0, 1, 0);
-    const Vec3 l = maps.radiance(0, hit, Vec3(0, 1, 0), Vec3(0.5f));
+    const Vec3 l = maps.radiance(es, 0, hit, Vec3(0, 1, 0), Vec3(0.5f));
     double flux = 0.0;
     for (const Photon& p : tree->photons())
         if (glm::length(p.position) < ps.rMax && glm::dot(p.incomingDir(), Vec3(0, 1, 0)) <= 0.0f)
