@@ -27,9 +27,10 @@ struct FramePlan {
 ///  * Epochs: frame 0 and every frame that carries scene edits start a new epoch (edits increment
 ///    the epoch number); all clients
 ///    reset their photon maps at it, and the plain round-robin deal is used (maps restart anyway).
-///  * Modes: the first frame of an epoch is Interaction; later frames are Walkthrough when asked
-///    for, or when every client with sets reported that it shot nothing (capped); otherwise
-///    Accumulate.
+///  * Modes: the first frame of an epoch is Interaction; with the progressive estimator a later
+///    frame whose camera equals the previous frame's is Converging (unless walkthrough was asked
+///    for); otherwise Walkthrough when asked for, or when every client with sets reported that it
+///    shot nothing (capped); otherwise Accumulate.
 ///  * Reassignment: clients joining or leaving within an epoch move as few sets as possible
 ///    (rebalance()); moved sets restart accumulation on their new owner.
 ///  * Pipelining: a client with `pipeline` frames outstanding is skipped (its sets shown with
@@ -37,12 +38,14 @@ struct FramePlan {
 /// Not thread-safe.
 class FramePolicy {
 public:
-    FramePolicy(uint32_t setCount, bool walkthrough, size_t pipeline, uint32_t evictAfter);
+    FramePolicy(uint32_t setCount, bool walkthrough, size_t pipeline, uint32_t evictAfter,
+                bool progressive = false);
 
     /// Plans frame `frame` (strictly increasing). `edited`: scene edits are sent with it.
-    /// `outstanding(id)`: frames sent to client id that it has not finished.
+    /// `outstanding(id)`: frames sent to client id that it has not finished. `cameraStill`: the
+    /// frame's camera equals the previous frame's.
     FramePlan plan(uint64_t frame, bool edited, const std::vector<ClientId>& joinOrder,
-                   const std::function<size_t(ClientId)>& outstanding);
+                   const std::function<size_t(ClientId)>& outstanding, bool cameraStill = false);
 
     /// A client joined or left: the next plan rebalances (within an epoch).
     void clientsChanged() { clientsChanged_ = true; }
@@ -68,6 +71,7 @@ private:
     };
     uint32_t setCount_;
     bool walkthrough_;
+    bool progressive_ = false;
     size_t pipeline_;
     uint32_t evictAfter_;
     Assignment assignment_;

@@ -10,6 +10,7 @@
 #include <deque>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <set>
 #include <stdexcept>
 
@@ -19,6 +20,7 @@
 #include "proto/net/connection.h"
 #include "server/client_registry.h"
 #include "server/frame_assembler.h"
+#include "common/image/image_io.h"
 #include "server/frame_policy.h"
 #include "server/handshake.h"
 #include "server/image_output.h"
@@ -33,12 +35,6 @@ constexpr size_t kPipeline = 2;
 /// Frames over which the per-frame fps figure is averaged.
 constexpr size_t kFpsWindow = 8;
 
-std::string framePath(const std::string& out, uint64_t frame, const char* ext) {
-    std::filesystem::path p(out);
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "_%05llu", static_cast<unsigned long long>(frame));
-    return (p.parent_path() / (p.stem().string() + buf + ext)).string();
-}
 
 ImageOutputOptions outputOptions(const MasterOptions& o) {
     ImageOutputOptions io;
@@ -83,6 +79,7 @@ struct Master::Impl : net::ConnectionHandler {
     std::set<std::shared_ptr<net::Connection>> connections;  // every peer, authenticated or not
     ClientRegistry registry;
     FramePolicy policy;
+    std::optional<proto::CameraState> previousCamera;  ///< of the last FrameBegin
     FrameAssembler assembler;
     std::map<uint64_t, FrameInfo> frameInfo;
     uint64_t nextFrame = 0;
@@ -102,7 +99,8 @@ struct Master::Impl : net::ConnectionHandler {
           pattern{opt.settings.width, opt.settings.height, opt.settings.interleave},
           setCount(static_cast<uint32_t>(opt.settings.interleave * opt.settings.interleave)),
           live(std::move(scene)),
-          policy(setCount, opt.walkthrough, kPipeline, static_cast<uint32_t>(std::max(1, opt.evictAfter))),
+          policy(setCount, opt.walkthrough, kPipeline, static_cast<uint32_t>(std::max(1, opt.evictAfter)),
+                 opt.settings.photons.estimator == CausticEstimatorKind::Progressive),
           assembler(setCount, opt.deadline),
           output(outputOptions(opt)) {
         validateSettings(opt.settings);
@@ -408,9 +406,11 @@ struct Master::Impl : net::ConnectionHandler {
             auto bytes = std::make_shared<const std::vector<uint8_t>>(proto::encode(proto::Edit{sceneVersion, e}));
             for (const auto& [id, c] : registry.clients()) c.connection->send(bytes);
         }
-        FramePlan plan = policy.plan(f, !edits.empty(), registry.joinOrder(),
-                                     [this](ClientId id) { return assembler.outstanding(id); });
         const proto::CameraState cam = bridge::toWire(live.camera());
+        const bool still = previousCamera && *previousCamera == cam;
+        previousCamera = cam;
+        FramePlan plan = policy.plan(f, !edits.empty(), registry.joinOrder(),
+                                     [this](ClientId id) { return assembler.outstanding(id); }, still);
         for (auto& [id, sets] : plan.sets)
             registry.find(id)->connection->send(
                 proto::FrameBegin{f, plan.epoch, sceneVersion, cam, plan.mode, std::move(sets)});
@@ -443,7 +443,7 @@ struct Master::Impl : net::ConnectionHandler {
         job.data = std::move(info.data);
         job.last = r.frame + 1 == static_cast<uint64_t>(opt.frames);
         if (!opt.out.empty() && opt.saveEvery > 0 && r.frame > 0 && r.frame % uint64_t(opt.saveEvery) == 0)
-            job.saveAs = framePath(opt.out, r.frame, ".exr");
+            job.saveAs = numberedPath(opt.out, r.frame, ".exr");
         ++summary.framesShown;
         if (!r.missing.empty()) ++summary.framesIncomplete;
         summary.seconds = std::chrono::duration<double>(now - startTime).count();

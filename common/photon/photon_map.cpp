@@ -59,6 +59,35 @@ bool hasCausticGenerator(const Scene& s) {
 
 float maxChannel(Vec3 v) { return std::max({v.x, v.y, v.z}); }
 
+// Visibility of a gathered photon from the shaded point (PhotonSettings::gatherVisibility): both
+// ends are lifted off their surfaces by the same distance, x along its normal, the photon back
+// along the direction it arrived from (the side of the surface it lies on). A ray between two
+// points of one plane then runs parallel to it, and a photon on the lit face of a
+// zero-thickness wall is seen from the lit side only. Always true when disabled.
+class VisibleFrom {
+public:
+    VisibleFrom(bool enabled, const EmbreeScene& scene, const SurfaceHit& hit, Vec3 normal)
+        : enabled_(enabled), scene_(scene) {
+        if (!enabled_) return;
+        origin_ = scene.offsetOrigin(hit.position, hit.geometricNormal, normal);
+        lift_ = glm::length(origin_ - hit.position);
+    }
+    bool operator()(const Photon& photon) const {
+        if (!enabled_) return true;
+        Ray ray;
+        ray.origin = origin_;
+        ray.dir = photon.position - lift_ * photon.incomingDir() - origin_;
+        ray.tMax = 1.0f;
+        return glm::dot(ray.dir, ray.dir) == 0.0f || !scene_.occluded(ray);
+    }
+
+private:
+    bool enabled_;
+    const EmbreeScene& scene_;
+    Vec3 origin_{0.0f};
+    float lift_ = 0.0f;
+};
+
 // SPT cell target of a light with `budget` paths per batch.
 uint64_t sptTarget(const PhotonSettings& settings, uint64_t budget) {
     return settings.sptCells > 0 ? settings.sptCells : std::max<uint64_t>(1, budget / 4);
@@ -150,6 +179,7 @@ struct PhotonMaps::LightPlan {
 struct PhotonMaps::SetState {
     uint32_t set = 0;
     std::optional<PhotonIndex> index;  // created at the first batch after a reset
+    std::optional<KdTree> pass;        // the last progressive pass's photons alone
     PhotonSetStats stats;
     std::vector<LightSequence> lights;
     bool capped = false;
@@ -318,6 +348,22 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     SetState* st = find(set);
     RTPM_CHECK(st != nullptr);
     if (st->capped) return;
+    insertBatch(*st, traceBatch(scene, *st));
+}
+
+void PhotonMaps::shootPass(const EmbreeScene& scene, uint32_t set) {
+    SetState* st = find(set);
+    RTPM_CHECK(st != nullptr);
+    std::vector<Photon> batch = traceBatch(scene, *st);
+    st->pass.emplace(scene.bounds());
+    st->pass->build(batch);
+    st->stats.passes += 1;
+    if (!st->capped) insertBatch(*st, std::move(batch));
+}
+
+std::vector<Photon> PhotonMaps::traceBatch(const EmbreeScene& scene, SetState& state) {
+    SetState* st = &state;
+    const uint32_t set = st->set;
     prepare(scene);
     if (!st->index) {
         st->index.emplace(settings_.tree, scene.bounds());
@@ -373,13 +419,6 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
         toStored(out, batch);
     }
 
-    // Insert.
-    const Clock::time_point t0 = Clock::now();
-    st->index->insert(batch, settings_.k, rMax_);
-    stats.photonsStored = st->index->size();
-    const double insertSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
-
-    stats.batches += 1;
     stats.pathsTraced += traced.paths;
     stats.productivePaths += traced.productivePaths;
     stats.raysCast += traced.rays;
@@ -391,14 +430,23 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     stats.samplingSeconds += traced.samplingSeconds;
     stats.rayCastSeconds += traced.rayCastSeconds;
     stats.interactionSeconds += traced.interactionSeconds;
-    stats.insertSeconds += insertSeconds;
+    // A scene without lights or without a caustic generator never produces photons.
+    if (emitters_.empty() || !causticPossible) st->capped = true;
+    return batch;
+}
 
+void PhotonMaps::insertBatch(SetState& state, std::vector<Photon> batch) {
+    SetState* st = &state;
+    PhotonSetStats& stats = st->stats;
+    const Clock::time_point t0 = Clock::now();
+    st->index->insert(batch, settings_.k, rMax_);
+    stats.photonsStored = st->index->size();
+    stats.insertSeconds += std::chrono::duration<double>(Clock::now() - t0).count();
+    stats.batches += 1;
     if (settings_.capPhotons > 0 &&
         (stats.photonsStored >= settings_.capPhotons ||
          stats.pathsTraced >= kCapPathsPerPhoton * settings_.capPhotons))
         st->capped = true;
-    // A scene without lights or without a caustic generator never produces photons.
-    if (emitters_.empty() || !causticPossible) st->capped = true;
 }
 
 Vec3 PhotonMaps::radiance(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
@@ -407,24 +455,33 @@ Vec3 PhotonMaps::radiance(const EmbreeScene& scene, uint32_t set, const SurfaceH
     if (!st || st->stats.batches == 0 || !st->index) return Vec3(0.0f);
     thread_local KnnHeap heap;
     const float scale = powerUnit_ / static_cast<float>(st->stats.batches);
+    const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
     return st->index->visit([&](const auto& index) {
-        if (!settings_.gatherVisibility)
-            return causticRadiance(index, hit.position, normal, albedo, settings_.k, rMax_, scale, heap);
-        // Both ends are lifted off their surfaces by the same distance: x along its normal, the
-        // photon back along the direction it arrived from (the side of the surface it lies on).
-        // A ray between two points of one plane then runs parallel to it, and a photon on the
-        // lit face of a zero-thickness wall is seen from the lit side only.
-        const Vec3 origin = scene.offsetOrigin(hit.position, hit.geometricNormal, normal);
-        const float lift = glm::length(origin - hit.position);
-        const auto visible = [&](const Photon& photon) {
-            Ray ray;
-            ray.origin = origin;
-            ray.dir = photon.position - lift * photon.incomingDir() - origin;
-            ray.tMax = 1.0f;
-            return glm::dot(ray.dir, ray.dir) == 0.0f || !scene.occluded(ray);
-        };
         return causticRadianceIf(index, hit.position, normal, albedo, settings_.k, rMax_, scale, heap, visible);
     });
+}
+
+DensityGather PhotonMaps::gatherMap(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
+                                    Vec3 normal) const {
+    const SetState* st = find(set);
+    if (!st || st->stats.batches == 0 || !st->index) return {};
+    thread_local KnnHeap heap;
+    const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
+    DensityGather g = st->index->visit([&](const auto& index) {
+        return gatherKnn(index, hit.position, normal, settings_.k, rMax_, heap, visible);
+    });
+    g.power *= powerUnit_ / static_cast<float>(st->stats.batches);
+    return g;
+}
+
+PassGather PhotonMaps::gatherPass(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
+                                  Vec3 normal, float radius2) const {
+    const SetState* st = find(set);
+    if (!st || !st->pass || st->pass->empty() || !(radius2 > 0.0f)) return {};
+    const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
+    RadiusSum<KdTree, VisibleFrom> sum(*st->pass, normal, radius2, visible);
+    st->pass->search(hit.position, sum);
+    return PassGather{sum.power * powerUnit_, sum.count};
 }
 
 }  // namespace rtpm

@@ -9,6 +9,7 @@
 
 #include "common/core/render_settings.h"
 #include "common/trace/caustic_estimator.h"
+#include "common/photon/density.h"
 #include "common/photon/photon_index.h"
 #include "common/photon/photon_tracer.h"
 
@@ -21,7 +22,8 @@ inline constexpr uint32_t kMaxSptRefinements = 64;
 
 /// Figures of one interleaving set's photon map since the last reset.
 struct PhotonSetStats {
-    uint32_t batches = 0;          ///< batches shot (the accumulation count)
+    uint32_t batches = 0;          ///< batches in the map (the accumulation count)
+    uint32_t passes = 0;           ///< progressive passes shot (shootPass), in the map or not
     uint64_t pathsTraced = 0;      ///< light paths traced: pilots, refinements, classification
     uint64_t productivePaths = 0;  ///< paths that stored ≥ 1 caustic photon
     uint64_t photonsStored = 0;    ///< photons in the map
@@ -43,6 +45,12 @@ struct PhotonSetStats {
         return pathsTraced ? static_cast<double>(productivePaths) / static_cast<double>(pathsTraced)
                            : 0.0;
     }
+};
+
+/// The photons of one progressive pass near a point: Σ power in W (of one batch) and count.
+struct PassGather {
+    Vec3 power{0.0f};
+    uint32_t count = 0;
 };
 
 /// One caustic photon map per owned interleaving set, grown batch by batch.
@@ -69,6 +77,11 @@ public:
     /// must not change between batches without a reset. No-op when the set reached its cap.
     /// Cost: O(photonsPerBatch · maxDepth) ray casts + O(stored · log) insertion.
     void shootBatch(const EmbreeScene& scene, uint32_t set);
+    /// A progressive pass of `set` (DESIGN §9): shoots its next batch even when the set is
+    /// capped, inserts it into the map unless capped, and keeps the batch alone as the set's
+    /// pass index (gatherPass), replacing the previous pass. Cost: the batch's tracing, an
+    /// O(b log b) build of the pass index, plus the insertion when not capped.
+    void shootPass(const EmbreeScene& scene, uint32_t set);
     /// Forgets every photon and restarts every set's sequence (scene edit: geometry, light,
     /// material). Settings changes other than k also need a reset.
     void reset();
@@ -84,6 +97,17 @@ public:
     /// not owned or has no batch yet. Thread-safe; a thread_local heap avoids allocation.
     Vec3 radiance(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
                   Vec3 albedo) const override;
+
+    /// The k-NN gather `radiance` makes, unconverted: power in W per batch (Σ stored power ×
+    /// powerUnit() / batches), r_k² and the photon count. Empty (radius2 = 0) when nothing can
+    /// be estimated. Thread-safe.
+    DensityGather gatherMap(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
+                            Vec3 normal) const;
+    /// The last pass's photons strictly within sqrt(radius2) of `hit` arriving from the front of
+    /// `normal` (and visible, with gatherVisibility): Σ power in W (one batch) and count.
+    /// Cost O(log b + found), independent of the map's size. Thread-safe.
+    PassGather gatherPass(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
+                          Vec3 normal, float radius2) const;
 
     const PhotonSettings& settings() const { return settings_; }
     /// Changes k (no reset needed: the stored photons do not depend on k).
@@ -124,6 +148,11 @@ private:
     SetState* find(uint32_t set);
     const SetState* find(uint32_t set) const;
 
+    /// Plan, trace and weight stages of `state`'s next batch (stored units); advances its
+    /// sequences and counters, but inserts nothing.
+    std::vector<Photon> traceBatch(const EmbreeScene& scene, SetState& state);
+    /// Insert stage: the batch into the set's map; updates the count and the cap.
+    void insertBatch(SetState& state, std::vector<Photon> batch);
     /// First batch after a reset: emitters, gather radius and power unit from `scene`.
     void prepare(const EmbreeScene& scene);
     /// Plan stage, first SPT batch only: traces one pilot period (not stored) to choose the

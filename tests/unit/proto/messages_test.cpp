@@ -55,7 +55,7 @@ TEST(Messages, HelloGoldenBytes) {
     auto bytes = encode(Hello{1, "tok", 8, "c1"});
     EXPECT_EQ(hex(bytes),
               "5254504d"   // magic 'RTPM'
-              "0100"       // version 1
+              "0200"       // version 2
               "0100"       // type Hello
               "00000000"   // flags
               "13000000"   // payload 19 bytes
@@ -68,7 +68,7 @@ TEST(Messages, HelloGoldenBytes) {
 TEST(Messages, FrameBeginGoldenBytes) {
     FrameBegin fb{5, 2, 3, {{1, 2, 3}, {0, 0, -1}, {0, 1, 0}, 0.5f}, FrameMode::Accumulate, {0, 7}};
     EXPECT_EQ(hex(encode(fb)),
-              "5254504d01000600" "00000000" "45000000"  // header, type 6, payload 69 bytes
+              "5254504d02000600" "00000000" "45000000"  // header, type 6, payload 69 bytes
               "0500000000000000"                        // frame 5
               "02000000" "03000000"                     // epoch 2, sceneVersion 3
               "0000803f" "00000040" "00004040"          // position (1, 2, 3)
@@ -128,7 +128,7 @@ TEST(Messages, FieldValidationRejectsBadValues) {
     CameraState wideCam;
     wideCam.yfov = 3.5f;
     reject(FrameBegin{1, 0, 0, wideCam, FrameMode::Interaction, {}}, ErrorCode::BadValue);
-    reject(FrameBegin{1, 0, 0, {}, static_cast<FrameMode>(3), {}}, ErrorCode::BadEnum);
+    reject(FrameBegin{1, 0, 0, {}, static_cast<FrameMode>(kMaxFrameMode + 1), {}}, ErrorCode::BadEnum);
     reject(Welcome{1, {4, 4}}, ErrorCode::BadValue);
     reject(Welcome{1, {kMaxSets}}, ErrorCode::BadValue);
     reject(Hello{1, std::string(kMaxTokenBytes + 1, 'x'), 1, ""}, ErrorCode::LengthTooLarge);
@@ -144,6 +144,14 @@ TEST(Messages, FieldValidationRejectsBadValues) {
     s = Settings{};
     s.encoding = static_cast<PixelEncoding>(9);
     reject(s, ErrorCode::BadEnum);
+    s = Settings{};
+    s.estimator = static_cast<CausticEstimator>(kMaxCausticEstimator + 1);
+    reject(s, ErrorCode::BadEnum);
+    s = Settings{};
+    s.progressiveAlpha = 1.0f;
+    reject(s, ErrorCode::BadValue);
+    s.progressiveAlpha = std::numeric_limits<float>::quiet_NaN();
+    reject(s, ErrorCode::NonFinite);
     reject(Scene{1, Scene::Source::Builtin, "", {}, {}}, ErrorCode::BadValue);
     reject(Scene{1, Scene::Source::Gltf, "ring", {1}, {}}, ErrorCode::BadValue);
     reject(Edit{1, MaterialEdit{0, MaterialKind::Diffuse, {2, 0, 0}, 1.5f, {}, {}}}, ErrorCode::BadValue);
@@ -155,7 +163,7 @@ TEST(Messages, FieldValidationRejectsBadValues) {
 
 TEST(Messages, FixedSizePayloadsHaveTheDocumentedSizes) {
     // PROTOCOL.md §5.5 and §5.9 state these sizes.
-    EXPECT_EQ(encode(Settings{}).size(), kHeaderBytes + 60);
+    EXPECT_EQ(encode(Settings{}).size(), kHeaderBytes + 65);
     EXPECT_EQ(encode(Stats{}).size(), kHeaderBytes + 52);
     EXPECT_EQ(encode(Edit{1, CameraEdit{}}).size(), kHeaderBytes + 4 + 41);
     EXPECT_EQ(encode(Edit{1, LightEdit{}}).size(), kHeaderBytes + 4 + 41);
