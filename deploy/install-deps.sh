@@ -13,6 +13,7 @@ packages=(
     libzstd-dev
     clang libclang-rt-14-dev
     python3 python3-matplotlib python3-numpy
+    povray  # tests/bench/pov_compare.py: the offline photon-mapping peer (issue 9)
     iproute2 procps
 )
 
