@@ -203,6 +203,7 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
         fd.encoding = enc.encoding;
         fd.pixelCount = uint32_t(sp->pixels.size());
         fd.pixels = std::move(enc.bytes);
+        fd.passes = sp->passes;
         out.data.push_back(std::move(fd));
     }
     encodeMs = msSince(te);

@@ -30,6 +30,7 @@ dev=(
     libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
     clang libclang-rt-14-dev
     python3 python3-matplotlib python3-numpy
+    povray  # tests/bench/pov_compare.py: the offline photon-mapping peer (issue 9)
     iproute2 procps
 )
 docker=(

@@ -100,6 +100,8 @@ void putPayload(Writer& w, const Settings& m) {
     w.u32(m.photonMaxDepth);
     w.u32(m.areaLightSamples);
     w.u8(m.gatherVisibility ? 1 : 0);
+    w.u8(static_cast<uint8_t>(m.estimator));
+    w.f32(m.progressiveAlpha);
 }
 void putPayload(Writer& w, const FrameBegin& m) {
     w.u64(m.frame);
@@ -115,6 +117,7 @@ void putPayload(Writer& w, const FrameData& m) {
     w.u8(static_cast<uint8_t>(m.encoding));
     w.u32(m.pixelCount);
     w.bytes(m.pixels);
+    w.u32(m.passes);
 }
 void putPayload(Writer& w, const Edit& m) {
     w.u32(m.sceneVersion);
@@ -319,6 +322,10 @@ void get(Reader& r, Settings& m) {
     r.u32(m.photonMaxDepth);
     r.u32(m.areaLightSamples);
     getBool(r, m.gatherVisibility, "settings.gatherVisibility");
+    getEnum8(r, m.estimator, kMaxCausticEstimator, "settings.estimator");
+    r.f32Finite(m.progressiveAlpha, "settings.progressiveAlpha");
+    if (r.ok() && !(m.progressiveAlpha > 0.0f && m.progressiveAlpha < 1.0f))
+        r.fail(ErrorCode::BadValue, "settings.progressiveAlpha not in (0, 1)");
     inRange(r, m.photonMaxDepth, 0, kMaxDepthLimit, "settings.photonMaxDepth");
     inRange(r, m.areaLightSamples, 1, kMaxAreaLightSamples, "settings.areaLightSamples");
     inRange(r, m.width, 1, kMaxImageSide, "settings.width");
@@ -357,6 +364,7 @@ void get(Reader& r, FrameData& m) {
     }
     std::span<const uint8_t> v;
     if (r.view(v, len, "frameData.pixels")) m.pixels.assign(v.begin(), v.end());
+    r.u32(m.passes);
 }
 void get(Reader& r, Edit& m) {
     r.u32(m.sceneVersion);
@@ -437,6 +445,7 @@ const char* frameModeName(FrameMode mode) {
         case FrameMode::Interaction: return "interaction";
         case FrameMode::Accumulate: return "accumulate";
         case FrameMode::Walkthrough: return "walkthrough";
+        case FrameMode::Converging: return "converging";
     }
     return "unknown";
 }

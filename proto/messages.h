@@ -121,6 +121,10 @@ struct Scene {
     bool operator==(const Scene&) const = default;
 };
 
+/// Caustic estimator (PhotonSettings::estimator). Append-only ids.
+enum class CausticEstimator : uint8_t { Progressive = 0, Knn = 1 };
+inline constexpr uint8_t kMaxCausticEstimator = 1;
+
 /// Photon-map structure a client uses. Append-only ids.
 enum class TreeVariant : uint8_t { MiddleSplitKdTree = 0, BalancedKdTree = 1, UniformGrid = 2 };
 inline constexpr uint8_t kMaxTreeVariant = 2;
@@ -147,12 +151,17 @@ struct Settings {
     uint32_t photonMaxDepth = 16;    ///< PhotonSettings::maxDepth: ray segments per photon path, ≤ kMaxDepthLimit
     uint32_t areaLightSamples = 4;   ///< EyeSettings::areaLightSamples, in [1, kMaxAreaLightSamples]
     bool gatherVisibility = false;   ///< PhotonSettings::gatherVisibility (u8 0/1)
+    // Appended in version 2: the caustic estimator (DESIGN §9).
+    CausticEstimator estimator = CausticEstimator::Progressive;  ///< PhotonSettings::estimator
+    float progressiveAlpha = 0.7f;   ///< PhotonSettings::progressiveAlpha, finite, in (0, 1)
     bool operator==(const Settings&) const = default;
 };
 
 /// Frame mode (DESIGN §2). Append-only ids.
-enum class FrameMode : uint8_t { Interaction = 0, Accumulate = 1, Walkthrough = 2 };
-inline constexpr uint8_t kMaxFrameMode = 2;
+/// Converging (version 2): camera and scene unchanged since the previous frame with the
+/// progressive estimator; clients run a progressive pass (shooting even when capped).
+enum class FrameMode : uint8_t { Interaction = 0, Accumulate = 1, Walkthrough = 2, Converging = 3 };
+inline constexpr uint8_t kMaxFrameMode = 3;
 
 /// Server → client: render `frame`. A client resets its photon maps when `epoch` changes.
 /// `sets` lists the sets to render this frame (a subset of, or equal to, the Welcome sets).
@@ -175,6 +184,9 @@ struct FrameData {
     PixelEncoding encoding = PixelEncoding::Rgb9e5;
     uint32_t pixelCount = 0;
     std::vector<uint8_t> pixels;
+    /// Progressive passes of the set's current progression (0 = a restart or the knn estimator);
+    /// the master weighs the set's own caustic against the box filter by it (version 2).
+    uint32_t passes = 0;
     bool operator==(const FrameData&) const = default;
 };
 

@@ -3,11 +3,14 @@
 
 namespace rtpm::server {
 
-FramePolicy::FramePolicy(uint32_t setCount, bool walkthrough, size_t pipeline, uint32_t evictAfter)
-    : setCount_(setCount), walkthrough_(walkthrough), pipeline_(pipeline), evictAfter_(evictAfter) {}
+FramePolicy::FramePolicy(uint32_t setCount, bool walkthrough, size_t pipeline, uint32_t evictAfter,
+                         bool progressive)
+    : setCount_(setCount), walkthrough_(walkthrough), pipeline_(pipeline), evictAfter_(evictAfter),
+      progressive_(progressive) {}
 
 FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<ClientId>& joinOrder,
-                            const std::function<size_t(ClientId)>& outstanding, bool cameraMoved) {
+                            const std::function<size_t(ClientId)>& outstanding, bool cameraMoved,
+                            bool cameraStill) {
     for (ClientId id : joinOrder) state_.try_emplace(id);
     bool newEpoch = frame == 0;
     if (edited) {
@@ -33,9 +36,11 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
     FramePlan p;
     p.frame = frame;
     p.epoch = epoch_;
-    p.mode = frame == epochStart_              ? proto::FrameMode::Interaction
-             : walkthrough_ || cameraMoved || allCapped ? proto::FrameMode::Walkthrough
-                                         : proto::FrameMode::Accumulate;
+    p.mode = frame == epochStart_                                ? proto::FrameMode::Interaction
+             : cameraMoved                                  ? proto::FrameMode::Walkthrough
+             : progressive_ && cameraStill && !walkthrough_ ? proto::FrameMode::Converging
+             : walkthrough_ || allCapped                    ? proto::FrameMode::Walkthrough
+                                                            : proto::FrameMode::Accumulate;
     p.owners = assignment_.owner;
     for (ClientId& o : p.owners)
         if (o != kNoClient && outstanding(o) >= pipeline_) o = kNoClient;

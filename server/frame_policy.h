@@ -27,8 +27,10 @@ struct FramePlan {
 ///  * Epochs: frame 0 and every frame that carries scene edits start a new epoch (edits increment
 ///    the epoch number); all clients
 ///    reset their photon maps at it, and the plain round-robin deal is used (maps restart anyway).
-///  * Modes: the first frame of an epoch is Interaction; later frames are Walkthrough when asked
-///    for, when the camera moved for that frame, or when every client with sets reported that it
+///  * Modes: the first frame of an epoch is Interaction; a frame for which the camera was moved
+///    (a viewer camera edit) is Walkthrough; with the progressive estimator a later frame whose
+///    camera equals the previous frame's is Converging (unless walkthrough was asked for);
+///    otherwise Walkthrough when asked for, or when every client with sets reported that it
 ///    shot nothing (capped); otherwise Accumulate.
 ///  * Reassignment: clients joining or leaving within an epoch move as few sets as possible
 ///    (rebalance()); moved sets restart accumulation on their new owner.
@@ -37,14 +39,17 @@ struct FramePlan {
 /// Not thread-safe.
 class FramePolicy {
 public:
-    FramePolicy(uint32_t setCount, bool walkthrough, size_t pipeline, uint32_t evictAfter);
+    FramePolicy(uint32_t setCount, bool walkthrough, size_t pipeline, uint32_t evictAfter,
+                bool progressive = false);
 
     /// Plans frame `frame` (strictly increasing). `edited`: scene edits (or settings that change
     /// photons) are sent with it. `cameraMoved`: the camera changed for it — photons are kept and
     /// the frame is a Walkthrough (no shooting while the view moves) unless it starts an epoch.
+    /// `cameraStill`: the frame's camera equals the previous frame's (progressive: Converging).
     /// `outstanding(id)`: frames sent to client id that it has not finished.
     FramePlan plan(uint64_t frame, bool edited, const std::vector<ClientId>& joinOrder,
-                   const std::function<size_t(ClientId)>& outstanding, bool cameraMoved = false);
+                   const std::function<size_t(ClientId)>& outstanding, bool cameraMoved = false,
+                   bool cameraStill = false);
 
     /// Changes M² (a settings change of M); the next plan deals the sets afresh. Call with no
     /// frame in flight and with `edited` set on the next plan (the maps restart).
@@ -77,6 +82,7 @@ private:
     };
     uint32_t setCount_;
     bool walkthrough_;
+    bool progressive_ = false;
     size_t pipeline_;
     uint32_t evictAfter_;
     Assignment assignment_;

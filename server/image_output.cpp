@@ -104,7 +104,8 @@ OutputResult ImageOutput::process(OutputJob& job) {
                                                                    ": bad pixel payload: " + errors[i]);
             continue;
         }
-        image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set]);
+        // The set's own caustic gets weight w(passes) against the box filter (frame_image.h).
+        image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set], causticOwnWeight(d.passes, opt_.filter));
     }
     image_.filterAndCompose(opt_.filter);
     result.masterMs = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();

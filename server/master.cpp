@@ -12,6 +12,7 @@
 #include <deque>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <set>
 #include <stdexcept>
 
@@ -22,6 +23,7 @@
 #include "proto/pixel_codec.h"
 #include "server/client_registry.h"
 #include "server/frame_assembler.h"
+#include "common/image/image_io.h"
 #include "server/frame_policy.h"
 #include "server/handshake.h"
 #include "server/image_output.h"
@@ -39,12 +41,6 @@ constexpr size_t kPipeline = 2;
 /// Frames over which the per-frame fps figure is averaged.
 constexpr size_t kFpsWindow = 8;
 
-std::string framePath(const std::string& out, uint64_t frame, const char* ext) {
-    std::filesystem::path p(out);
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "_%05llu", static_cast<unsigned long long>(frame));
-    return (p.parent_path() / (p.stem().string() + buf + ext)).string();
-}
 
 std::pair<std::string, uint16_t> parseHostPort(const std::string& s) {
     const size_t colon = s.rfind(':');
@@ -104,6 +100,7 @@ struct Master::Impl : net::ConnectionHandler {
     std::set<std::shared_ptr<net::Connection>> connections;  // every peer, authenticated or not
     ClientRegistry registry;
     FramePolicy policy;
+    std::optional<proto::CameraState> previousCamera;  ///< of the last FrameBegin
     FrameAssembler assembler;
     std::map<uint64_t, FrameInfo> frameInfo;
     uint64_t nextFrame = 0;
@@ -135,7 +132,8 @@ struct Master::Impl : net::ConnectionHandler {
           pattern{opt.settings.width, opt.settings.height, opt.settings.interleave},
           setCount(static_cast<uint32_t>(opt.settings.interleave * opt.settings.interleave)),
           live(std::move(scene)),
-          policy(setCount, opt.walkthrough, kPipeline, static_cast<uint32_t>(std::max(1, opt.evictAfter))),
+          policy(setCount, opt.walkthrough, kPipeline, static_cast<uint32_t>(std::max(1, opt.evictAfter)),
+                 opt.settings.photons.estimator == CausticEstimatorKind::Progressive),
           assembler(setCount, opt.deadline),
           output(outputOptionsWithViewer()) {
         validateSettings(opt.settings);
@@ -705,11 +703,14 @@ struct Master::Impl : net::ConnectionHandler {
             auto bytes = std::make_shared<const std::vector<uint8_t>>(proto::encode(proto::Edit{sceneVersion, e}));
             for (const auto& [id, c] : registry.clients()) c.connection->send(bytes);
         }
+        const proto::CameraState cam = bridge::toWire(live.camera());
+        const bool still = previousCamera && *previousCamera == cam;
+        previousCamera = cam;
         FramePlan plan = policy.plan(f, !edits.empty() || settingsChanged, registry.joinOrder(),
-                                     [this](ClientId id) { return assembler.outstanding(id); }, cameraMoved);
+                                     [this](ClientId id) { return assembler.outstanding(id); }, cameraMoved,
+                                     still && !cameraMoved);
         settingsChanged = false;
         cameraMoved = false;
-        const proto::CameraState cam = bridge::toWire(live.camera());
         for (auto& [id, sets] : plan.sets)
             registry.find(id)->connection->send(
                 proto::FrameBegin{f, plan.epoch, sceneVersion, cam, plan.mode, std::move(sets)});
@@ -745,7 +746,7 @@ struct Master::Impl : net::ConnectionHandler {
         FrameStatus status{r.frame, info.epoch, info.mode, job.fps, job.photonsPerSet, info.slowestStats,
                            info.slowest, job.arrived, job.owners};
         if (!opt.out.empty() && opt.saveEvery > 0 && r.frame > 0 && r.frame % uint64_t(opt.saveEvery) == 0)
-            job.saveAs = framePath(opt.out, r.frame, ".exr");
+            job.saveAs = numberedPath(opt.out, r.frame, ".exr");
         ++summary.framesShown;
         if (!r.missing.empty()) ++summary.framesIncomplete;
         summary.seconds = std::chrono::duration<double>(now - startTime).count();

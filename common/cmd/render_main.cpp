@@ -27,6 +27,7 @@ struct Options {
     std::string exportGlb;
     std::string csv;
     int frames = 10;
+    int saveEvery = 0;
     int threads = 0;
     bool plain = false;
     bool noDefaultLight = false;
@@ -60,6 +61,9 @@ int run(int argc, char** argv) {
     app.add_option("--light-intensity", o.lightIntensity, "intensity of --light in W/sr")->capture_default_str();
     auto* exp = app.add_option("--exposure", o.exposure, "PNG exposure in stops (default: automatic)");
     app.add_option("--export-glb", o.exportGlb, "write the scene as a .glb file and exit");
+    app.add_option("--save-every", o.saveEvery,
+                   "also write every n-th frame as <out>_<frame>.exr/.png, as rtpm-server does (0 = off)")
+        ->capture_default_str();
     app.add_option("--csv", o.csv, "append one line of figures per frame to this CSV file");
     try {
         app.parse(argc, argv);
@@ -122,16 +126,18 @@ int run(int argc, char** argv) {
         if (!csv) throw std::runtime_error("cannot open " + o.csv);
         if (fresh) std::fprintf(csv, "frame,mode,shoot_ms,eye_ms,filter_ms,total_ms,photons,paths\n");
     }
-    std::printf("%dx%d, M=%d (%d sets), F=%d, P=%u paths/set/frame, k=%u, %s, diffuse bounces %u\n", rs.width,
-                rs.height, rs.interleave, setCount, rs.filterSize(), rs.photons.photonsPerBatch, rs.photons.k,
-                rs.photons.selective ? "SPT" : "plain shooting", rs.photons.diffuseBounces);
+    std::printf("%dx%d, M=%d (%d sets), F=%d, P=%u paths/set/frame, k=%u, %s, diffuse bounces %u, %s estimator\n",
+                rs.width, rs.height, rs.interleave, setCount, rs.filterSize(), rs.photons.photonsPerBatch,
+                rs.photons.k, rs.photons.selective ? "SPT" : "plain shooting", rs.photons.diffuseBounces,
+                causticEstimatorName(rs.photons.estimator));
     std::printf("%5s %-11s %9s %9s %9s %9s %11s %11s %7s\n", "frame", "mode", "shoot_ms", "eye_ms", "filter_ms",
                 "total_ms", "photons", "paths", "yield");
     for (int f = 0; f < o.frames; ++f) {
         auto tf = std::chrono::steady_clock::now();
         FrameStats st = job.renderFrame(camera, true, pixels);
         auto tfilter = std::chrono::steady_clock::now();
-        for (const SetPixels& sp : pixels) image.scatter(pattern, sp.set, sp.pixels);
+        for (const SetPixels& sp : pixels)
+            image.scatter(pattern, sp.set, sp.pixels, causticOwnWeight(sp.passes, rs.filterSize()));
         image.filterAndCompose(rs.filterSize());
         auto tend = std::chrono::steady_clock::now();
         double filterMs = std::chrono::duration<double, std::milli>(tend - tfilter).count();
@@ -139,7 +145,9 @@ int run(int argc, char** argv) {
         uint64_t productive = 0;
         for (uint32_t s : sets) productive += job.photons().stats(s).productivePaths;
         double yield = st.pathsTraced ? double(productive) / double(st.pathsTraced) : 0.0;
-        const char* mode = st.pathsThisFrame ? (f == 0 ? "interaction" : "accumulate") : "walkthrough";
+        const char* mode = st.converging         ? "converging"
+                           : st.pathsThisFrame ? (f == 0 ? "interaction" : "accumulate")
+                                               : "walkthrough";
         std::printf("%5d %-11s %9.1f %9.1f %9.2f %9.1f %11llu %11llu %6.1f%%\n", f, mode, st.shootSeconds * 1e3,
                     st.eyeSeconds * 1e3, filterMs, totalMs, (unsigned long long)st.photonsStored,
                     (unsigned long long)st.pathsTraced, yield * 100.0);
@@ -147,6 +155,12 @@ int run(int argc, char** argv) {
             std::fprintf(csv, "%d,%s,%.3f,%.3f,%.3f,%.3f,%llu,%llu\n", f, mode, st.shootSeconds * 1e3,
                          st.eyeSeconds * 1e3, filterMs, totalMs, (unsigned long long)st.photonsStored,
                          (unsigned long long)st.pathsTraced);
+        if (o.saveEvery > 0 && f > 0 && f % o.saveEvery == 0) {
+            writeExr(numberedPath(outPath, uint64_t(f), ".exr"), image);
+            ToneMap frameTm;
+            if (o.exposureSet) frameTm.exposureStops = o.exposure;
+            writePng(numberedPath(outPath, uint64_t(f), ".png"), rs.width, rs.height, image.final(), frameTm);
+        }
         if (st.eye.nonFinite) std::fprintf(stderr, "warning: %llu non-finite pixel values replaced by 0\n",
                                            (unsigned long long)st.eye.nonFinite);
     }

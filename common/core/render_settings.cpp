@@ -30,6 +30,20 @@ const char* photonTreeName(PhotonTree tree) {
     return "?";
 }
 
+std::optional<CausticEstimatorKind> parseCausticEstimator(std::string_view name) {
+    if (name == "progressive") return CausticEstimatorKind::Progressive;
+    if (name == "knn") return CausticEstimatorKind::Knn;
+    return std::nullopt;
+}
+
+const char* causticEstimatorName(CausticEstimatorKind kind) {
+    switch (kind) {
+        case CausticEstimatorKind::Progressive: return "progressive";
+        case CausticEstimatorKind::Knn: return "knn";
+    }
+    return "?";
+}
+
 void validateSettings(const RenderSettings& s) {
     require(s.width >= 1 && s.width <= 16384, "width must be in [1, 16384], got " + std::to_string(s.width));
     require(s.height >= 1 && s.height <= 16384, "height must be in [1, 16384], got " + std::to_string(s.height));
@@ -46,6 +60,10 @@ void validateSettings(const RenderSettings& s) {
     require(std::isfinite(p.rMax) && p.rMax >= 0.0f, "r_max must be finite and >= 0 (0 = automatic)");
     require(p.diffuseBounces <= 8, "diffuse bounces must be at most 8");
     require(p.maxDepth >= 1 && p.maxDepth <= 64, "photon path depth must be in [1, 64]");
+    require(p.estimator == CausticEstimatorKind::Progressive || p.estimator == CausticEstimatorKind::Knn,
+            "estimator must be progressive or knn");
+    require(p.progressiveAlpha > 0.0f && p.progressiveAlpha < 1.0f,
+            "progressive alpha must be in (0, 1), got " + std::to_string(p.progressiveAlpha));
 }
 
 }  // namespace rtpm

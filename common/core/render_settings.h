@@ -28,6 +28,22 @@ enum class PhotonTree : uint8_t {
     UniformGrid = 2,
 };
 
+/// How caustic radiance is estimated (DESIGN §9).
+enum class CausticEstimatorKind : uint8_t {
+    /// Stochastic progressive photon mapping per pixel (Hachisuka & Jensen 2009) while camera and
+    /// scene stay still: every frame gathers a new photon batch within each pixel's shrinking
+    /// radius, and the image-space filter fades out (common/render/progressive.h). A frame after
+    /// a camera move or an edit answers from the accumulated map, as knn does. The default.
+    Progressive = 0,
+    /// The paper's estimate: k nearest photons of the accumulated map, then the F×F box filter
+    /// (fixed blur, no convergence). For reproducing the paper.
+    Knn = 1,
+};
+/// "progressive", "knn" → kind; nullopt otherwise.
+std::optional<CausticEstimatorKind> parseCausticEstimator(std::string_view name);
+/// Inverse of parseCausticEstimator.
+const char* causticEstimatorName(CausticEstimatorKind kind);
+
 /// "middle", "median", "grid" (as the --tree flags take them) → variant; nullopt otherwise.
 std::optional<PhotonTree> parsePhotonTree(std::string_view name);
 /// Inverse of parsePhotonTree.
@@ -72,6 +88,12 @@ struct PhotonSettings {
     /// (density.h), at the cost of k rays per estimate. Exact for planar receivers; on curved
     /// ones a chord below the surface can hide a photon. Off by default (the paper's estimate).
     bool gatherVisibility = false;
+    /// Caustic estimator (CausticEstimatorKind): progressive by default, knn for the paper.
+    CausticEstimatorKind estimator = CausticEstimatorKind::Progressive;
+    /// Progressive: fraction α of a pass's new photons kept in a pixel's count (Hachisuka &
+    /// Jensen 2009: R² shrinks by (N + αM)/(N + M)); in (0, 1). 0.7 is their recommended value:
+    /// smaller shrinks faster (less bias, more noise).
+    float progressiveAlpha = 0.7f;
 };
 
 /// Image, interleaving, filter, eye-pass and photon settings of one rendering job.

@@ -1,9 +1,18 @@
 // Frame assembly: scatter interleaved sets, box-filter the caustic buffer, compose the final image.
 #include "common/image/frame_image.h"
 
+#include <algorithm>
+
 #include "common/core/check.h"
 
 namespace rtpm {
+
+float causticOwnWeight(uint32_t passes, int filterSize) {
+    if (passes == 0) return 0.0f;
+    const double f2 = double(std::max(filterSize, 1)) * double(std::max(filterSize, 1));
+    if (f2 <= 1.0) return 1.0f;
+    return static_cast<float>(double(passes) / (double(passes) + f2));
+}
 
 FrameImage::FrameImage(int width, int height) : width_(width), height_(height) {
     RTPM_CHECK(width > 0 && height > 0);
@@ -12,10 +21,13 @@ FrameImage::FrameImage(int width, int height) : width_(width), height_(height) {
     caustic_.assign(n, 0.0f);
     causticFiltered_.assign(n, 0.0f);
     final_.assign(n, 0.0f);
+    ownWeight_.assign(size_t(width) * size_t(height), 0.0f);
 }
 
-void FrameImage::scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels) {
+void FrameImage::scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
+                         float ownWeight) {
     RTPM_CHECK(pattern.width == width_ && pattern.height == height_);
+    RTPM_CHECK(ownWeight >= 0.0f && ownWeight <= 1.0f);
     RTPM_CHECK(pixels.size() == size_t(pattern.pixelCount(set)));
     const int cols = pattern.setColumns(set);
     const int rows = pattern.setRows(set);
@@ -26,6 +38,7 @@ void FrameImage::scatter(const Interleave& pattern, int set, std::span<const Pix
         for (int c = 0; c < cols; ++c) {
             const PixelRadiance& p = pixels[size_t(r) * size_t(cols) + size_t(c)];
             const size_t o = (rowBase + size_t(x0 + c * pattern.m)) * 3;
+            ownWeight_[o / 3] = ownWeight;
             for (int k = 0; k < 3; ++k) {
                 direct_[o + k] = p.direct[k];
                 caustic_[o + k] = p.caustic[k];
@@ -36,7 +49,11 @@ void FrameImage::scatter(const Interleave& pattern, int set, std::span<const Pix
 
 void FrameImage::filterAndCompose(int f) {
     filter_.apply(caustic_, width_, height_, f, causticFiltered_);
-    for (size_t i = 0; i < final_.size(); ++i) final_[i] = direct_[i] + causticFiltered_[i];
+    for (size_t i = 0; i < final_.size(); ++i) {
+        const float w = ownWeight_[i / 3];
+        if (w > 0.0f) causticFiltered_[i] = w * caustic_[i] + (1.0f - w) * causticFiltered_[i];
+        final_[i] = direct_[i] + causticFiltered_[i];
+    }
 }
 
 }  // namespace rtpm

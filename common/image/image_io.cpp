@@ -310,4 +310,11 @@ float writePng(const std::string& path, int width, int height, std::span<const f
     return scale;
 }
 
+std::string numberedPath(const std::string& out, uint64_t frame, const char* ext) {
+    std::filesystem::path p(out);
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "_%05llu", static_cast<unsigned long long>(frame));
+    return (p.parent_path() / (p.stem().string() + buf + ext)).string();
+}
+
 }  // namespace rtpm

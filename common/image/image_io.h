@@ -39,6 +39,10 @@ void writeExr(const std::string& path, int width, int height, std::span<const Im
 /// caustic_filtered.* (the buffers of `frame`, which must have been composed).
 void writeExr(const std::string& path, const FrameImage& frame, bool half = false);
 
+/// The path of frame `frame`'s numbered copy of output `out`: `<dir>/<stem>_<frame, 5 digits><ext>`
+/// (rtpm-render and rtpm-server --save-every write the same names).
+std::string numberedPath(const std::string& out, uint64_t frame, const char* ext);
+
 /// A decoded image: every channel as its own plane of width·height floats, keyed by name.
 struct ExrImage {
     int width = 0;

@@ -57,6 +57,38 @@ private:
     Vec3 normal_;
 };
 
+/// The raw pieces of one k-NN gather (what causticRadianceIf turns into radiance and the
+/// progressive estimator takes as a pixel's starting state): Σ decoded stored power of the
+/// counted photons, the estimate's squared radius (r_k², clamped below; rMax² when fewer than k
+/// were found) and the number of photons counted.
+struct DensityGather {
+    Vec3 power{0.0f};
+    float radius2 = 0.0f;
+    uint32_t count = 0;
+};
+
+/// The gather of causticRadianceIf below, without turning it into radiance. radius2 = 0 when
+/// nothing can be estimated (empty index, k = 0, rMax ≤ 0, no photon found).
+template <class Index, class Visible>
+DensityGather gatherKnn(const Index& index, Vec3 x, Vec3 normal, uint32_t k, float rMax,
+                        KnnHeap& heap, const Visible& visible) {
+    DensityGather g;
+    if (index.size() == 0 || k == 0 || !(rMax > 0.0f)) return g;
+    const float maxDist2 = rMax * rMax;
+    heap.reset(k, maxDist2);
+    FrontFacingKnn<Index> policy(heap, index, normal);
+    index.search(x, policy);
+    if (heap.empty()) return g;
+    for (const KnnEntry& e : heap.entries())
+        if (visible(index.photon(e.index))) {
+            g.power += decodeRgb9e5(index.photonPower(e.index));
+            ++g.count;
+        }
+    const float rMin = kMinDensityRadiusRelative * index.bounds().diagonal();
+    g.radius2 = heap.full() ? std::max(heap.farthestDist2(), rMin * rMin) : maxDist2;
+    return g;
+}
+
 /// Caustic radiance (W/(m²·sr)) leaving a Lambertian point x with albedo ρ toward any direction:
 ///   L = ρ/π · Σ_p Φ_p·powerScale / (π r²)
 /// (Φ_p: the decoded stored power; PhotonMaps passes powerUnit / batches, so Φ_p·powerScale is
@@ -75,20 +107,37 @@ private:
 template <class Index, class Visible>
 Vec3 causticRadianceIf(const Index& index, Vec3 x, Vec3 normal, Vec3 albedo, uint32_t k, float rMax,
                        float powerScale, KnnHeap& heap, const Visible& visible) {
-    if (index.size() == 0 || k == 0 || !(rMax > 0.0f)) return Vec3(0.0f);
-    const float maxDist2 = rMax * rMax;
-    heap.reset(k, maxDist2);
-    FrontFacingKnn<Index> policy(heap, index, normal);
-    index.search(x, policy);
-    if (heap.empty()) return Vec3(0.0f);
-    Vec3 flux(0.0f);
-    for (const KnnEntry& e : heap.entries())
-        if (visible(index.photon(e.index))) flux += decodeRgb9e5(index.photonPower(e.index));
-    const float rMin = kMinDensityRadiusRelative * index.bounds().diagonal();
-    const float r2 = heap.full() ? std::max(heap.farthestDist2(), rMin * rMin) : maxDist2;
-    if (!(r2 > 0.0f)) return Vec3(0.0f);
-    return albedo * kInvPi * flux * (powerScale / (kPi * r2));
+    const DensityGather g = gatherKnn(index, x, normal, k, rMax, heap, visible);
+    if (!(g.radius2 > 0.0f)) return Vec3(0.0f);
+    return albedo * kInvPi * g.power * (powerScale / (kPi * g.radius2));
 }
+
+/// Result-set policy of a progressive pass: sums the decoded power and counts the photons
+/// strictly within a fixed radius that arrive from the front of `normal` and pass `visible`.
+/// O(1) per photon, no storage.
+template <class Index, class Visible>
+class RadiusSum {
+public:
+    RadiusSum(const Index& index, Vec3 normal, float radius2, const Visible& visible)
+        : index_(index), normal_(normal), radius2_(radius2), visible_(visible) {}
+    float worstDist2() const { return radius2_; }
+    void add(float dist2, uint32_t i) {
+        if (!(dist2 < radius2_)) return;
+        const Vec3 dir = decodeOctahedral(index_.photonIncoming(i));
+        if (dir.x * normal_.x + dir.y * normal_.y + dir.z * normal_.z > 0.0f) return;
+        if (!visible_(index_.photon(i))) return;
+        power += decodeRgb9e5(index_.photonPower(i));
+        ++count;
+    }
+    Vec3 power{0.0f};   ///< Σ decoded stored power
+    uint32_t count = 0; ///< photons counted
+
+private:
+    const Index& index_;
+    Vec3 normal_;
+    float radius2_;
+    const Visible& visible_;
+};
 
 /// The estimate above with every found photon counted (no visibility test).
 template <class Index>

@@ -12,6 +12,7 @@
 #include "common/core/check.h"
 #include "common/photon/knn.h"
 #include "common/photon/photon.h"
+#include "common/photon/photon_array.h"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -100,21 +101,6 @@ void searchKdNodes(const KdNode* nodes, Vec3 q, R& result, ScanLeaf&& scanLeaf) 
     }
 }
 
-/// Leaf scan over an array of Photon (MedianKdTree, reference layout).
-template <ResultSet R>
-float scanPhotons(const Photon* photons, uint32_t first, uint32_t end, Vec3 q, R& result,
-                  float worst) {
-    for (uint32_t i = first; i < end; ++i) {
-        const Vec3 d = photons[i].position - q;
-        const float d2 = d.x * d.x + d.y * d.y + d.z * d.z;
-        if (d2 < worst) {
-            result.add(d2, i);
-            worst = result.worstDist2();
-        }
-    }
-    return worst;
-}
-
 /// Power and direction of a photon, fetched only for photons a result set keeps.
 struct PhotonPayload {
     uint32_t power;     ///< RGB9E5
@@ -171,7 +157,7 @@ public:
     uint32_t partition(uint32_t first, uint32_t count, uint32_t axis, float split);
 
     /// Offers photons [first, end) to `result`; `worst` is its current bound. Distances are
-    /// computed as in scanPhotons (same operation order, so both give bit-identical dist2).
+    /// computed as in photon_array.h's scanPhotons (same operation order, so both give bit-identical dist2).
     template <ResultSet R>
     float scan(uint32_t first, uint32_t end, Vec3 q, R& result, float worst) const {
         const float* xs = x_.data();
@@ -334,18 +320,8 @@ public:
     /// Heap bytes held (photon and node arrays by capacity; no scratch survives a build/insert).
     size_t memoryBytes() const;
 
-    /// The k nearest photons strictly closer than sqrt(maxDist2) (m², may be +inf) into `heap`
-    /// (reset first, unsorted). No allocation once the heap has seen k. Thread-safe.
-    void knn(Vec3 q, uint32_t k, float maxDist2, KnnHeap& heap) const {
-        heap.reset(k, maxDist2);
-        search(q, heap);
-    }
-    /// Every photon strictly closer than sqrt(maxDist2) into `out` (cleared first, unsorted).
-    void radius(Vec3 q, float maxDist2, std::vector<KnnEntry>& out) const {
-        RadiusResultSet set(maxDist2, out);
-        search(q, set);
-    }
-    /// The generic traversal: feeds every photon that can beat `result.worstDist2()` to it.
+    /// The generic traversal: feeds every photon that can beat `result.worstDist2()` to it
+    /// (knn.h's knnSearch / radiusSearch drive it). Thread-safe.
     template <ResultSet R>
     void search(Vec3 q, R& result) const {
         if (photons_.size() == 0) return;

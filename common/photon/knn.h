@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "common/core/check.h"
+#include "common/core/math.h"
 
 namespace rtpm {
 
@@ -145,5 +146,22 @@ private:
 
 static_assert(ResultSet<KnnHeap>);
 static_assert(ResultSet<RadiusResultSet>);
+
+/// The k nearest photons of `index` (KdTree, MedianKdTree, PhotonGrid: anything with
+/// `search(q, resultSet)`) strictly closer than sqrt(maxDist2) (m², may be +inf) into `heap`
+/// (reset first, unsorted). No allocation once the heap has seen k. Thread-safe per heap.
+template <class Index>
+void knnSearch(const Index& index, Vec3 q, uint32_t k, float maxDist2, KnnHeap& heap) {
+    heap.reset(k, maxDist2);
+    index.search(q, heap);
+}
+
+/// Every photon of `index` strictly closer than sqrt(maxDist2) into `out` (cleared first,
+/// unsorted). Allocates only when `out` grows past its capacity.
+template <class Index>
+void radiusSearch(const Index& index, Vec3 q, float maxDist2, std::vector<KnnEntry>& out) {
+    RadiusResultSet set(maxDist2, out);
+    index.search(q, set);
+}
 
 }  // namespace rtpm

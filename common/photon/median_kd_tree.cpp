@@ -19,14 +19,7 @@ void MedianKdTree::clear() {
 
 void MedianKdTree::build(std::span<const Photon> photons) {
     clear();
-    photons_.reserve(photons.size());
-    for (const Photon& p : photons) {
-        const Vec3 x = p.position;
-        if (std::isfinite(x.x) && std::isfinite(x.y) && std::isfinite(x.z)) {
-            photons_.push_back(p);
-            bounds_.extend(x);
-        }
-    }
+    keepFinite(photons, photons_);
     RTPM_CHECK(photons_.size() <= KdNode::kMaxPayload);
     nodes_.clear();
     nodes_.reserve(2 * (photons_.size() / leafSize_ + 1));

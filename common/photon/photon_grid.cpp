@@ -20,14 +20,7 @@ void PhotonGrid::clear() {
 void PhotonGrid::build(std::span<const Photon> photons) {
     clear();
     std::vector<Photon> kept;
-    kept.reserve(photons.size());
-    for (const Photon& p : photons) {
-        const Vec3 x = p.position;
-        if (std::isfinite(x.x) && std::isfinite(x.y) && std::isfinite(x.z)) {
-            kept.push_back(p);
-            bounds_.extend(x);
-        }
-    }
+    keepFinite(photons, kept);
     if (kept.empty()) return;
     RTPM_CHECK(kept.size() < UINT32_MAX);
     const Vec3 e = bounds_.extent();

@@ -11,6 +11,7 @@
 
 #include "common/photon/knn.h"
 #include "common/photon/photon.h"
+#include "common/photon/photon_array.h"
 
 namespace rtpm {
 
@@ -20,9 +21,10 @@ namespace rtpm {
 /// search sphere, x and y centre-out, skipping rows and cells farther than the current k-th
 /// distance (the paper visits every cell within the maximum radius).
 /// Unlike the paper's grid, nothing stops it from being used with maxDist2 = +inf (it then
-/// visits every non-pruned cell). Same query API as KdTree; selected with `--tree grid`.
+/// visits every non-pruned cell). Same query API as KdTree; `--tree grid` selects it
+/// (PhotonIndex rebuilds it from all photons every batch).
 /// Thread safety: const members may run concurrently; build/clear need exclusive access.
-class PhotonGrid {
+class PhotonGrid : public detail::PhotonArray {
 public:
     static constexpr uint32_t kMaxResolution = 256;
 
@@ -34,25 +36,9 @@ public:
     void build(std::span<const Photon> photons);
     void clear();
 
-    size_t size() const { return photons_.size(); }
-    bool empty() const { return photons_.empty(); }
-    std::span<const Photon> photons() const { return photons_; }
-    Photon photon(uint32_t i) const { return photons_[i]; }
-    uint32_t photonIncoming(uint32_t i) const { return photons_[i].incoming; }
-    uint32_t photonPower(uint32_t i) const { return photons_[i].power; }
-    const Bounds& bounds() const { return bounds_; }
     std::array<uint32_t, 3> dims() const { return dims_; }
     size_t memoryBytes() const {
         return photons_.capacity() * sizeof(Photon) + first_.capacity() * sizeof(uint32_t);
-    }
-
-    void knn(Vec3 q, uint32_t k, float maxDist2, KnnHeap& heap) const {
-        heap.reset(k, maxDist2);
-        search(q, heap);
-    }
-    void radius(Vec3 q, float maxDist2, std::vector<KnnEntry>& out) const {
-        RadiusResultSet set(maxDist2, out);
-        search(q, set);
     }
 
     template <ResultSet R>
@@ -107,26 +93,17 @@ public:
                 const size_t row = (static_cast<size_t>(ix) * dims_[1] + iy) * dims_[2];
                 const uint32_t begin = first_[row + z0];
                 const uint32_t end = first_[row + z1 + 1];
-                for (uint32_t i = begin; i < end; ++i) {
-                    const Vec3 d = photons[i].position - q;
-                    const float d2 = d.x * d.x + d.y * d.y + d.z * d.z;
-                    if (d2 < worst) {
-                        result.add(d2, i);
-                        worst = result.worstDist2();
-                    }
-                }
+                detail::scanPhotons(photons, begin, end, q, result, worst);
             }
         }
     }
 
 private:
     uint32_t resolution_;
-    Bounds bounds_;
     float cellSize_ = 1.0f;
     float invCell_ = 1.0f;
     std::array<uint32_t, 3> dims_{1, 1, 1};
     std::vector<uint32_t> first_;  // cells + 1 entries
-    std::vector<Photon> photons_;
 };
 
 }  // namespace rtpm

@@ -22,6 +22,11 @@
 // it, and E[estimate] is the box's true caustic power for every box, in or out of D. D only
 // steers where the paths go (the variance), never the mean. The first batch after a reset has no
 // previous batch: it traces one extra pilot period for classification only (not stored).
+//
+// A batch runs in four stages per light (shootBatch): plan (which Halton indices, with which
+// path power: planLight, and on the first SPT batch the classification probe), trace
+// (tracePhotons), weight (weightRefinedBoxes, then the next batch's refine set: advanceLight),
+// and insert (toStored, PhotonIndex::insert).
 #include "common/photon/photon_map.h"
 
 #include <algorithm>
@@ -52,83 +57,132 @@ bool hasCausticGenerator(const Scene& s) {
     return false;
 }
 
-// The photons of `old` followed by `batch`: the input of a from-scratch rebuild.
-template <class Index>
-std::vector<Photon> withBatch(const Index* old, const std::vector<Photon>& batch) {
-    std::vector<Photon> all;
-    all.reserve((old ? old->size() : 0) + batch.size());
-    if (old) all.insert(all.end(), old->photons().begin(), old->photons().end());
-    all.insert(all.end(), batch.begin(), batch.end());
-    return all;
+float maxChannel(Vec3 v) { return std::max({v.x, v.y, v.z}); }
+
+// Visibility of a gathered photon from the shaded point (PhotonSettings::gatherVisibility): both
+// ends are lifted off their surfaces by the same distance, x along its normal, the photon back
+// along the direction it arrived from (the side of the surface it lies on). A ray between two
+// points of one plane then runs parallel to it, and a photon on the lit face of a
+// zero-thickness wall is seen from the lit side only. Always true when disabled.
+class VisibleFrom {
+public:
+    VisibleFrom(bool enabled, const EmbreeScene& scene, const SurfaceHit& hit, Vec3 normal)
+        : enabled_(enabled), scene_(scene) {
+        if (!enabled_) return;
+        origin_ = scene.offsetOrigin(hit.position, hit.geometricNormal, normal);
+        lift_ = glm::length(origin_ - hit.position);
+    }
+    bool operator()(const Photon& photon) const {
+        if (!enabled_) return true;
+        Ray ray;
+        ray.origin = origin_;
+        ray.dir = photon.position - lift_ * photon.incomingDir() - origin_;
+        ray.tMax = 1.0f;
+        return glm::dot(ray.dir, ray.dir) == 0.0f || !scene_.occluded(ray);
+    }
+
+private:
+    bool enabled_;
+    const EmbreeScene& scene_;
+    Vec3 origin_{0.0f};
+    float lift_ = 0.0f;
+};
+
+// SPT cell target of a light with `budget` paths per batch.
+uint64_t sptTarget(const PhotonSettings& settings, uint64_t budget) {
+    return settings.sptCells > 0 ? settings.sptCells : std::max<uint64_t>(1, budget / 4);
 }
 
-float maxChannel(Vec3 v) { return std::max({v.x, v.y, v.z}); }
+// The maps' power unit: the largest initial path power of any light's first batch (the plan is
+// the same for every set), rounded down to a power of two. A path's power never grows (mirrors
+// and glass reflect at most all of it, Russian roulette divides by the largest channel's
+// albedo), so stored values are < 2 units; SPT refinement weights (≥ 1/65), absorption and
+// colour only shrink them, and RGB9E5 keeps 2^-9 relative precision down to 2^-20 units
+// (photon.cpp) whatever the scene's scale in metres and watts.
+float choosePowerUnit(const std::vector<Emitter>& emitters, const PhotonSettings& settings) {
+    const std::vector<uint32_t> budget = splitBudget(emitters, settings.photonsPerBatch);
+    float largest = 0.0f;
+    for (size_t l = 0; l < emitters.size(); ++l) {
+        if (budget[l] == 0) continue;
+        float paths = static_cast<float>(budget[l]);
+        if (settings.selective) {
+            const DimLayout dims = dimLayout(emitters[l].kind, settings.diffuseBounces);
+            paths = static_cast<float>(makeSptGrid(dims.count, sptTarget(settings, budget[l])).cellCount);
+        }
+        largest = std::max(largest, maxChannel(emitters[l].flux) / paths);
+    }
+    if (!(largest > 0.0f) || !std::isfinite(largest)) return 1.0f;
+    int exp2 = 0;
+    std::frexp(largest, &exp2);  // largest = f · 2^exp2, f in [0.5, 1)
+    // Unit and 1/unit stay normal floats (so p / unit is exact and never overflows).
+    return std::ldexp(1.0f, std::clamp(exp2 - 1, -100, 100));
+}
 
 }  // namespace
 
-uint32_t gridResolution(uint64_t photons, Vec3 extent, uint32_t k, float rMax) {
-    const double maxExtent = std::max({double(extent.x), double(extent.y), double(extent.z)});
-    if (!(maxExtent > 0.0) || !std::isfinite(maxExtent)) return 1;
-    double res = 1.0;
-    if (rMax > 0.0f) res = std::max(res, std::ceil(maxExtent / double(rMax)));
-    if (k > 0) res = std::max(res, std::ceil(std::sqrt(double(photons) / double(k))));
-    uint32_t r = static_cast<uint32_t>(std::min(res, double(PhotonGrid::kMaxResolution)));
-    const double maxCells = std::max(2.0 * double(photons), 4096.0);
-    // Cell count as PhotonGrid::build computes it: ceil(side / cell) per axis, at least 1.
-    const auto cells = [&](uint32_t n) {
-        const double cell = maxExtent / double(n);
-        double c = 1.0;
-        for (int a = 0; a < 3; ++a) c *= std::clamp(std::ceil(double(extent[a]) / cell), 1.0, double(n));
-        return c;
-    };
-    while (r > 1 && cells(r) > maxCells) --r;
-    return r;
-}
+/// One light's sequence in one set: where its next batch starts, and (SPT) its box grid and the
+/// refine set D the previous batch chose.
+struct PhotonMaps::LightSequence {
+    Halton halton{0, 0};
+    uint64_t stream = 0;
+    uint32_t budget = 0;
+    DimLayout dims;
+    SptGrid grid;
+    std::vector<uint32_t> neighbours;
+    uint64_t nextIndex = 0;   // plain: first index of the next batch
+    uint64_t nextPeriod = 0;  // SPT: first period (in units of N_g) of the next batch
+    std::vector<uint8_t> refine;  // SPT: the refine set D for the next batch, per box
+    bool dilate = true;
 
-struct PhotonMaps::SetState {
-    struct LightState {
-        Halton halton{0, 0};
-        uint64_t stream = 0;
-        uint32_t budget = 0;
-        DimLayout dims;
-        SptGrid grid;
-        std::vector<uint32_t> neighbours;
-        uint64_t nextIndex = 0;   // plain: first index of the next batch
-        uint64_t nextPeriod = 0;  // SPT: first period (in units of N_g) of the next batch
-        std::vector<uint8_t> refine;  // SPT: the refine set D for the next batch, per box
-        bool dilate = true;
-    };
-    uint32_t set = 0;
-    // The one index of settings.tree; the others stay null.
-    std::unique_ptr<KdTree> tree;
-    std::unique_ptr<MedianKdTree> median;
-    std::unique_ptr<PhotonGrid> grid;
-    PhotonSetStats stats;
-    std::vector<LightState> lights;
-    bool planned = false;
-    bool capped = false;
+    LightSequence(uint32_t set, const Emitter& e, uint32_t budgetPaths, const PhotonSettings& s)
+        : stream(streamOf(set, e)), budget(budgetPaths), dims(dimLayout(e.kind, s.diffuseBounces)) {
+        halton = Halton(s.seed, stream);
+        if (s.selective && budget > 0) {
+            grid = makeSptGrid(dims.count, sptTarget(s, budget));
+            dilate = s.sptDilate;
+            if (dilate) neighbours = sptNeighbours(grid);
+        }
+    }
 
     // The refine set D for the next batch from this batch's outcomes: boxes with a productive
     // member (pilot i of N_g paths, then R refinements of each box in `refined`, in that order),
     // dilated by their face neighbours when enabled.
-    static std::vector<uint8_t> classify(const LightState& ls, const std::vector<uint32_t>& stored,
-                                         const std::vector<uint32_t>& refined, uint32_t r) {
-        const uint64_t ng = ls.grid.cellCount;
+    std::vector<uint8_t> classify(const std::vector<uint32_t>& stored,
+                                  const std::vector<uint32_t>& refined, uint32_t r) const {
+        const uint64_t ng = grid.cellCount;
         std::vector<uint8_t> hit(ng, 0);
         for (uint64_t i = 0; i < ng; ++i) hit[i] = stored[i] > 0;
         size_t path = ng;
         for (uint32_t cell : refined)
             for (uint32_t m = 0; m < r; ++m, ++path)
                 if (stored[path] > 0) hit[cell] = 1;
-        if (!ls.dilate) return hit;
+        if (!dilate) return hit;
         std::vector<uint8_t> out = hit;
-        const size_t fan = 2 * static_cast<size_t>(ls.grid.dims);
+        const size_t fan = 2 * static_cast<size_t>(grid.dims);
         for (uint64_t i = 0; i < ng; ++i) {
             if (!hit[i]) continue;
-            for (size_t j = 0; j < fan; ++j) out[ls.neighbours[i * fan + j]] = 1;
+            for (size_t j = 0; j < fan; ++j) out[neighbours[i * fan + j]] = 1;
         }
         return out;
     }
+};
+
+/// What one light traces in one batch (the plan stage's result).
+struct PhotonMaps::LightPlan {
+    std::vector<uint64_t> indices;  ///< Halton indices, in trace order
+    Vec3 powerPerPath{0.0f};        ///< initial power of every path (W, per batch)
+    uint64_t pilots = 0;            ///< SPT: N_g (indices[0, N_g) are the pilots); 0 plain
+    std::vector<uint32_t> refined;  ///< SPT: boxes of D, in the order their refinements follow
+    uint32_t refinements = 0;       ///< SPT: R per box of D
+};
+
+struct PhotonMaps::SetState {
+    uint32_t set = 0;
+    std::optional<PhotonIndex> index;  // created at the first batch after a reset
+    std::optional<KdTree> pass;        // the last progressive pass's photons alone
+    PhotonSetStats stats;
+    std::vector<LightSequence> lights;
+    bool capped = false;
 };
 
 PhotonMaps::PhotonMaps(const PhotonSettings& settings, std::vector<uint32_t> ownedSets)
@@ -183,32 +237,15 @@ const PhotonSetStats& PhotonMaps::stats(uint32_t set) const {
     return s->stats;
 }
 
-const KdTree* PhotonMaps::tree(uint32_t set) const {
+const PhotonIndex* PhotonMaps::indexOf(uint32_t set) const {
     const SetState* s = find(set);
     RTPM_CHECK(s != nullptr);
-    return s->tree.get();
-}
-
-const MedianKdTree* PhotonMaps::medianTree(uint32_t set) const {
-    const SetState* s = find(set);
-    RTPM_CHECK(s != nullptr);
-    return s->median.get();
-}
-
-const PhotonGrid* PhotonMaps::grid(uint32_t set) const {
-    const SetState* s = find(set);
-    RTPM_CHECK(s != nullptr);
-    return s->grid.get();
+    return s->index ? &*s->index : nullptr;
 }
 
 std::vector<Photon> PhotonMaps::photons(uint32_t set) const {
-    const SetState* s = find(set);
-    RTPM_CHECK(s != nullptr);
-    std::vector<Photon> out;
-    if (s->tree) out.assign(s->tree->photons().begin(), s->tree->photons().end());
-    if (s->median) out.assign(s->median->photons().begin(), s->median->photons().end());
-    if (s->grid) out.assign(s->grid->photons().begin(), s->grid->photons().end());
-    return out;
+    const PhotonIndex* index = indexOf(set);
+    return index ? index->photons() : std::vector<Photon>{};
 }
 
 Vec3 PhotonMaps::storedPowerPerBatch(uint32_t set) const {
@@ -220,67 +257,120 @@ Vec3 PhotonMaps::storedPowerPerBatch(uint32_t set) const {
     return Vec3(sum * (double(powerUnit_) / double(s->stats.batches)));
 }
 
+void PhotonMaps::prepare(const EmbreeScene& scene) {
+    if (emittersReady_) return;
+    emitters_ = buildEmitters(scene);
+    const float diag = scene.bounds().diagonal();
+    rMax_ = settings_.rMax > 0.0f ? settings_.rMax : 0.02f * (diag > 0.0f ? diag : 1.0f);
+    powerUnit_ = choosePowerUnit(emitters_, settings_);
+    emittersReady_ = true;
+}
+
+void PhotonMaps::probeRefineSet(const EmbreeScene& scene, const TraceSettings& ts,
+                                const PhotonSource& source, LightSequence& ls,
+                                TraceStats& traced) const {
+    const uint64_t ng = ls.grid.cellCount;
+    std::vector<uint64_t> indices(ng);
+    for (uint64_t i = 0; i < ng; ++i) indices[i] = ls.nextPeriod * ng + i;
+    PhotonSource src = source;
+    src.powerPerPath = source.emitter->flux / static_cast<float>(ng);
+    TraceOutput probe;
+    tracePhotons(scene, src, ts, indices, probe);
+    traced.add(probe.stats);
+    traced.productivePaths -= probe.stats.productivePaths;  // yield counts stored paths
+    ls.refine = ls.classify(probe.storedPerPath, {}, 0);
+    ls.nextPeriod += 1;
+}
+
+PhotonMaps::LightPlan PhotonMaps::planLight(LightSequence& ls, const Emitter& e,
+                                            uint64_t budget) const {
+    LightPlan plan;
+    if (!settings_.selective) {
+        plan.indices.resize(ls.budget);
+        for (uint32_t i = 0; i < ls.budget; ++i) plan.indices[i] = ls.nextIndex + i;
+        ls.nextIndex += ls.budget;
+        plan.powerPerPath = e.flux / static_cast<float>(ls.budget);
+        return plan;
+    }
+    const uint64_t ng = ls.grid.cellCount;
+    for (uint64_t i = 0; i < ng; ++i)
+        if (ls.refine[i]) plan.refined.push_back(static_cast<uint32_t>(i));
+    uint32_t r = 0;
+    if (!plan.refined.empty()) {
+        if (settings_.sptRefinements > 0) {
+            r = settings_.sptRefinements;
+        } else if (budget > ng) {
+            r = static_cast<uint32_t>(
+                std::min<uint64_t>(kMaxSptRefinements, (budget - ng) / plan.refined.size()));
+        }
+    }
+    const uint64_t base = ls.nextPeriod * ng;
+    plan.indices.resize(ng + plan.refined.size() * r);
+    for (uint64_t i = 0; i < ng; ++i) plan.indices[i] = base + i;
+    size_t j = ng;
+    for (uint32_t cell : plan.refined)
+        for (uint32_t m = 1; m <= r; ++m) plan.indices[j++] = base + m * ng + cell;
+    // Traced with Φ_l / N_g; weightRefinedBoxes scales the members of refined boxes by 1/(1+R).
+    plan.powerPerPath = e.flux / static_cast<float>(ng);
+    plan.pilots = ng;
+    plan.refinements = r;
+    return plan;
+}
+
+void PhotonMaps::weightRefinedBoxes(const LightPlan& plan, const LightSequence& ls,
+                                    TraceOutput& out) {
+    if (plan.pilots == 0 || plan.refinements == 0) return;
+    const float memberScale = 1.0f / static_cast<float>(1 + plan.refinements);
+    size_t photon = 0;
+    for (size_t path = 0; path < plan.indices.size(); ++path) {
+        const uint32_t count = out.storedPerPath[path];
+        const bool inRefined = path >= plan.pilots || ls.refine[path];
+        if (inRefined)
+            for (uint32_t q = 0; q < count; ++q) out.photons[photon + q].power *= memberScale;
+        photon += count;
+    }
+    RTPM_CHECK(photon == out.photons.size());
+}
+
+void PhotonMaps::advanceLight(const LightPlan& plan, const TraceOutput& out, LightSequence& ls) {
+    if (plan.pilots == 0) return;  // plain: planLight already advanced the index
+    ls.refine = ls.classify(out.storedPerPath, plan.refined, plan.refinements);
+    ls.nextPeriod += 1 + plan.refinements;
+}
+
+void PhotonMaps::toStored(const TraceOutput& out, std::vector<Photon>& batch) const {
+    batch.reserve(batch.size() + out.photons.size());
+    for (const TracedPhoton& p : out.photons)  // exact: powerUnit_ is a power of two
+        batch.push_back(Photon::make(p.position, p.power / powerUnit_, p.incoming));
+}
+
 void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     SetState* st = find(set);
     RTPM_CHECK(st != nullptr);
-    scene_ = &scene;
     if (st->capped) return;
-    if (!emittersReady_) {
-        emitters_ = buildEmitters(scene);
-        const float diag = scene.bounds().diagonal();
-        rMax_ = settings_.rMax > 0.0f ? settings_.rMax : 0.02f * (diag > 0.0f ? diag : 1.0f);
-        // The power unit: the largest initial path power of the first batch (the plan below is
-        // the same for every set), rounded down to a power of two. A path's power never grows
-        // (mirrors and glass reflect at most all of it, Russian roulette divides by the largest
-        // channel's albedo), so stored values are < 2 units; SPT refinement weights (≥ 1/65),
-        // absorption and colour only shrink them, and RGB9E5 keeps 2^-9 relative precision
-        // down to 2^-20 units (photon.cpp) whatever the scene's scale in metres and watts.
-        const std::vector<uint32_t> budget = splitBudget(emitters_, settings_.photonsPerBatch);
-        float largest = 0.0f;
-        for (size_t l = 0; l < emitters_.size(); ++l) {
-            if (budget[l] == 0) continue;
-            float paths = static_cast<float>(budget[l]);
-            if (settings_.selective) {
-                const DimLayout dims = dimLayout(emitters_[l].kind, settings_.diffuseBounces);
-                const uint64_t target = settings_.sptCells > 0 ? settings_.sptCells
-                                                               : std::max<uint64_t>(1, budget[l] / 4);
-                paths = static_cast<float>(makeSptGrid(dims.count, target).cellCount);
-            }
-            largest = std::max(largest, maxChannel(emitters_[l].flux) / paths);
-        }
-        powerUnit_ = 1.0f;
-        if (largest > 0.0f && std::isfinite(largest)) {
-            int exp2 = 0;
-            std::frexp(largest, &exp2);  // largest = f · 2^exp2, f in [0.5, 1)
-            // Unit and 1/unit stay normal floats (so p / unit is exact and never overflows).
-            powerUnit_ = std::ldexp(1.0f, std::clamp(exp2 - 1, -100, 100));
-        }
-        emittersReady_ = true;
-    }
-    if (!st->planned) {
-        switch (settings_.tree) {
-            case PhotonTree::MiddleSplit: st->tree = std::make_unique<KdTree>(scene.bounds()); break;
-            case PhotonTree::MedianBalanced: st->median = std::make_unique<MedianKdTree>(); break;
-            case PhotonTree::UniformGrid: st->grid = std::make_unique<PhotonGrid>(); break;
-        }
+    insertBatch(*st, traceBatch(scene, *st));
+}
+
+void PhotonMaps::shootPass(const EmbreeScene& scene, uint32_t set) {
+    SetState* st = find(set);
+    RTPM_CHECK(st != nullptr);
+    std::vector<Photon> batch = traceBatch(scene, *st);
+    st->pass.emplace(scene.bounds());
+    st->pass->build(batch);
+    st->stats.passes += 1;
+    if (!st->capped) insertBatch(*st, std::move(batch));
+}
+
+std::vector<Photon> PhotonMaps::traceBatch(const EmbreeScene& scene, SetState& state) {
+    SetState* st = &state;
+    const uint32_t set = st->set;
+    prepare(scene);
+    if (!st->index) {
+        st->index.emplace(settings_.tree, scene.bounds());
         const std::vector<uint32_t> budget = splitBudget(emitters_, settings_.photonsPerBatch);
         st->lights.clear();
-        for (size_t l = 0; l < emitters_.size(); ++l) {
-            SetState::LightState ls;
-            ls.stream = streamOf(set, emitters_[l]);
-            ls.halton = Halton(settings_.seed, ls.stream);
-            ls.budget = budget[l];
-            ls.dims = dimLayout(emitters_[l].kind, settings_.diffuseBounces);
-            if (settings_.selective && ls.budget > 0) {
-                const uint64_t target = settings_.sptCells > 0 ? settings_.sptCells
-                                                               : std::max<uint64_t>(1, ls.budget / 4);
-                ls.grid = makeSptGrid(ls.dims.count, target);
-                ls.dilate = settings_.sptDilate;
-                if (ls.dilate) ls.neighbours = sptNeighbours(ls.grid);
-            }
-            st->lights.push_back(std::move(ls));
-        }
-        st->planned = true;
+        for (size_t l = 0; l < emitters_.size(); ++l)
+            st->lights.emplace_back(set, emitters_[l], budget[l], settings_);
     }
 
     // Without a mirror or dielectric no path can store a photon: the batch traces nothing and the
@@ -297,9 +387,8 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     std::vector<Photon> batch;
     uint64_t cellsTotal = 0, refinedTotal = 0;
     uint32_t maxR = 0;
-    std::vector<uint64_t> indices;
     for (size_t l = 0; l < emitters_.size(); ++l) {
-        SetState::LightState& ls = st->lights[l];
+        LightSequence& ls = st->lights[l];
         if (ls.budget == 0 || !causticPossible) continue;
         const Emitter& e = emitters_[l];
         PhotonSource src;
@@ -307,98 +396,29 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
         src.halton = &ls.halton;
         src.hashStream = ls.stream;
         src.dims = ls.dims;
+        // Plan: the first SPT batch after a reset spends N_g paths on a classification probe.
+        uint64_t budget = ls.budget;
+        if (settings_.selective && ls.refine.empty()) {
+            probeRefineSet(scene, ts, src, ls, traced);
+            budget = budget > ls.grid.cellCount ? budget - ls.grid.cellCount : 0;
+        }
+        const LightPlan plan = planLight(ls, e, budget);
+        // Trace.
+        src.powerPerPath = plan.powerPerPath;
         TraceOutput out;
-        if (!settings_.selective) {
-            indices.resize(ls.budget);
-            for (uint32_t i = 0; i < ls.budget; ++i) indices[i] = ls.nextIndex + i;
-            ls.nextIndex += ls.budget;
-            src.powerPerPath = e.flux / static_cast<float>(ls.budget);
-            tracePhotons(scene, src, ts, indices, out);
-        } else {
-            const uint64_t ng = ls.grid.cellCount;
-            uint64_t budget = ls.budget;
-            if (ls.refine.empty()) {
-                // First batch: classify with a pilot period of its own (not stored).
-                indices.resize(ng);
-                for (uint64_t i = 0; i < ng; ++i) indices[i] = ls.nextPeriod * ng + i;
-                src.powerPerPath = e.flux / static_cast<float>(ng);
-                TraceOutput probe;
-                tracePhotons(scene, src, ts, indices, probe);
-                traced.add(probe.stats);
-                traced.productivePaths -= probe.stats.productivePaths;  // yield counts stored paths
-                ls.refine = SetState::classify(ls, probe.storedPerPath, {}, 0);
-                ls.nextPeriod += 1;
-                budget = budget > ng ? budget - ng : 0;
-            }
-            std::vector<uint32_t> refined;
-            for (uint64_t i = 0; i < ng; ++i)
-                if (ls.refine[i]) refined.push_back(static_cast<uint32_t>(i));
-            uint32_t r = 0;
-            if (!refined.empty()) {
-                if (settings_.sptRefinements > 0) {
-                    r = settings_.sptRefinements;
-                } else if (budget > ng) {
-                    r = static_cast<uint32_t>(
-                        std::min<uint64_t>(kMaxSptRefinements, (budget - ng) / refined.size()));
-                }
-            }
-            const uint64_t base = ls.nextPeriod * ng;
-            indices.resize(ng + refined.size() * r);
-            for (uint64_t i = 0; i < ng; ++i) indices[i] = base + i;
-            size_t j = ng;
-            for (uint32_t cell : refined)
-                for (uint32_t m = 1; m <= r; ++m) indices[j++] = base + m * ng + cell;
-            // Trace with Φ_l / N_g, then scale the members of refined boxes by 1 / (1+R).
-            src.powerPerPath = e.flux / static_cast<float>(ng);
-            tracePhotons(scene, src, ts, indices, out);
-            const float memberScale = 1.0f / static_cast<float>(1 + r);
-            size_t photon = 0;
-            for (size_t path = 0; path < indices.size(); ++path) {
-                const uint32_t count = out.storedPerPath[path];
-                const bool inRefined = path >= ng || ls.refine[path];
-                if (inRefined && r > 0)
-                    for (uint32_t q = 0; q < count; ++q) out.photons[photon + q].power *= memberScale;
-                photon += count;
-            }
-            RTPM_CHECK(photon == out.photons.size());
-            ls.refine = SetState::classify(ls, out.storedPerPath, refined, r);
-            ls.nextPeriod += 1 + r;
-            cellsTotal += ng;
-            refinedTotal += refined.size();
-            maxR = std::max(maxR, r);
+        tracePhotons(scene, src, ts, plan.indices, out);
+        // Weight, and choose the next batch's refine set from this batch's outcomes.
+        weightRefinedBoxes(plan, ls, out);
+        advanceLight(plan, out, ls);
+        if (plan.pilots > 0) {
+            cellsTotal += plan.pilots;
+            refinedTotal += plan.refined.size();
+            maxR = std::max(maxR, plan.refinements);
         }
         traced.add(out.stats);
-        batch.reserve(batch.size() + out.photons.size());
-        for (const TracedPhoton& p : out.photons)  // exact: powerUnit_ is a power of two
-            batch.push_back(Photon::make(p.position, p.power / powerUnit_, p.incoming));
+        toStored(out, batch);
     }
 
-    const Clock::time_point t0 = Clock::now();
-    switch (settings_.tree) {
-        case PhotonTree::MiddleSplit:
-            st->tree->insert(batch);
-            stats.photonsStored = st->tree->size();
-            break;
-        case PhotonTree::MedianBalanced: {
-            const std::vector<Photon> all = withBatch(st->median.get(), batch);
-            st->median->build(all);
-            stats.photonsStored = st->median->size();
-            break;
-        }
-        case PhotonTree::UniformGrid: {
-            const std::vector<Photon> all = withBatch(st->grid.get(), batch);
-            Bounds b;
-            for (const Photon& p : all) b.extend(p.position);
-            const uint32_t res = all.empty() ? 1 : gridResolution(all.size(), b.extent(), settings_.k, rMax_);
-            st->grid = std::make_unique<PhotonGrid>(res);
-            st->grid->build(all);
-            stats.photonsStored = st->grid->size();
-            break;
-        }
-    }
-    const double insertSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
-
-    stats.batches += 1;
     stats.pathsTraced += traced.paths;
     stats.productivePaths += traced.productivePaths;
     stats.raysCast += traced.rays;
@@ -410,43 +430,58 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     stats.samplingSeconds += traced.samplingSeconds;
     stats.rayCastSeconds += traced.rayCastSeconds;
     stats.interactionSeconds += traced.interactionSeconds;
-    stats.insertSeconds += insertSeconds;
+    // A scene without lights or without a caustic generator never produces photons.
+    if (emitters_.empty() || !causticPossible) st->capped = true;
+    return batch;
+}
 
+void PhotonMaps::insertBatch(SetState& state, std::vector<Photon> batch) {
+    SetState* st = &state;
+    PhotonSetStats& stats = st->stats;
+    const Clock::time_point t0 = Clock::now();
+    st->index->insert(batch, settings_.k, rMax_);
+    stats.photonsStored = st->index->size();
+    stats.insertSeconds += std::chrono::duration<double>(Clock::now() - t0).count();
+    stats.batches += 1;
     if (settings_.capPhotons > 0 &&
         (stats.photonsStored >= settings_.capPhotons ||
          stats.pathsTraced >= kCapPathsPerPhoton * settings_.capPhotons))
         st->capped = true;
-    // A scene without lights or without a caustic generator never produces photons.
-    if (emitters_.empty() || !causticPossible) st->capped = true;
 }
 
-Vec3 PhotonMaps::radiance(uint32_t set, const SurfaceHit& hit, Vec3 normal, Vec3 albedo) const {
+Vec3 PhotonMaps::radiance(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
+                          Vec3 normal, Vec3 albedo) const {
     const SetState* st = find(set);
-    if (!st || st->stats.batches == 0) return Vec3(0.0f);
+    if (!st || st->stats.batches == 0 || !st->index) return Vec3(0.0f);
     thread_local KnnHeap heap;
     const float scale = powerUnit_ / static_cast<float>(st->stats.batches);
-    const auto estimate = [&](const auto& index) {
-        if (!settings_.gatherVisibility || !scene_)
-            return causticRadiance(index, hit.position, normal, albedo, settings_.k, rMax_, scale, heap);
-        // Both ends are lifted off their surfaces by the same distance: x along its normal, the
-        // photon back along the direction it arrived from (the side of the surface it lies on).
-        // A ray between two points of one plane then runs parallel to it, and a photon on the
-        // lit face of a zero-thickness wall is seen from the lit side only.
-        const Vec3 origin = scene_->offsetOrigin(hit.position, hit.geometricNormal, normal);
-        const float lift = glm::length(origin - hit.position);
-        const auto visible = [&](const Photon& photon) {
-            Ray ray;
-            ray.origin = origin;
-            ray.dir = photon.position - lift * photon.incomingDir() - origin;
-            ray.tMax = 1.0f;
-            return glm::dot(ray.dir, ray.dir) == 0.0f || !scene_->occluded(ray);
-        };
+    const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
+    return st->index->visit([&](const auto& index) {
         return causticRadianceIf(index, hit.position, normal, albedo, settings_.k, rMax_, scale, heap, visible);
-    };
-    if (st->tree) return estimate(*st->tree);
-    if (st->median) return estimate(*st->median);
-    if (st->grid) return estimate(*st->grid);
-    return Vec3(0.0f);
+    });
+}
+
+DensityGather PhotonMaps::gatherMap(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
+                                    Vec3 normal) const {
+    const SetState* st = find(set);
+    if (!st || st->stats.batches == 0 || !st->index) return {};
+    thread_local KnnHeap heap;
+    const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
+    DensityGather g = st->index->visit([&](const auto& index) {
+        return gatherKnn(index, hit.position, normal, settings_.k, rMax_, heap, visible);
+    });
+    g.power *= powerUnit_ / static_cast<float>(st->stats.batches);
+    return g;
+}
+
+PassGather PhotonMaps::gatherPass(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
+                                  Vec3 normal, float radius2) const {
+    const SetState* st = find(set);
+    if (!st || !st->pass || st->pass->empty() || !(radius2 > 0.0f)) return {};
+    const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
+    RadiusSum<KdTree, VisibleFrom> sum(*st->pass, normal, radius2, visible);
+    st->pass->search(hit.position, sum);
+    return PassGather{sum.power * powerUnit_, sum.count};
 }
 
 }  // namespace rtpm

@@ -9,25 +9,11 @@
 
 #include "common/core/render_settings.h"
 #include "common/trace/caustic_estimator.h"
-#include "common/photon/kd_tree.h"
-#include "common/photon/median_kd_tree.h"
-#include "common/photon/photon_grid.h"
+#include "common/photon/density.h"
+#include "common/photon/photon_index.h"
 #include "common/photon/photon_tracer.h"
 
 namespace rtpm {
-
-/// Uniform-grid resolution (cells along the photons' largest extent) for `photons` photons whose
-/// bounding box has sides `extent` (m), k photons per estimate and gather radius rMax (m):
-///  * cells no larger than rMax, so a query's initial search sphere overlaps at most 3 cells
-///    per axis (resolution ≥ extent / rMax);
-///  * and no larger than where a cell would hold about k photons if they covered one face of the
-///    bounds evenly (resolution ≥ √(photons / k)): caustic photons lie on surfaces, so a
-///    per-area count is the right measure, and k photons per cell keeps the scan near k;
-///  * at most PhotonGrid::kMaxResolution, and reduced until the cell table (4 B per cell) holds
-///    at most max(2 · photons, 4096) cells, so the table never costs more than 40 % of the
-///    photons' own memory (20 B each).
-/// Returns 1 … kMaxResolution. Pure function, O(kMaxResolution).
-uint32_t gridResolution(uint64_t photons, Vec3 extent, uint32_t k, float rMax);
 
 /// A set stops shooting after this many traced paths per capped photon (see capPhotons).
 inline constexpr uint64_t kCapPathsPerPhoton = 64;
@@ -36,7 +22,8 @@ inline constexpr uint32_t kMaxSptRefinements = 64;
 
 /// Figures of one interleaving set's photon map since the last reset.
 struct PhotonSetStats {
-    uint32_t batches = 0;          ///< batches shot (the accumulation count)
+    uint32_t batches = 0;          ///< batches in the map (the accumulation count)
+    uint32_t passes = 0;           ///< progressive passes shot (shootPass), in the map or not
     uint64_t pathsTraced = 0;      ///< light paths traced: pilots, refinements, classification
     uint64_t productivePaths = 0;  ///< paths that stored ≥ 1 caustic photon
     uint64_t photonsStored = 0;    ///< photons in the map
@@ -60,6 +47,12 @@ struct PhotonSetStats {
     }
 };
 
+/// The photons of one progressive pass near a point: Σ power in W (of one batch) and count.
+struct PassGather {
+    Vec3 power{0.0f};
+    uint32_t count = 0;
+};
+
 /// One caustic photon map per owned interleaving set, grown batch by batch.
 /// Photon powers are stored relative to one batch; `radiance` divides by the batch count
 /// (paper-notes §5.7), so the estimate is consistent at every accumulation stage.
@@ -68,6 +61,8 @@ struct PhotonSetStats {
 /// scene (a 1 mm scene with the same irradiance has 10⁻⁶ × the flux). Relative to the unit,
 /// stored values are below 2 and only SPT weights, absorption and colour make them smaller.
 /// Read photon powers in W through powerWatts() / storedPowerPerBatch(), never powerRgb().
+/// A batch runs in four stages per light: plan (the Halton indices and path power; SPT chooses
+/// them from the previous batch's outcomes), trace, weight (SPT refinement shares) and insert.
 /// Thread safety: `radiance` may be called concurrently; `shootBatch`, `reset` must not overlap
 /// any other call. `shootBatch` itself runs in parallel (TBB) and its result does not depend on
 /// the thread count.
@@ -82,6 +77,11 @@ public:
     /// must not change between batches without a reset. No-op when the set reached its cap.
     /// Cost: O(photonsPerBatch · maxDepth) ray casts + O(stored · log) insertion.
     void shootBatch(const EmbreeScene& scene, uint32_t set);
+    /// A progressive pass of `set` (DESIGN §9): shoots its next batch even when the set is
+    /// capped, inserts it into the map unless capped, and keeps the batch alone as the set's
+    /// pass index (gatherPass), replacing the previous pass. Cost: the batch's tracing, an
+    /// O(b log b) build of the pass index, plus the insertion when not capped.
+    void shootPass(const EmbreeScene& scene, uint32_t set);
     /// Forgets every photon and restarts every set's sequence (scene edit: geometry, light,
     /// material). Settings changes other than k also need a reset.
     void reset();
@@ -92,9 +92,22 @@ public:
 
     /// Caustic radiance L_c = ρ/π · Σ Φ_p/(π r_k²) / batches at `hit` from `set`'s map
     /// (density.h causticRadiance with powerScale = powerUnit() / batches; photons from behind
-    /// `normal` are ignored). Zero for a set that is not owned or has no batch yet. Thread-safe;
-    /// a thread_local heap avoids allocation.
-    Vec3 radiance(uint32_t set, const SurfaceHit& hit, Vec3 normal, Vec3 albedo) const override;
+    /// `normal` are ignored). `scene` is the one the photons were shot in; it is read only with
+    /// settings().gatherVisibility (one shadow ray per gathered photon). Zero for a set that is
+    /// not owned or has no batch yet. Thread-safe; a thread_local heap avoids allocation.
+    Vec3 radiance(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
+                  Vec3 albedo) const override;
+
+    /// The k-NN gather `radiance` makes, unconverted: power in W per batch (Σ stored power ×
+    /// powerUnit() / batches), r_k² and the photon count. Empty (radius2 = 0) when nothing can
+    /// be estimated. Thread-safe.
+    DensityGather gatherMap(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
+                            Vec3 normal) const;
+    /// The last pass's photons strictly within sqrt(radius2) of `hit` arriving from the front of
+    /// `normal` (and visible, with gatherVisibility): Σ power in W (one batch) and count.
+    /// Cost O(log b + found), independent of the map's size. Thread-safe.
+    PassGather gatherPass(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
+                          Vec3 normal, float radius2) const;
 
     const PhotonSettings& settings() const { return settings_; }
     /// Changes k (no reset needed: the stored photons do not depend on k).
@@ -102,12 +115,16 @@ public:
     const std::vector<uint32_t>& ownedSets() const { return ownedSets_; }
     /// Stats of an owned set. Precondition: `set` is owned.
     const PhotonSetStats& stats(uint32_t set) const;
-    /// The index of an owned set for the variant in use (settings().tree), or null before its
-    /// first batch or for the other variants. Precondition: `set` is owned.
-    /// Stored photon powers are in units of powerUnit().
-    const KdTree* tree(uint32_t set) const;
-    const MedianKdTree* medianTree(uint32_t set) const;
-    const PhotonGrid* grid(uint32_t set) const;
+    /// The index of an owned set if it is an `Index` (KdTree, MedianKdTree, PhotonGrid: the
+    /// variant settings().tree selects), else null; null before the set's first batch.
+    /// Precondition: `set` is owned. Stored photon powers are in units of powerUnit().
+    template <class Index>
+    const Index* index(uint32_t set) const {
+        const PhotonIndex* i = indexOf(set);
+        return i ? i->get<Index>() : nullptr;
+    }
+    /// The index of an owned set whatever its variant; null before its first batch.
+    const PhotonIndex* indexOf(uint32_t set) const;
     /// Copy of every photon of an owned set's map, any variant (powers in units of powerUnit()).
     /// O(photons); for tests and tools.
     std::vector<Photon> photons(uint32_t set) const;
@@ -125,9 +142,32 @@ public:
     float gatherRadius() const { return rMax_; }
 
 private:
+    struct LightSequence;
+    struct LightPlan;
     struct SetState;
     SetState* find(uint32_t set);
     const SetState* find(uint32_t set) const;
+
+    /// Plan, trace and weight stages of `state`'s next batch (stored units); advances its
+    /// sequences and counters, but inserts nothing.
+    std::vector<Photon> traceBatch(const EmbreeScene& scene, SetState& state);
+    /// Insert stage: the batch into the set's map; updates the count and the cap.
+    void insertBatch(SetState& state, std::vector<Photon> batch);
+    /// First batch after a reset: emitters, gather radius and power unit from `scene`.
+    void prepare(const EmbreeScene& scene);
+    /// Plan stage, first SPT batch only: traces one pilot period (not stored) to choose the
+    /// refine set; adds its cost to `traced`.
+    void probeRefineSet(const EmbreeScene& scene, const TraceSettings& ts, const PhotonSource& source,
+                        LightSequence& ls, TraceStats& traced) const;
+    /// Plan stage: the indices and path power of light `e`'s next batch (`budget` paths);
+    /// advances a plain sequence.
+    LightPlan planLight(LightSequence& ls, const Emitter& e, uint64_t budget) const;
+    /// Weight stage: members of refined SPT boxes share their box's power (× 1/(1+R)).
+    static void weightRefinedBoxes(const LightPlan& plan, const LightSequence& ls, TraceOutput& out);
+    /// The next batch's refine set from this batch's outcomes; advances an SPT sequence.
+    static void advanceLight(const LightPlan& plan, const TraceOutput& out, LightSequence& ls);
+    /// Traced photons → stored photons in units of powerUnit(), appended to `batch`.
+    void toStored(const TraceOutput& out, std::vector<Photon>& batch) const;
 
     PhotonSettings settings_;
     std::vector<uint32_t> ownedSets_;
@@ -135,7 +175,6 @@ private:
     std::vector<Emitter> emitters_;  ///< built at the first batch after a reset
     bool emittersReady_ = false;
     float rMax_ = 0.0f;
-    const EmbreeScene* scene_ = nullptr;  ///< of the last shootBatch, for gatherVisibility
     float powerUnit_ = 1.0f;
 };
 

@@ -55,6 +55,16 @@ inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string&
            "photon map index: middle (incremental middle-split kd-tree), median (balanced "
            "kd-tree rebuilt each frame) or grid (uniform grid rebuilt each frame); default middle")
         ->check(CLI::IsMember({"middle", "median", "grid"}));
+    app.add_option_function<std::string>(
+           "--estimator",
+           [&rs](const std::string& name) { rs.photons.estimator = *parseCausticEstimator(name); },
+           "caustic estimator: progressive (per-pixel progressive photon mapping while the view is "
+           "still; converges, the box filter fades out) or knn (the paper's k nearest photons and "
+           "box filter); default progressive")
+        ->check(CLI::IsMember({"progressive", "knn"}));
+    app.add_option("--alpha", rs.photons.progressiveAlpha,
+                   "progressive: share of a pass's new photons kept per pixel, in (0, 1)")
+        ->capture_default_str();
     app.add_flag("--gather-visibility", rs.photons.gatherVisibility,
                  "count only photons visible from the shaded point (a shadow ray per gathered "
                  "photon): no caustic leaks through thin walls, k more rays per pixel");

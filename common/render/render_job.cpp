@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
@@ -12,6 +13,15 @@ namespace {
 
 double secondsSince(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Bitwise equality: a progression continues only for exactly the camera it started with.
+bool sameCamera(const Camera& a, const Camera& b) {
+    const float va[10] = {a.position.x, a.position.y, a.position.z, a.forward.x, a.forward.y,
+                          a.forward.z,  a.up.x,       a.up.y,       a.up.z,      a.yfov};
+    const float vb[10] = {b.position.x, b.position.y, b.position.z, b.forward.x, b.forward.y,
+                          b.forward.z,  b.up.x,       b.up.y,       b.up.z,      b.yfov};
+    return std::memcmp(va, vb, sizeof(va)) == 0;
 }
 
 }  // namespace
@@ -26,6 +36,7 @@ RenderJob::RenderJob(Scene scene, const RenderSettings& settings, std::vector<ui
                                         std::to_string(settings_.interleave));
     embree_ = std::make_unique<EmbreeScene>(*scene_);
     photons_ = std::make_unique<PhotonMaps>(settings_.photons, sets_);
+    progressive_.resize(sets_.size());
 }
 
 RenderJob::~RenderJob() = default;
@@ -35,18 +46,43 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
     const auto t0 = std::chrono::steady_clock::now();
     uint64_t pathsBefore = 0;
     for (uint32_t s : sets_) pathsBefore += photons_->stats(s).pathsTraced;
-    if (shoot)
-        for (uint32_t s : sets_) photons_->shootBatch(*embree_, s);
+    const bool progressive = settings_.photons.estimator == CausticEstimatorKind::Progressive;
+    std::vector<uint8_t> converge(sets_.size(), 0);
+    for (size_t i = 0; i < sets_.size(); ++i)
+        converge[i] = progressive && shoot && progressive_[i].valid() &&
+                      sameCamera(progressive_[i].camera(), camera);
+    for (size_t i = 0; i < sets_.size(); ++i) {
+        if (converge[i])
+            photons_->shootPass(*embree_, sets_[i]);
+        else if (shoot)
+            photons_->shootBatch(*embree_, sets_[i]);
+    }
     stats.shootSeconds = secondsSince(t0);
 
     const auto t1 = std::chrono::steady_clock::now();
     out.resize(sets_.size());
+    stats.converging = !sets_.empty();
     for (size_t i = 0; i < sets_.size(); ++i) {
         const int set = int(sets_[i]);
         out[i].set = set;
         out[i].pixels.resize(size_t(pattern_.pixelCount(set)));
-        renderSet(*embree_, camera, settings_.eye, pattern_, set, photons_.get(), out[i].pixels,
-                  &stats.eye);
+        if (converge[i]) {
+            if (!areaLights_) areaLights_ = std::make_unique<AreaLightSampler>(*embree_, settings_.eye);
+            progressive_[i].pass(*embree_, *photons_, sets_[i], *areaLights_, out[i].pixels,
+                                 stats.eye.shadowRays, stats.eye.nonFinite);
+        } else if (progressive) {
+            EyeRecords records;
+            renderSet(*embree_, camera, settings_.eye, pattern_, set, nullptr, out[i].pixels,
+                      &stats.eye, &records);
+            progressive_[i].restart(*embree_, *photons_, sets_[i], camera, std::move(records),
+                                    out[i].pixels);
+        } else {
+            renderSet(*embree_, camera, settings_.eye, pattern_, set, photons_.get(), out[i].pixels,
+                      &stats.eye);
+        }
+        out[i].passes = progressive ? progressive_[i].passes() : 0;
+        stats.passes = std::max(stats.passes, out[i].passes);
+        stats.converging = stats.converging && converge[i];
     }
     stats.eyeSeconds = secondsSince(t1);
 
@@ -76,6 +112,10 @@ void RenderJob::applyEdit(const SceneEdit& edit) {
     resetPhotons();
 }
 
-void RenderJob::resetPhotons() { photons_->reset(); }
+void RenderJob::resetPhotons() {
+    photons_->reset();
+    for (ProgressiveSet& p : progressive_) p.invalidate();
+    areaLights_.reset();  // emissive triangles may have changed
+}
 
 }  // namespace rtpm

@@ -9,6 +9,7 @@
 #include "common/photon/photon_map.h"
 #include "common/core/render_settings.h"
 #include "common/scene/scene_edit.h"
+#include "common/render/progressive.h"
 #include "common/trace/eye_pass.h"
 
 namespace rtpm {
@@ -17,6 +18,9 @@ namespace rtpm {
 struct SetPixels {
     int set = 0;
     std::vector<PixelRadiance> pixels;
+    /// Progressive passes of this set's current progression (0: a restart, or the knn
+    /// estimator); the master and rtpm-render weigh the box filter with causticOwnWeight(passes).
+    uint32_t passes = 0;
 };
 
 /// Figures of one renderFrame call.
@@ -27,6 +31,8 @@ struct FrameStats {
     uint64_t pathsTraced = 0;      ///< Σ over owned sets of paths traced since the last reset
     uint64_t pathsThisFrame = 0;   ///< paths traced in this frame
     bool walkthrough = false;      ///< every owned set reached its cap (no shooting)
+    bool converging = false;       ///< a progressive pass (no eye pass), for every owned set
+    uint32_t passes = 0;           ///< progressive passes since the restart (largest over sets)
     EyeStats eye;
 };
 
@@ -42,6 +48,9 @@ public:
     /// Shoots one batch per owned set that has not reached its cap (unless `shoot` is false:
     /// walkthrough forced), then traces the pixels of every owned set into `out` (one entry per
     /// owned set, in ownership order; buffers are reused).
+    /// Progressive estimator: a set whose progression is valid and whose camera equals `camera`
+    /// bit for bit (and `shoot`) runs a pass instead (shootPass, no eye pass, DESIGN §9); any
+    /// other set restarts its progression from a record-mode eye pass and the accumulated map.
     FrameStats renderFrame(const Camera& camera, bool shoot, std::vector<SetPixels>& out);
 
     /// Applies an edit (throws SceneError if the index or a value is invalid; nothing changes then)
@@ -63,6 +72,8 @@ private:
     std::vector<uint32_t> sets_;
     std::unique_ptr<EmbreeScene> embree_;
     std::unique_ptr<PhotonMaps> photons_;
+    std::vector<ProgressiveSet> progressive_;  ///< per owned set (progressive estimator)
+    std::unique_ptr<AreaLightSampler> areaLights_;
 };
 
 }  // namespace rtpm

@@ -35,6 +35,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "common/core/check.h"
@@ -73,11 +74,32 @@ struct Counters {
     uint64_t primary = 0, secondary = 0, shadow = 0, nonFinite = 0, stackOverflow = 0;
 };
 
-/// Radiance reflected toward the viewer by a Lambertian point from every light (shadow rays).
-/// `n` shading normal and `ng` geometric normal, both facing the viewer. `rot` the pixel's
-/// Cranley–Patterson rotation.
-Vec3 directLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
-                 const std::array<float, 3>& rot, Counters& count) {
+Context makeContext(const EmbreeScene& scene, const EyeSettings& settings,
+                    const CausticEstimator* caustics, int set) {
+    Context ctx{scene, scene.scene(), settings, caustics, set, std::max(1, settings.areaLightSamples),
+                true, 0, {}};
+    const auto& tris = scene.emissiveTriangles();
+    if (int(tris.size()) > kMaxTrianglesSampledEach) {
+        ctx.sampleEach = false;
+        ctx.totalAreaSamples = kMaxTrianglesSampledEach * ctx.areaSamples;
+        ctx.cdf.resize(tris.size());
+        double acc = 0.0;
+        for (size_t i = 0; i < tris.size(); ++i) {
+            const Vec3 rad = tris[i].radiance;
+            const double power = double(tris[i].area) * double(std::max(0.0f, rad.x + rad.y + rad.z));
+            acc += std::isfinite(power) ? power : 0.0;
+            ctx.cdf[i] = float(acc);
+        }
+        for (float& c : ctx.cdf) c = acc > 0.0 ? float(c / acc) : 1.0f;
+        ctx.cdf.back() = 1.0f;
+    }
+    return ctx;
+}
+
+/// Radiance reflected toward the viewer by a Lambertian point from the punctual lights (shadow
+/// rays). `n` shading normal and `ng` geometric normal, both facing the viewer.
+Vec3 punctualLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
+                   Counters& count) {
     const EmbreeScene& es = ctx.es;
     Vec3 sum(0.0f);
     const Vec3 brdf = albedo * kInvPi;
@@ -117,7 +139,16 @@ Vec3 directLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec
         if (es.occluded(shadow)) continue;
         sum += brdf * irradiance * cosS;
     }
+    return sum;
+}
 
+/// `sum` plus the radiance reflected from the emissive triangles, sampled with the
+/// Cranley–Patterson rotation `rot` (the pixel's, advanced per progressive pass).
+Vec3 areaLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
+               const std::array<float, 3>& rot, Counters& count, Vec3 sum) {
+    const EmbreeScene& es = ctx.es;
+    const Vec3 brdf = albedo * kInvPi;
+    if (maxComponent(albedo) <= 0.0f) return sum;
     const auto& tris = es.emissiveTriangles();
     if (tris.empty()) return sum;
     // Shadow rays toward the emitters go to Embree in packets of 8 (one origin, one small light:
@@ -177,6 +208,13 @@ Vec3 directLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec
     return sum;
 }
 
+/// Direct light from every light: punctual first, then the area samples added to that sum (the
+/// order the image has always been computed in).
+Vec3 directLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
+                 const std::array<float, 3>& rot, Counters& count) {
+    return areaLight(ctx, hit, n, ng, albedo, rot, count, punctualLight(ctx, hit, n, ng, albedo, count));
+}
+
 struct PathState {
     Ray ray;
     Vec3 throughput;
@@ -185,8 +223,12 @@ struct PathState {
 
 /// `stack` is kStackSize entries of scratch owned by the calling task: constructing the split
 /// stack per pixel (64 rays with their default values) cost more than a typical pixel's shading.
+/// With `hits` (record mode) the diffuse end points are appended to it (pixel index `pixel`),
+/// the pixel's direct value leaves out their area-light term (EyeHit::areaDirect holds it) and
+/// no caustic is looked up.
 PixelRadiance shadePixel(const Context& ctx, int x, int y, int width, const Camera& camera,
-                         int height, PathState* stack, Counters& count) {
+                         int height, PathState* stack, Counters& count,
+                         std::vector<EyeHit>* hits = nullptr, uint32_t pixel = 0) {
     const EmbreeScene& es = ctx.es;
     const Scene& scene = ctx.scene;
     PixelRadiance result;
@@ -230,9 +272,26 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, int width, const Came
                 const Vec3 albedo = baseColorAt(mat, scene.textures, hit.uv);
                 const uint64_t h = splitMix64(pixelKey ^ splitMix64(diffuseVertex++));
                 const std::array<float, 3> rot{hashToUnit(h), hashToUnit(splitMix64(h + 1)), hashToUnit(splitMix64(h + 2))};
+                if (hits) {  // progressive: keep the record; the caustic comes from the passes
+                    EyeHit& e = hits->emplace_back();
+                    e.hit = hit;
+                    e.normal = ns;
+                    e.geometricNormal = ng;
+                    e.albedo = albedo;
+                    e.throughput = throughput;
+                    e.rotation = rot;
+                    e.pixel = pixel;
+                    result.direct += throughput * punctualLight(ctx, hit, ns, ng, albedo, count);
+                    e.areaDirect = areaLight(ctx, hit, ns, ng, albedo, rot, count, Vec3(0.0f));
+                    if (!finite(e.areaDirect)) {
+                        e.areaDirect = Vec3(0.0f);
+                        ++count.nonFinite;
+                    }
+                    return;
+                }
                 result.direct += throughput * directLight(ctx, hit, ns, ng, albedo, rot, count);
                 if (ctx.caustics)
-                    result.caustic += throughput * ctx.caustics->radiance(uint32_t(ctx.set), hit, ns, albedo);
+                    result.caustic += throughput * ctx.caustics->radiance(es, uint32_t(ctx.set), hit, ns, albedo);
             };
 
             if (mat.type == MaterialType::Diffuse) {
@@ -310,29 +369,15 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, int width, const Came
 
 void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings& settings,
                const Interleave& pattern, int set, const CausticEstimator* caustics,
-               std::span<PixelRadiance> out, EyeStats* stats) {
+               std::span<PixelRadiance> out, EyeStats* stats, EyeRecords* records) {
     RTPM_CHECK(set >= 0 && set < pattern.setCount());
     RTPM_CHECK(out.size() == size_t(pattern.pixelCount(set)));
-    Context ctx{scene, scene.scene(), settings, caustics, set, std::max(1, settings.areaLightSamples),
-                true, 0, {}};
-    const auto& tris = scene.emissiveTriangles();
-    if (int(tris.size()) > kMaxTrianglesSampledEach) {
-        ctx.sampleEach = false;
-        ctx.totalAreaSamples = kMaxTrianglesSampledEach * ctx.areaSamples;
-        ctx.cdf.resize(tris.size());
-        double acc = 0.0;
-        for (size_t i = 0; i < tris.size(); ++i) {
-            const Vec3 rad = tris[i].radiance;
-            const double power = double(tris[i].area) * double(std::max(0.0f, rad.x + rad.y + rad.z));
-            acc += std::isfinite(power) ? power : 0.0;
-            ctx.cdf[i] = float(acc);
-        }
-        for (float& c : ctx.cdf) c = acc > 0.0 ? float(c / acc) : 1.0f;
-        ctx.cdf.back() = 1.0f;
-    }
-
+    const Context ctx = makeContext(scene, settings, caustics, set);
     const int rows = pattern.setRows(set);
     const int cols = pattern.setColumns(set);
+    // Record mode: each row's hits go to their own vector, concatenated in row order afterwards,
+    // so the record order does not depend on the thread count.
+    std::vector<std::vector<EyeHit>> rowHits(records ? size_t(rows) : 0);
     std::atomic<uint64_t> primary{0}, secondary{0}, shadow{0}, nonFinite{0}, overflow{0};
     tbb::parallel_for(tbb::blocked_range<int>(0, rows), [&](const tbb::blocked_range<int>& range) {
         Counters count;
@@ -341,7 +386,8 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
             for (int c = 0; c < cols; ++c) {
                 const int n = r * cols + c;
                 out[size_t(n)] = shadePixel(ctx, pattern.pixelX(set, n), pattern.pixelY(set, n),
-                                            pattern.width, camera, pattern.height, stack.data(), count);
+                                            pattern.width, camera, pattern.height, stack.data(), count,
+                                            records ? &rowHits[size_t(r)] : nullptr, uint32_t(n));
             }
         primary += count.primary;
         secondary += count.secondary;
@@ -349,6 +395,13 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
         nonFinite += count.nonFinite;
         overflow += count.stackOverflow;
     });
+    if (records) {
+        records->hits.clear();
+        for (const auto& row : rowHits) records->hits.insert(records->hits.end(), row.begin(), row.end());
+        records->firstHit.assign(out.size() + 1, 0);
+        for (const EyeHit& e : records->hits) ++records->firstHit[e.pixel + 1];
+        for (size_t i = 1; i < records->firstHit.size(); ++i) records->firstHit[i] += records->firstHit[i - 1];
+    }
     if (stats) {
         stats->primaryRays += primary;
         stats->secondaryRays += secondary;
@@ -356,6 +409,33 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
         stats->nonFinite += nonFinite;
         stats->stackOverflows += overflow;
     }
+}
+
+struct AreaLightSampler::Impl {
+    Context ctx;
+};
+
+AreaLightSampler::AreaLightSampler(const EmbreeScene& scene, const EyeSettings& settings)
+    : impl_(std::make_unique<Impl>(Impl{makeContext(scene, settings, nullptr, 0)})) {}
+
+AreaLightSampler::~AreaLightSampler() = default;
+
+bool AreaLightSampler::empty() const { return impl_->ctx.es.emissiveTriangles().empty(); }
+
+Vec3 AreaLightSampler::sample(const EyeHit& e, uint32_t pass, uint64_t& shadowRays) const {
+    // Pass p rotates the pixel's rotation by p steps of the R3 sequence (Roberts 2018: the
+    // generalised golden ratio φ₃ = 1.2207…, steps 1/φ₃, 1/φ₃², 1/φ₃³), so successive passes
+    // stratify each other's samples; pass 0 is the eye pass's own rotation.
+    constexpr double kStep[3] = {0.8191725133961645, 0.6710436067037893, 0.5497004779019703};
+    std::array<float, 3> rot = e.rotation;
+    for (int d = 0; d < 3; ++d) {
+        const double shifted = double(rot[d]) + double(pass) * kStep[d];
+        rot[d] = wrap01(float(shifted - std::floor(shifted)));
+    }
+    Counters count;
+    Vec3 v = areaLight(impl_->ctx, e.hit, e.normal, e.geometricNormal, e.albedo, rot, count, Vec3(0.0f));
+    shadowRays += count.shadow;
+    return finite(v) ? v : Vec3(0.0f);
 }
 
 }  // namespace rtpm

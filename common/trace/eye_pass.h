@@ -1,8 +1,11 @@
 // The eye pass: primary rays, specular chains, direct light and the caustic lookup per pixel.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
+#include <vector>
 
 #include "common/trace/embree_scene.h"
 #include "common/core/interleave.h"
@@ -21,6 +24,25 @@ struct EyeStats {
     uint64_t stackOverflows = 0; ///< dielectric branches dropped because the split stack was full
 };
 
+/// One diffuse end point of a pixel's eye path: what a progressive pass needs to refine the
+/// pixel without re-tracing it (DESIGN §9: "reuse every eye-pass record").
+struct EyeHit {
+    SurfaceHit hit;            ///< as Embree reported it (geometricNormal not flipped)
+    Vec3 normal{0.0f};         ///< shading normal facing the viewer
+    Vec3 geometricNormal{0.0f};///< geometric normal facing the viewer
+    Vec3 albedo{0.0f};         ///< diffuse reflectance (texture applied)
+    Vec3 throughput{0.0f};     ///< of the specular chain from the camera to here
+    Vec3 areaDirect{0.0f};     ///< area-light radiance here from the eye pass's samples (pass 0)
+    std::array<float, 3> rotation{};  ///< the pixel's Cranley–Patterson rotation at this vertex
+    uint32_t pixel = 0;        ///< index of the pixel within its set (row-major)
+};
+
+/// The eye-pass records of one set: every diffuse end point, in pixel order.
+struct EyeRecords {
+    std::vector<EyeHit> hits;
+    std::vector<uint32_t> firstHit;  ///< pixel p's hits are [firstHit[p], firstHit[p+1])
+};
+
 /// Traces every pixel of interleaving set `set` (row-major within the set) into `out`
 /// (size `pattern.pixelCount(set)`). `caustics` may be null (caustic layer zero).
 /// Deterministic: the result does not depend on the thread count. Parallel over rows (TBB).
@@ -30,6 +52,29 @@ struct EyeStats {
 /// triangle (at most 16·areaLightSamples in total, see eye_pass.cpp).
 void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings& settings,
                const Interleave& pattern, int set, const CausticEstimator* caustics,
-               std::span<PixelRadiance> out, EyeStats* stats = nullptr);
+               std::span<PixelRadiance> out, EyeStats* stats = nullptr,
+               EyeRecords* records = nullptr);
+
+/// Record mode (`records` given to renderSet): the diffuse end points go to `records`; out[p].direct
+/// then holds everything but the area-light term at those points (each EyeHit::areaDirect holds
+/// it, unweighted by the throughput), and no caustic is looked up (out[p].caustic = 0).
+
+/// Samples the area lights (emissive triangles) at recorded eye hits, for progressive passes.
+/// Thread-safe (const); holds the scene's triangle-selection table.
+class AreaLightSampler {
+public:
+    AreaLightSampler(const EmbreeScene& scene, const EyeSettings& settings);
+    ~AreaLightSampler();
+    /// True when the scene has no emissive triangle (every sample is 0).
+    bool empty() const;
+    /// Area-light radiance at `hit` (unweighted by its throughput) from the same sample pattern
+    /// as the eye pass, rotated for pass `pass` (pass 0 = EyeHit::areaDirect exactly). Adds the
+    /// shadow rays cast to `shadowRays`. Always finite.
+    Vec3 sample(const EyeHit& hit, uint32_t pass, uint64_t& shadowRays) const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace rtpm

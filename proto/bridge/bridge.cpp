@@ -42,6 +42,9 @@ proto::Settings toWire(const RenderSettings& rs, proto::PixelEncoding encoding) 
     s.photonMaxDepth = rs.photons.maxDepth;
     s.areaLightSamples = static_cast<uint32_t>(rs.eye.areaLightSamples);
     s.gatherVisibility = rs.photons.gatherVisibility;
+    s.estimator = rs.photons.estimator == CausticEstimatorKind::Knn ? proto::CausticEstimator::Knn
+                                                                   : proto::CausticEstimator::Progressive;
+    s.progressiveAlpha = rs.photons.progressiveAlpha;
     return s;
 }
 
@@ -62,6 +65,12 @@ RenderSettings fromWire(const proto::Settings& s) {
     rs.photons.capPhotons = s.capPhotonsPerSet;
     rs.photons.selective = s.spt;
     rs.photons.gatherVisibility = s.gatherVisibility;
+    rs.photons.progressiveAlpha = s.progressiveAlpha;
+    switch (s.estimator) {  // the decoder refuses values above kMaxCausticEstimator
+        case proto::CausticEstimator::Progressive: rs.photons.estimator = CausticEstimatorKind::Progressive; break;
+        case proto::CausticEstimator::Knn: rs.photons.estimator = CausticEstimatorKind::Knn; break;
+        default: throw std::invalid_argument("settings.estimator " + std::to_string(int(s.estimator)) + " is not an estimator");
+    }
     switch (s.tree) {  // the decoder refuses values above kMaxTreeVariant
         case proto::TreeVariant::MiddleSplitKdTree: rs.photons.tree = PhotonTree::MiddleSplit; break;
         case proto::TreeVariant::BalancedKdTree: rs.photons.tree = PhotonTree::MedianBalanced; break;

@@ -203,7 +203,7 @@ SlabResult slabCaustic(bool selective, uint32_t photonsPerBatch, int batches, ui
             hit.position = Vec3(0.02f * float(i), 0.0f, 0.02f * float(j));
             hit.geometricNormal = hit.shadingNormal = Vec3(0, 1, 0);
             hit.material = floor;
-            const Vec3 l = maps.radiance(0, hit, Vec3(0, 1, 0), Vec3(rho));
+            const Vec3 l = maps.radiance(es, 0, hit, Vec3(0, 1, 0), Vec3(rho));
             const double estimate = double(l.x) * kPi / rho;  // L = ρ/π · E
             const double exact = slabIrradiance(geo, std::hypot(0.02 * i, 0.02 * j));
             const double rel = estimate / exact - 1.0;

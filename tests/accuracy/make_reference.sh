@@ -16,7 +16,7 @@ command -v oiiotool >/dev/null || { echo "make_reference.sh: oiiotool (openimage
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 # These settings are the reference's definition; ring_reference_test.cpp states them too.
-"$render" --scene RING --width 160 --height 120 --interleave 3 --filter 3 \
+"$render" --estimator knn --scene RING --width 160 --height 120 --interleave 3 --filter 3 \
     --photons 200000 --frames 40 --k 256 --cap 0 --out "$tmp/ring.exr"
 oiiotool "$tmp/ring.exr" \
     --ch caustic.R,caustic.G,caustic.B,caustic_filtered.R,caustic_filtered.G,caustic_filtered.B \

@@ -74,7 +74,7 @@ void checkMirrorCaustic(bool selective) {
             hit.position = Vec3(x, mc.ceilingY, z);
             hit.geometricNormal = hit.shadingNormal = Vec3(0.0f, -1.0f, 0.0f);
             // Albedo 1: L = E / π.
-            const Vec3 L = maps.radiance(0, hit, Vec3(0.0f, -1.0f, 0.0f), Vec3(1.0f));
+            const Vec3 L = maps.radiance(es, 0, hit, Vec3(0.0f, -1.0f, 0.0f), Vec3(1.0f));
             const double estimate = std::numbers::pi * L.x;
             const double exact = mc.irradiance(x, z);
             const double rel = estimate / exact - 1.0;

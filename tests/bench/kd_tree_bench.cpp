@@ -88,16 +88,16 @@ const PhotonScene& photonScene(const std::string& name) {
     PhotonSettings settings;
     settings.capPhotons = 0;
     PhotonMaps maps(settings, {0});
-    while (maps.tree(0) == nullptr || maps.tree(0)->size() < kPoolSize) {
+    while (maps.index<KdTree>(0) == nullptr || maps.index<KdTree>(0)->size() < kPoolSize) {
         maps.shootBatch(*s.embree, 0);
         if (++s.batches > 5000) {
             std::fprintf(stderr, "%s: only %zu caustic photons after %u batches\n", name.c_str(),
-                         maps.tree(0)->size(), s.batches);
+                         maps.index<KdTree>(0)->size(), s.batches);
             std::exit(1);
         }
     }
     s.rMax = maps.gatherRadius();
-    for (const Photon& p : maps.tree(0)->photons()) s.pool.push_back(p);
+    for (const Photon& p : maps.index<KdTree>(0)->photons()) s.pool.push_back(p);
     std::shuffle(s.pool.begin(), s.pool.end(), std::mt19937(20040621));
     const Camera camera = *s.scene.camera;
     for (int y = 0; y < kImageHeight; ++y)
@@ -205,7 +205,7 @@ void runQueries(benchmark::State& state, const PhotonScene& s, const Index& inde
     for (auto _ : state) {
         found = 0;
         for (const Vec3 q : s.queries) {
-            index.knn(q, k, maxDist2, heap);
+            knnSearch(index, q, k, maxDist2, heap);
             found += heap.size();
         }
         benchmark::DoNotOptimize(found);

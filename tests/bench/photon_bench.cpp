@@ -365,7 +365,7 @@ void memoryRun(benchmark::State& state, const std::string& name) {
             maps.shootBatch(*s.embree, 0);
         secs = std::chrono::duration<double>(Clock::now() - t0).count();
         peakMB = double(bench::procStatusKb("VmHWM")) / 1024.0;
-        const KdTree* tree = maps.tree(0);
+        const KdTree* tree = maps.index<KdTree>(0);
         photons = tree ? double(tree->size()) : 0.0;
         nodes = tree ? double(tree->nodeCount()) : 0.0;
         treeMB = tree ? double(tree->memoryBytes()) / (1024.0 * 1024.0) : 0.0;

@@ -38,13 +38,16 @@ inline std::vector<Message> sampleMessages() {
     s.spt = false;
     s.tree = TreeVariant::UniformGrid;
     s.encoding = PixelEncoding::Rgb8;
+    s.estimator = CausticEstimator::Knn;
+    s.progressiveAlpha = 0.5f;
     out.push_back(s);
     out.push_back(FrameBegin{42, 2, 7, cam, FrameMode::Walkthrough, {1, 2, 3}});
+    out.push_back(FrameBegin{43, 2, 7, cam, FrameMode::Converging, {4}});
     std::vector<PixelPair> px(10);
     for (int i = 0; i < 10; ++i) px[i] = {{0.1f * i, 0.2f, 0.3f}, {i % 3 == 0 ? 1.0f : 0.0f, 0, 0}};
     for (PixelEncoding e : {PixelEncoding::Float32, PixelEncoding::Rgb8, PixelEncoding::Rgb9e5}) {
         EncodedPixels enc = encodePixels(px, e);
-        out.push_back(FrameData{42, 5, enc.encoding, 10, enc.bytes});
+        out.push_back(FrameData{42, 5, enc.encoding, 10, enc.bytes, 7});
     }
     std::vector<PixelPair> sparse(400, PixelPair{{0.5f, 0.5f, 0.5f}, {0, 0, 0}});
     sparse[17].caustic[0] = 3.0f;

@@ -104,7 +104,7 @@ void expectKnnMatchesBruteForce(const Index& index, const std::vector<Photon>& p
                                 uint32_t k, float maxDist2, uint32_t seed = 3) {
     KnnHeap heap;
     for (const Vec3 q : queriesFor(photons, 150, seed)) {
-        index.knn(q, k, maxDist2, heap);
+        knnSearch(index, q, k, maxDist2, heap);
         std::vector<float> got;
         std::set<uint32_t> seen;
         for (const KnnEntry& e : heap.entries()) {
@@ -172,20 +172,20 @@ TEST(KdTree, CoincidentPhotonsInsertedOneAtATimeStopAtTheDepthCap) {
     EXPECT_EQ(tree.size(), 200u);
     EXPECT_LE(tree.depth(), KdTree::kMaxDepth);
     KnnHeap heap;
-    tree.knn(Vec3(0.3f), 300, kInf, heap);
+    knnSearch(tree, Vec3(0.3f), 300, kInf, heap);
     EXPECT_EQ(heap.size(), 200u);
 }
 
 TEST(KdTree, EmptyTreeFindsNothing) {
     KdTree tree(Bounds{Vec3(0), Vec3(1)});
     KnnHeap heap;
-    tree.knn(Vec3(0.5f), 10, kInf, heap);
+    knnSearch(tree, Vec3(0.5f), 10, kInf, heap);
     EXPECT_TRUE(heap.empty());
     tree.build({});
-    tree.knn(Vec3(0.5f), 10, kInf, heap);
+    knnSearch(tree, Vec3(0.5f), 10, kInf, heap);
     EXPECT_TRUE(heap.empty());
     KdTree boxless;
-    boxless.knn(Vec3(0.5f), 10, kInf, heap);
+    knnSearch(boxless, Vec3(0.5f), 10, kInf, heap);
     EXPECT_TRUE(heap.empty());
 }
 
@@ -194,7 +194,7 @@ TEST(KdTree, KZeroFindsNothing) {
     KdTree tree;
     tree.build(photons);
     KnnHeap heap;
-    tree.knn(Vec3(5.0f), 0, kInf, heap);
+    knnSearch(tree, Vec3(5.0f), 0, kInf, heap);
     EXPECT_TRUE(heap.empty());
 }
 
@@ -203,7 +203,7 @@ TEST(KdTree, MaxDist2PrunesEverythingOutsideTheRadius) {
     KdTree tree(boundsOf(photons));
     tree.build(photons);
     KnnHeap heap;
-    tree.knn(Vec3(5.0f), 1000, 0.5f * 0.5f, heap);
+    knnSearch(tree, Vec3(5.0f), 1000, 0.5f * 0.5f, heap);
     EXPECT_GT(heap.size(), 0u);
     EXPECT_LT(heap.size(), 1000u);
     for (const KnnEntry& e : heap.entries()) EXPECT_LT(e.dist2, 0.25f);
@@ -216,7 +216,7 @@ TEST(KdTree, RadiusSearchMatchesBruteForce) {
     tree.build(photons);
     std::vector<KnnEntry> hits;
     for (const Vec3 q : queriesFor(photons, 50, 13)) {
-        tree.radius(q, 0.04f, hits);
+        radiusSearch(tree, q, 0.04f, hits);
         std::vector<float> got;
         for (const KnnEntry& e : hits) got.push_back(e.dist2);
         std::sort(got.begin(), got.end());
@@ -382,7 +382,7 @@ TEST(MedianKdTree, EmptyTreeFindsNothing) {
     MedianKdTree tree;
     tree.build({});
     KnnHeap heap;
-    tree.knn(Vec3(0.0f), 5, kInf, heap);
+    knnSearch(tree, Vec3(0.0f), 5, kInf, heap);
     EXPECT_TRUE(heap.empty());
 }
 
@@ -402,7 +402,7 @@ TEST(PhotonGrid, EmptyGridFindsNothing) {
     PhotonGrid grid(16);
     grid.build({});
     KnnHeap heap;
-    grid.knn(Vec3(0.0f), 5, kInf, heap);
+    knnSearch(grid, Vec3(0.0f), 5, kInf, heap);
     EXPECT_TRUE(heap.empty());
 }
 

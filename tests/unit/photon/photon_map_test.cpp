@@ -85,12 +85,12 @@ TEST(PhotonMaps, TreeVariantsGiveTheSameCausticEstimates) {
         for (int b = 0; b < 3; ++b) maps.back()->shootBatch(es, 0);
     }
     // Only the selected index exists.
-    EXPECT_NE(maps[0]->tree(0), nullptr);
-    EXPECT_EQ(maps[0]->medianTree(0), nullptr);
-    EXPECT_NE(maps[1]->medianTree(0), nullptr);
-    EXPECT_EQ(maps[1]->grid(0), nullptr);
-    EXPECT_NE(maps[2]->grid(0), nullptr);
-    EXPECT_EQ(maps[2]->tree(0), nullptr);
+    EXPECT_NE(maps[0]->index<KdTree>(0), nullptr);
+    EXPECT_EQ(maps[0]->index<MedianKdTree>(0), nullptr);
+    EXPECT_NE(maps[1]->index<MedianKdTree>(0), nullptr);
+    EXPECT_EQ(maps[1]->index<PhotonGrid>(0), nullptr);
+    EXPECT_NE(maps[2]->index<PhotonGrid>(0), nullptr);
+    EXPECT_EQ(maps[2]->index<KdTree>(0), nullptr);
 
     // The same photons in every map (shooting does not depend on the index).
     const std::vector<PhotonKey> reference = sortedKeys(maps[0]->photons(0));
@@ -113,9 +113,9 @@ TEST(PhotonMaps, TreeVariantsGiveTheSameCausticEstimates) {
     const float rMax = maps[0]->gatherRadius();
     size_t nonZero = 0;
     for (const Vec3& q : queries) {
-        const Gathered a = gather(*maps[0]->tree(0), q, up, k, rMax);
-        const Gathered b = gather(*maps[1]->medianTree(0), q, up, k, rMax);
-        const Gathered c = gather(*maps[2]->grid(0), q, up, k, rMax);
+        const Gathered a = gather(*maps[0]->index<KdTree>(0), q, up, k, rMax);
+        const Gathered b = gather(*maps[1]->index<MedianKdTree>(0), q, up, k, rMax);
+        const Gathered c = gather(*maps[2]->index<PhotonGrid>(0), q, up, k, rMax);
         ASSERT_EQ(a.dist2, b.dist2);
         ASSERT_EQ(a.dist2, c.dist2);
         ASSERT_TRUE(a.inner == b.inner);
@@ -124,10 +124,10 @@ TEST(PhotonMaps, TreeVariantsGiveTheSameCausticEstimates) {
         SurfaceHit hit;
         hit.position = q;
         hit.geometricNormal = hit.shadingNormal = up;
-        const Vec3 la = maps[0]->radiance(0, hit, up, Vec3(0.5f));
+        const Vec3 la = maps[0]->radiance(es, 0, hit, up, Vec3(0.5f));
         nonZero += la.x > 0.0f;
         for (size_t v = 1; v < maps.size(); ++v) {
-            const Vec3 lv = maps[v]->radiance(0, hit, up, Vec3(0.5f));
+            const Vec3 lv = maps[v]->radiance(es, 0, hit, up, Vec3(0.5f));
             // Same photons, summed in another order (and ties at the k-th distance carry the
             // same distance but possibly other powers): float rounding only.
             for (int ch = 0; ch < 3; ++ch)
@@ -144,9 +144,12 @@ TEST(PhotonMaps, StoredPowersAreRelativeToThePowerUnit) {
     const float scales[] = {1.0f, std::ldexp(1.0f, -40), std::ldexp(1.0f, 40)};
     std::vector<std::unique_ptr<PhotonMaps>> maps;
     std::vector<Vec3> flux;
+    std::vector<std::unique_ptr<Scene>> scenes;       // EmbreeScene keeps a reference
+    std::vector<std::unique_ptr<EmbreeScene>> embree;  // the radiance queries below take it
     for (float scale : scales) {
-        const Scene scene = causticScene(scale);
-        const EmbreeScene es(scene);
+        scenes.push_back(std::make_unique<Scene>(causticScene(scale)));
+        embree.push_back(std::make_unique<EmbreeScene>(*scenes.back()));
+        const EmbreeScene& es = *embree.back();
         Vec3 f(0.0f);
         for (const Emitter& e : buildEmitters(es)) f += e.flux;
         flux.push_back(f);
@@ -188,8 +191,8 @@ TEST(PhotonMaps, StoredPowersAreRelativeToThePowerUnit) {
         SurfaceHit hit;
         hit.position = Vec3(-0.4f, 0.0f, 0.0f);  // under the slab
         hit.geometricNormal = hit.shadingNormal = Vec3(0.0f, 1.0f, 0.0f);
-        const Vec3 l0 = maps[0]->radiance(0, hit, hit.shadingNormal, Vec3(0.5f));
-        const Vec3 li = maps[i]->radiance(0, hit, hit.shadingNormal, Vec3(0.5f));
+        const Vec3 l0 = maps[0]->radiance(*embree[0], 0, hit, hit.shadingNormal, Vec3(0.5f));
+        const Vec3 li = maps[i]->radiance(*embree[i], 0, hit, hit.shadingNormal, Vec3(0.5f));
         ASSERT_GT(l0.x, 0.0f);
         for (int c = 0; c < 3; ++c) EXPECT_FLOAT_EQ(li[c], l0[c] * scales[i]);
     }

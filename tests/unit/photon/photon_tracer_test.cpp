@@ -397,15 +397,15 @@ TEST(PhotonTracer, DegenerateTrianglesAndZeroLightsGiveNoNaN) {
     maps.shootBatch(es, 0);
     EXPECT_EQ(maps.stats(0).anomalies, 0u);
     EXPECT_GT(maps.stats(0).photonsStored, 0u);
-    for (const Photon& p : maps.tree(0)->photons()) {
+    for (const Photon& p : maps.index<KdTree>(0)->photons()) {
         const Vec3 pw = p.powerRgb();
         EXPECT_TRUE(std::isfinite(pw.x) && std::isfinite(pw.y) && std::isfinite(pw.z));
     }
     SurfaceHit hit;
     hit.position = Vec3(0.0f, 0.0f, 0.0f);
-    const Vec3 L = maps.radiance(0, hit, Vec3(0, 1, 0), Vec3(0.5f));
+    const Vec3 L = maps.radiance(es, 0, hit, Vec3(0, 1, 0), Vec3(0.5f));
     EXPECT_TRUE(std::isfinite(L.x) && std::isfinite(L.y) && std::isfinite(L.z));
-    EXPECT_EQ(maps.radiance(7, hit, Vec3(0, 1, 0), Vec3(0.5f)), Vec3(0.0f));  // not owned
+    EXPECT_EQ(maps.radiance(es, 7, hit, Vec3(0, 1, 0), Vec3(0.5f)), Vec3(0.0f));  // not owned
 
     // A scene without any light: batches are empty and the maps go straight to walkthrough.
     Scene empty = slabScene(1.5f, Vec3(0.0f), 0.5f);
@@ -414,7 +414,7 @@ TEST(PhotonTracer, DegenerateTrianglesAndZeroLightsGiveNoNaN) {
     none.shootBatch(ee, 0);
     none.shootBatch(ee, 1);
     EXPECT_TRUE(none.walkthrough());
-    EXPECT_EQ(none.radiance(0, hit, Vec3(0, 1, 0), Vec3(0.5f)), Vec3(0.0f));
+    EXPECT_EQ(none.radiance(ee, 0, hit, Vec3(0, 1, 0), Vec3(0.5f)), Vec3(0.0f));
 }
 
 TEST(PhotonMaps, BatchesAdvanceTheSequenceAndResetRestartsIt) {
@@ -433,9 +433,9 @@ TEST(PhotonMaps, BatchesAdvanceTheSequenceAndResetRestartsIt) {
         ps.capPhotons = 0;
         PhotonMaps maps(ps, {0, 1});
         maps.shootBatch(es, 0);
-        const size_t first = maps.tree(0)->size();
+        const size_t first = maps.index<KdTree>(0)->size();
         maps.shootBatch(es, 0);
-        const KdTree& t = *maps.tree(0);
+        const KdTree& t = *maps.index<KdTree>(0);
         ASSERT_GT(first, 0u);
         // No photon of batch 2 duplicates one of batch 1 (the indices advanced).
         size_t duplicates = 0;
@@ -449,11 +449,11 @@ TEST(PhotonMaps, BatchesAdvanceTheSequenceAndResetRestartsIt) {
         EXPECT_EQ(maps.stats(0).batches, 2u);
         // Sets draw different photons.
         maps.shootBatch(es, 1);
-        EXPECT_NE(maps.tree(1)->photons()[0].position, t.photons()[0].position);
+        EXPECT_NE(maps.index<KdTree>(1)->photons()[0].position, t.photons()[0].position);
         maps.reset();
-        EXPECT_EQ(maps.tree(0), nullptr);
+        EXPECT_EQ(maps.index<KdTree>(0), nullptr);
         maps.shootBatch(es, 0);
-        EXPECT_EQ(maps.tree(0)->size(), first);
+        EXPECT_EQ(maps.index<KdTree>(0)->size(), first);
         EXPECT_EQ(maps.stats(0).batches, 1u);
     }
 }
@@ -473,9 +473,9 @@ TEST(PhotonMaps, CapSwitchesToWalkthrough) {
     }
     EXPECT_TRUE(maps.walkthrough());
     EXPECT_GE(maps.stats(0).photonsStored, 3000u);
-    const size_t size = maps.tree(0)->size();
+    const size_t size = maps.index<KdTree>(0)->size();
     maps.shootBatch(es, 0);  // no-op in walkthrough
-    EXPECT_EQ(maps.tree(0)->size(), size);
+    EXPECT_EQ(maps.index<KdTree>(0)->size(), size);
 }
 
 }  // namespace

@@ -128,7 +128,7 @@ TEST(Messages, FieldValidationRejectsBadValues) {
     CameraState wideCam;
     wideCam.yfov = 3.5f;
     reject(FrameBegin{1, 0, 0, wideCam, FrameMode::Interaction, {}}, ErrorCode::BadValue);
-    reject(FrameBegin{1, 0, 0, {}, static_cast<FrameMode>(3), {}}, ErrorCode::BadEnum);
+    reject(FrameBegin{1, 0, 0, {}, static_cast<FrameMode>(kMaxFrameMode + 1), {}}, ErrorCode::BadEnum);
     reject(Welcome{1, {4, 4}}, ErrorCode::BadValue);
     reject(Welcome{1, {kMaxSets}}, ErrorCode::BadValue);
     reject(Hello{1, std::string(kMaxTokenBytes + 1, 'x'), 1, ""}, ErrorCode::LengthTooLarge);
@@ -144,6 +144,14 @@ TEST(Messages, FieldValidationRejectsBadValues) {
     s = Settings{};
     s.encoding = static_cast<PixelEncoding>(9);
     reject(s, ErrorCode::BadEnum);
+    s = Settings{};
+    s.estimator = static_cast<CausticEstimator>(kMaxCausticEstimator + 1);
+    reject(s, ErrorCode::BadEnum);
+    s = Settings{};
+    s.progressiveAlpha = 1.0f;
+    reject(s, ErrorCode::BadValue);
+    s.progressiveAlpha = std::numeric_limits<float>::quiet_NaN();
+    reject(s, ErrorCode::NonFinite);
     reject(Scene{1, Scene::Source::Builtin, "", {}, {}}, ErrorCode::BadValue);
     reject(Scene{1, Scene::Source::Gltf, "ring", {1}, {}}, ErrorCode::BadValue);
     reject(Edit{1, MaterialEdit{0, MaterialKind::Diffuse, {2, 0, 0}, 1.5f, {}, {}}}, ErrorCode::BadValue);
@@ -155,7 +163,7 @@ TEST(Messages, FieldValidationRejectsBadValues) {
 
 TEST(Messages, FixedSizePayloadsHaveTheDocumentedSizes) {
     // PROTOCOL.md §5.5 and §5.9 state these sizes.
-    EXPECT_EQ(encode(Settings{}).size(), kHeaderBytes + 60);
+    EXPECT_EQ(encode(Settings{}).size(), kHeaderBytes + 65);
     EXPECT_EQ(encode(Stats{}).size(), kHeaderBytes + 52);
     EXPECT_EQ(encode(Edit{1, CameraEdit{}}).size(), kHeaderBytes + 4 + 41);
     EXPECT_EQ(encode(Edit{1, LightEdit{}}).size(), kHeaderBytes + 4 + 41);

@@ -150,25 +150,25 @@ TEST(Wire, HeaderIsSixteenBytesStartingWithRTPM) {
 TEST(Wire, HeaderErrorsAreTyped) {
     auto code = [](const std::vector<uint8_t>& b) { return decodeHeader(b).error().code; };
     EXPECT_EQ(code({1, 2, 3}), ErrorCode::Truncated);
-    EXPECT_EQ(code(header(0x4D505453u, 2, 1, 0, 0)), ErrorCode::BadMagic);
-    EXPECT_EQ(code(header(kMagic, 1, 1, 0, 0)), ErrorCode::BadVersion);  // a version-1 peer
+    EXPECT_EQ(code(header(0x4D505453u, 1, 1, 0, 0)), ErrorCode::BadMagic);
     EXPECT_EQ(code(header(kMagic, 3, 1, 0, 0)), ErrorCode::BadVersion);
+    EXPECT_EQ(code(header(kMagic, 1, 1, 0, 0)), ErrorCode::BadVersion);  // version 1 peers
     EXPECT_EQ(code(header(kMagic, 0, 1, 0, 0)), ErrorCode::BadVersion);
-    EXPECT_EQ(code(header(kMagic, 2, 0, 0, 0)), ErrorCode::UnknownType);
-    EXPECT_EQ(code(header(kMagic, 2, kMaxMessageType + 1, 0, 0)), ErrorCode::UnknownType);
-    EXPECT_EQ(code(header(kMagic, 2, 1, 1, 0)), ErrorCode::BadFlags);
+    EXPECT_EQ(code(header(kMagic, kProtocolVersion, 0, 0, 0)), ErrorCode::UnknownType);
+    EXPECT_EQ(code(header(kMagic, kProtocolVersion, kMaxMessageType + 1, 0, 0)), ErrorCode::UnknownType);
+    EXPECT_EQ(code(header(kMagic, kProtocolVersion, 1, 1, 0)), ErrorCode::BadFlags);
 }
 
 TEST(Wire, OversizePayloadIsRejectedFromTheHeaderAlone) {
     for (uint16_t t = 1; t <= kMaxMessageType; ++t) {
         const uint32_t limit = payloadLimit(static_cast<MessageType>(t));
         ASSERT_GT(limit, 0u);
-        EXPECT_TRUE(decodeHeader(header(kMagic, 2, t, 0, limit)).ok()) << "type " << t;
-        auto over = decodeHeader(header(kMagic, 2, t, 0, limit + 1));
+        EXPECT_TRUE(decodeHeader(header(kMagic, kProtocolVersion, t, 0, limit)).ok()) << "type " << t;
+        auto over = decodeHeader(header(kMagic, kProtocolVersion, t, 0, limit + 1));
         ASSERT_FALSE(over.ok());
         EXPECT_EQ(over.error().code, ErrorCode::PayloadTooLarge);
     }
-    EXPECT_EQ(decodeHeader(header(kMagic, 2, 1, 0, 0xFFFFFFFFu)).error().code,
+    EXPECT_EQ(decodeHeader(header(kMagic, kProtocolVersion, 1, 0, 0xFFFFFFFFu)).error().code,
               ErrorCode::PayloadTooLarge);
 }
 

@@ -193,7 +193,7 @@ TEST(EyePass, MirrorReflectsThePlane) {
 /// Returns a constant caustic radiance, scaled by the albedo to show it is passed through.
 class ConstantCaustics : public CausticEstimator {
 public:
-    Vec3 radiance(uint32_t, const SurfaceHit&, Vec3 normal, Vec3 albedo) const override {
+    Vec3 radiance(const EmbreeScene&, uint32_t, const SurfaceHit&, Vec3 normal, Vec3 albedo) const override {
         EXPECT_NEAR(glm::length(normal), 1.0f, 1e-4f);
         return Vec3(2.0f) * albedo;
     }
