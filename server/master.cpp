@@ -563,7 +563,7 @@ struct Master::Impl : net::ConnectionHandler {
             pump();
         } else if (std::get_if<ViewerSnapshot>(&cmd)) {
             if (opt.out.empty() || summary.framesShown == 0) return error("no image to save yet (or no --out)");
-            const std::string path = framePath(opt.out, summary.framesShown, "_snapshot.exr");
+            const std::string path = numberedPath(opt.out, summary.framesShown, "_snapshot.exr");
             output.write(path, [reply, path](std::string err) {
                 reply(err.empty() ? nlohmann::json{{"type", "ok"}, {"what", "saved " + path}}.dump()
                                   : nlohmann::json{{"type", "error"}, {"message", "snapshot failed: " + err}}.dump());
