@@ -485,10 +485,13 @@ struct Master::Impl : net::ConnectionHandler {
                 return;
             }
             output.write(opt.out, [this, unlimited](std::string error) {
-                if (!error.empty()) std::fprintf(stderr, "rtpm-server: cannot write %s: %s\n", opt.out.c_str(), error.c_str());
-                asio::post(io, [this, unlimited] {
+                const bool failed = !error.empty();
+                if (failed) std::fprintf(stderr, "rtpm-server: cannot write %s: %s\n", opt.out.c_str(), error.c_str());
+                asio::post(io, [this, unlimited, failed] {
                     finishing = false;
-                    shutdown(unlimited ? 0 : 130, proto::ByeReason::Shutdown, "server stopped");
+                    imageWriteFailed |= failed;
+                    shutdown(imageWriteFailed ? kExitImageNotWritten : unlimited ? 0 : 130, proto::ByeReason::Shutdown,
+                             "server stopped");
                 });
             });
         }
