@@ -10,6 +10,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+
+#include <unistd.h>
 #include <limits>
 #include <memory>
 #include <numbers>
@@ -498,8 +500,9 @@ TEST_P(HardCases, ValidateRejectsNonFiniteVerticesAndNormals) {
 struct TempFile {
     std::filesystem::path path;
     TempFile(const std::string& name, const std::string& text) {
+        // Unique per process: ctest runs the parametrised instances of a test at the same time.
         path = std::filesystem::temp_directory_path() /
-               (std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" + name);
+               ("rtpm_hard_cases_" + std::to_string(::getpid()) + "_" + name);
         std::ofstream(path) << text;
     }
     ~TempFile() {
