@@ -32,7 +32,7 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
             const DensityGather g = maps.gatherMap(scene, set, e.hit, e.normal);
             if (g.radius2 > 0.0f && finite(g.power)) {
                 s.radius2 = g.radius2;
-                s.count = g.count;
+                s.count = double(g.count) * kRestartCountShare;
                 s.flux = glm::dvec3(g.power) * double(batches0_);
             } else {
                 s.radius2 = rMax2;

@@ -1,0 +1,221 @@
+// Convergence of the caustic on the curved-mirror scene against its analytic reference: error,
+// energy and time per frame for rtpm, and the same error for an outside render (POV-Ray).
+//
+//   ring_mirror_bench [--estimator progressive|knn] [--photons P] [--frames N] [--width W]
+//                     [--height H] [-M m] [-F f] [--alpha a] [--csv FILE]
+//       renders N frames of the still view (tests/support/ring_mirror.h, L S D paths only) and
+//       prints after frames 1, 2, 4, … and N: elapsed wall and CPU seconds of the process since
+//       the scene was ready, the caustic-region rel. MAE of the shown caustic (filtered and
+//       faded as rtpm-render shows it) and the caustic energy over the compared pixels relative
+//       to the reference.
+//   ring_mirror_bench --compare FILE.exr [--width W --height H]
+//       the same error and energy for the R G B layer of an image that holds only the caustic
+//       (tests/bench/pov_compare.py subtracts POV-Ray's direct light first).
+//   ring_mirror_bench --reference FILE.exr      writes the analytic reference (R G B).
+//   ring_mirror_bench --static-frame STORED     frame-time figure (see staticFrame below).
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <cstdio>
+#include <cstring>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "common/core/interleave.h"
+#include "common/image/error_metrics.h"
+#include "common/image/frame_image.h"
+#include "common/image/image_io.h"
+#include "common/render/render_job.h"
+#include "tests/support/ring_mirror.h"
+
+namespace {
+
+using namespace rtpm;
+
+double cpuSeconds() {
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    return double(ru.ru_utime.tv_sec) + double(ru.ru_stime.tv_sec) +
+           1e-6 * double(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+}
+
+struct Options {
+    std::string estimator = "progressive";
+    uint32_t photons = 100000;
+    int frames = 16;
+    int width = 320, height = 240, m = 3, f = 0;
+    float alpha = 0.7f;
+    double mask = 0.97;
+    uint32_t k = 64;
+    std::string csv, compare, reference, out;
+    uint64_t staticStored = 0;
+};
+
+struct Score {
+    double relMae = 0.0, energy = 0.0;
+};
+
+// Caustic-region rel. MAE (error_metrics.h's region: 5 % of the 99th percentile of the
+// reference) and Σ output / Σ reference over the pixels the reference covers.
+Score score(std::span<const float> rgb, const std::vector<float>& ref, const std::vector<uint8_t>& mask,
+            int w, int h) {
+    std::vector<float> masked(rgb.begin(), rgb.end());
+    double so = 0.0, sr = 0.0;
+    for (size_t p = 0; p < mask.size(); ++p)
+        for (int c = 0; c < 3; ++c) {
+            if (!mask[p]) {
+                masked[3 * p + c] = 0.0f;
+                continue;
+            }
+            so += masked[3 * p + c];
+            sr += ref[3 * p + c];
+        }
+    const ErrorMetrics em = compareRgb(masked, ref, ref, w, h);
+    return Score{em.caustic.relMae, sr > 0.0 ? so / sr : 0.0};
+}
+
+RenderSettings settingsFor(const Options& o) {
+    RenderSettings rs;
+    rs.width = o.width;
+    rs.height = o.height;
+    rs.interleave = o.m;
+    rs.filter = o.f;
+    rs.photons.photonsPerBatch = o.photons;
+    rs.photons.maxDepth = 2;  // L S D only: the reference's light transport
+    rs.photons.diffuseBounces = 0;
+    rs.photons.progressiveAlpha = o.alpha;
+    rs.photons.k = o.k;
+    const auto kind = parseCausticEstimator(o.estimator);
+    if (!kind) throw std::invalid_argument("--estimator must be progressive or knn, not " + o.estimator);
+    rs.photons.estimator = *kind;
+    return rs;
+}
+
+int converge(const Options& o) {
+    testscenes::RingMirror rm;
+    rm.maskFraction = o.mask;
+    std::vector<float> ref;
+    std::vector<uint8_t> mask;
+    rm.referenceImage(o.width, o.height, ref, mask);
+    const RenderSettings rs = settingsFor(o);
+    Scene scene = rm.scene();
+    const Camera camera = *scene.camera;
+    std::vector<uint32_t> sets(size_t(rs.interleave * rs.interleave));
+    std::iota(sets.begin(), sets.end(), 0u);
+    const double cpu0 = cpuSeconds();
+    const auto t0 = std::chrono::steady_clock::now();
+    RenderJob job(std::move(scene), rs, sets);
+    const Interleave pattern{rs.width, rs.height, rs.interleave};
+    FrameImage image(rs.width, rs.height);
+    std::vector<SetPixels> pixels;
+    FILE* csv = o.csv.empty() ? nullptr : std::fopen(o.csv.c_str(), "w");
+    if (!o.csv.empty() && !csv) throw std::runtime_error("cannot open " + o.csv);
+    if (csv) std::fprintf(csv, "estimator,photons,frame,wall_s,cpu_s,rel_mae,energy\n");
+    std::printf("%s, P = %u, %dx%d, M = %d, F = %d\n", o.estimator.c_str(), o.photons, rs.width,
+                rs.height, rs.interleave, rs.filterSize());
+    std::printf("%6s %9s %9s %9s %8s %10s\n", "frame", "wall_s", "cpu_s", "rel_mae", "energy", "stored");
+    for (int f = 1; f <= o.frames; ++f) {
+        const FrameStats st = job.renderFrame(camera, true, pixels);
+        for (const SetPixels& sp : pixels)
+            image.scatter(pattern, sp.set, sp.pixels, causticOwnWeight(sp.passes, rs.filterSize()));
+        image.filterAndCompose(rs.filterSize());
+        const bool report = (f & (f - 1)) == 0 || f == o.frames;
+        if (!report) continue;
+        const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const double cpu = cpuSeconds() - cpu0;
+        const Score s = score(image.causticFiltered(), ref, mask, rs.width, rs.height);
+        std::printf("%6d %9.2f %9.2f %9.4f %8.4f %10llu\n", f, wall, cpu, s.relMae, s.energy,
+                    (unsigned long long)st.photonsStored);
+        std::fflush(stdout);
+        if (csv)
+            std::fprintf(csv, "%s,%u,%d,%.3f,%.3f,%.5f,%.5f\n", o.estimator.c_str(), o.photons, f, wall,
+                         cpu, s.relMae, s.energy);
+    }
+    if (csv) std::fclose(csv);
+    if (!o.out.empty()) {
+        const ImageLayer layers[2] = {{"", image.causticFiltered()}, {"reference", ref}};
+        writeExr(o.out, rs.width, rs.height, layers);
+        // Side by side at one exposure: shown caustic | reference.
+        std::vector<float> both(size_t(rs.width) * 2 * size_t(rs.height) * 3);
+        for (int y = 0; y < rs.height; ++y)
+            for (int x = 0; x < rs.width; ++x)
+                for (int c = 0; c < 3; ++c) {
+                    const size_t src = (size_t(y) * size_t(rs.width) + size_t(x)) * 3 + size_t(c);
+                    const size_t dst = (size_t(y) * size_t(rs.width) * 2 + size_t(x)) * 3 + size_t(c);
+                    both[dst] = image.causticFiltered()[src];
+                    both[dst + size_t(rs.width) * 3] = ref[src];
+                }
+        ToneMap tm;
+        tm.exposureStops = std::log2(autoExposureScale(ref));
+        writePng(std::filesystem::path(o.out).replace_extension(".png").string(), rs.width * 2, rs.height,
+                 both, tm);
+        std::printf("wrote %s\n", o.out.c_str());
+    }
+    return 0;
+}
+
+int compareFile(const Options& o) {
+    testscenes::RingMirror rm;
+    rm.maskFraction = o.mask;
+    const ExrImage img = readExr(o.compare);
+    std::vector<float> ref;
+    std::vector<uint8_t> mask;
+    rm.referenceImage(img.width, img.height, ref, mask);
+    const std::vector<float> rgb = img.layerRgb("");
+    const Score s = score(rgb, ref, mask, img.width, img.height);
+    std::printf("rel_mae %.5f energy %.5f\n", s.relMae, s.energy);
+    return 0;
+}
+
+int writeReference(const Options& o) {
+    testscenes::RingMirror rm;
+    rm.maskFraction = o.mask;
+    std::vector<float> ref;
+    std::vector<uint8_t> mask;
+    rm.referenceImage(o.width, o.height, ref, mask);
+    const ImageLayer layer{"", ref};
+    writeExr(o.reference, o.width, o.height, std::span<const ImageLayer>(&layer, 1));
+    std::printf("wrote %s\n", o.reference.c_str());
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    Options o;
+    try {
+        for (int i = 1; i < argc; ++i) {
+            const std::string a = argv[i];
+            auto next = [&]() -> std::string {
+                if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+                return argv[++i];
+            };
+            if (a == "--estimator") o.estimator = next();
+            else if (a == "--photons") o.photons = uint32_t(std::stoul(next()));
+            else if (a == "--frames") o.frames = std::stoi(next());
+            else if (a == "--width") o.width = std::stoi(next());
+            else if (a == "--height") o.height = std::stoi(next());
+            else if (a == "-M") o.m = std::stoi(next());
+            else if (a == "-F") o.f = std::stoi(next());
+            else if (a == "--alpha") o.alpha = std::stof(next());
+            else if (a == "--csv") o.csv = next();
+            else if (a == "--compare") o.compare = next();
+            else if (a == "--reference") o.reference = next();
+            else if (a == "--out") o.out = next();
+            else if (a == "--mask") o.mask = std::stod(next());
+            else if (a == "--k") o.k = uint32_t(std::stoul(next()));
+            else throw std::invalid_argument("unknown argument " + a);
+        }
+        if (o.frames < 1 || o.width < 1 || o.height < 1) throw std::invalid_argument("sizes must be >= 1");
+        if (!o.compare.empty()) return compareFile(o);
+        if (!o.reference.empty()) return writeReference(o);
+        return converge(o);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "ring_mirror_bench: %s\n", e.what());
+        return 1;
+    }
+}
