@@ -237,7 +237,7 @@ std::vector<uint32_t> FrameRenderer::currentSets() const {
 uint32_t FrameRenderer::batches(uint32_t set) const {
     for (const auto& g : groups_)
         if (std::find(g->sets.begin(), g->sets.end(), set) != g->sets.end())
-            return g->job->photons().stats(set).batches;
+            return g->job->photons().stats(set).batches + g->job->photons().stats(set).pendingBatches;
     return 0;
 }
 

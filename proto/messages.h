@@ -153,7 +153,7 @@ struct Settings {
     bool gatherVisibility = false;   ///< PhotonSettings::gatherVisibility (u8 0/1)
     // Appended in version 2: the caustic estimator (DESIGN §9).
     CausticEstimator estimator = CausticEstimator::Progressive;  ///< PhotonSettings::estimator
-    float progressiveAlpha = 0.7f;   ///< PhotonSettings::progressiveAlpha, finite, in (0, 1)
+    float progressiveAlpha = 0.5f;   ///< PhotonSettings::progressiveAlpha, finite, in (0, 1)
     bool operator==(const Settings&) const = default;
 };
 

@@ -180,6 +180,7 @@ struct PhotonMaps::SetState {
     uint32_t set = 0;
     std::optional<PhotonIndex> index;  // created at the first batch after a reset
     std::optional<KdTree> pass;        // the last progressive pass's photons alone
+    std::vector<Photon> pending;       // passes' photons not yet in `index` (flushPasses)
     PhotonSetStats stats;
     std::vector<LightSequence> lights;
     bool capped = false;
@@ -347,6 +348,7 @@ void PhotonMaps::toStored(const TraceOutput& out, std::vector<Photon>& batch) co
 void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     SetState* st = find(set);
     RTPM_CHECK(st != nullptr);
+    flushPasses(set);
     if (st->capped) return;
     insertBatch(*st, traceBatch(scene, *st));
 }
@@ -358,7 +360,25 @@ void PhotonMaps::shootPass(const EmbreeScene& scene, uint32_t set) {
     st->pass.emplace(scene.bounds());
     st->pass->build(batch);
     st->stats.passes += 1;
-    if (!st->capped) insertBatch(*st, std::move(batch));
+    // Kept for the map, not inserted now: an insertion moves the map's leaf-ordered photon array
+    // (O(stored)), which would make a still frame's cost grow with the map. Bounded by the cap.
+    const uint64_t cap = settings_.capPhotons;
+    if (!st->capped && (cap == 0 || st->stats.photonsStored + st->pending.size() < cap)) {
+        st->pending.insert(st->pending.end(), batch.begin(), batch.end());
+        st->stats.pendingBatches += 1;
+    }
+}
+
+void PhotonMaps::flushPasses(uint32_t set) {
+    SetState* st = find(set);
+    RTPM_CHECK(st != nullptr);
+    if (st->stats.pendingBatches == 0) return;
+    const uint32_t batches = st->stats.pendingBatches;
+    std::vector<Photon> photons = std::move(st->pending);
+    st->pending = {};
+    st->stats.pendingBatches = 0;
+    insertBatch(*st, std::move(photons));
+    st->stats.batches += batches - 1;  // insertBatch counted one
 }
 
 std::vector<Photon> PhotonMaps::traceBatch(const EmbreeScene& scene, SetState& state) {

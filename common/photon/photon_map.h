@@ -24,6 +24,7 @@ inline constexpr uint32_t kMaxSptRefinements = 64;
 struct PhotonSetStats {
     uint32_t batches = 0;          ///< batches in the map (the accumulation count)
     uint32_t passes = 0;           ///< progressive passes shot (shootPass), in the map or not
+    uint32_t pendingBatches = 0;   ///< passes kept for the map, inserted at the next flushPasses
     uint64_t pathsTraced = 0;      ///< light paths traced: pilots, refinements, classification
     uint64_t productivePaths = 0;  ///< paths that stored ≥ 1 caustic photon
     uint64_t photonsStored = 0;    ///< photons in the map
@@ -78,10 +79,16 @@ public:
     /// Cost: O(photonsPerBatch · maxDepth) ray casts + O(stored · log) insertion.
     void shootBatch(const EmbreeScene& scene, uint32_t set);
     /// A progressive pass of `set` (DESIGN §9): shoots its next batch even when the set is
-    /// capped, inserts it into the map unless capped, and keeps the batch alone as the set's
-    /// pass index (gatherPass), replacing the previous pass. Cost: the batch's tracing, an
-    /// O(b log b) build of the pass index, plus the insertion when not capped.
+    /// capped and keeps the batch alone as the set's pass index (gatherPass), replacing the
+    /// previous pass. Unless the set is capped, the batch is also kept for the map (up to the
+    /// cap) and inserted by the next flushPasses, so a pass costs the batch's tracing and an
+    /// O(b log b) build, independent of the map's size.
     void shootPass(const EmbreeScene& scene, uint32_t set);
+    /// Inserts the photons of the passes since the last flush into `set`'s map as that many
+    /// batches (the map then holds what batch-by-batch shooting would have stored, in another
+    /// order). Call when a progression ends, before the map answers a query (a restart);
+    /// shootBatch calls it. Cost: one insertion, O(stored + pending).
+    void flushPasses(uint32_t set);
     /// Forgets every photon and restarts every set's sequence (scene edit: geometry, light,
     /// material). Settings changes other than k also need a reset.
     void reset();

@@ -55,7 +55,9 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
         if (converge[i])
             photons_->shootPass(*embree_, sets_[i]);
         else if (shoot)
-            photons_->shootBatch(*embree_, sets_[i]);
+            photons_->shootBatch(*embree_, sets_[i]);  // flushes the ended progression's passes
+        else
+            photons_->flushPasses(sets_[i]);
     }
     stats.shootSeconds = secondsSince(t0);
 

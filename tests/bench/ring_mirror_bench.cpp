@@ -12,9 +12,11 @@
 //       the same error and energy for the R G B layer of an image that holds only the caustic
 //       (tests/bench/pov_compare.py subtracts POV-Ray's direct light first).
 //   ring_mirror_bench --reference FILE.exr      writes the analytic reference (R G B).
-//   ring_mirror_bench --static-frame STORED     frame-time figure (see staticFrame below).
+//   ring_mirror_bench --static-frame 10000 --static-frame 1000000 [--photons P] [--frames N]
+//       still-frame time of one set with its map filled to each size (staticFrame below).
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -52,7 +54,7 @@ struct Options {
     double mask = 0.97;
     uint32_t k = 64;
     std::string csv, compare, reference, out;
-    uint64_t staticStored = 0;
+    std::vector<uint64_t> staticStored;  ///< --static-frame, repeatable
 };
 
 struct Score {
@@ -158,6 +160,49 @@ int converge(const Options& o) {
     return 0;
 }
 
+// Still-frame cost against the map's size: one interleaving set (a client owning set 0),
+// default settings but L S D photons; the map is first filled to `stored` photons by frames whose
+// camera alternates between two positions (each a restart that shoots and inserts a batch), then
+// `frames` still frames (progressive passes) are timed. Prints the median and mean still-frame
+// wall time and the process CPU time over them.
+void staticFrame(const Options& o, uint64_t stored) {
+    const testscenes::RingMirror rm;
+    RenderSettings rs = settingsFor(o);
+    Scene scene = rm.scene();
+    const Camera still = *scene.camera;
+    Camera moved = still;
+    moved.position.x += 1e-3f;
+    RenderJob job(std::move(scene), rs, {0u});
+    std::vector<SetPixels> pixels;
+    int fill = 0;  // ends on `moved`, so the first timed frame restarts the still view
+    while (fill % 2 == 0 || (job.photons().stats(0).photonsStored < stored && !job.photons().capped(0))) {
+        job.renderFrame(fill % 2 ? moved : still, true, pixels);
+        ++fill;
+    }
+    std::vector<double> ms;
+    double shoot = 0.0, eye = 0.0;
+    const double cpu0 = cpuSeconds();
+    for (int f = 0; f <= o.frames; ++f) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const FrameStats st = job.renderFrame(still, true, pixels);
+        const double t = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        if (f == 0) continue;  // the restart
+        if (!st.converging) throw std::runtime_error("a still frame did not converge");
+        ms.push_back(t);
+        shoot += st.shootSeconds * 1e3;
+        eye += st.eyeSeconds * 1e3;
+    }
+    const double cpu = (cpuSeconds() - cpu0) * 1e3 / double(o.frames);
+    std::vector<double> sorted = ms;
+    std::sort(sorted.begin(), sorted.end());
+    const double mean = std::accumulate(ms.begin(), ms.end(), 0.0) / double(ms.size());
+    std::printf("stored %9llu (fill frames %4d, P = %u): still frame median %7.2f ms, mean %7.2f ms "
+                "(shoot %6.2f, gather+compose %6.2f), CPU %7.2f ms/frame\n",
+                (unsigned long long)job.photons().stats(0).photonsStored, fill, rs.photons.photonsPerBatch,
+                sorted[sorted.size() / 2], mean, shoot / double(o.frames), eye / double(o.frames), cpu);
+    std::fflush(stdout);
+}
+
 int compareFile(const Options& o) {
     testscenes::RingMirror rm;
     rm.maskFraction = o.mask;
@@ -207,12 +252,17 @@ int main(int argc, char** argv) {
             else if (a == "--reference") o.reference = next();
             else if (a == "--out") o.out = next();
             else if (a == "--mask") o.mask = std::stod(next());
+            else if (a == "--static-frame") o.staticStored.push_back(std::stoull(next()));
             else if (a == "--k") o.k = uint32_t(std::stoul(next()));
             else throw std::invalid_argument("unknown argument " + a);
         }
         if (o.frames < 1 || o.width < 1 || o.height < 1) throw std::invalid_argument("sizes must be >= 1");
         if (!o.compare.empty()) return compareFile(o);
         if (!o.reference.empty()) return writeReference(o);
+        if (!o.staticStored.empty()) {
+            for (uint64_t n : o.staticStored) staticFrame(o, n);
+            return 0;
+        }
         return converge(o);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "ring_mirror_bench: %s\n", e.what());
