@@ -3,14 +3,15 @@
 //
 //   ring_mirror_bench [--estimator progressive|knn] [--photons P] [--frames N] [--width W]
 //                     [--height H] [-M m] [-F f] [--alpha a] [--csv FILE]
-//       renders N frames of the still view (tests/support/ring_mirror.h, L S D paths only) and
-//       prints after frames 1, 2, 4, … and N: elapsed wall and CPU seconds of the process since
+//       renders N frames of the still view (tests/support/ring_mirror.h, L S D paths only; with
+//       --seconds S, stops after the frame that reaches S s of wall time) and prints after
+//       frames 1, 2, 4, 8, 16, 32, 48, … and the last: elapsed wall and CPU seconds of the process since
 //       the scene was ready, the caustic-region rel. MAE of the shown caustic (filtered and
 //       faded as rtpm-render shows it) and the caustic energy over the compared pixels relative
 //       to the reference.
-//   ring_mirror_bench --compare FILE.exr [--width W --height H]
-//       the same error and energy for the R G B layer of an image that holds only the caustic
-//       (tests/bench/pov_compare.py subtracts POV-Ray's direct light first).
+//   ring_mirror_bench --compare FILE.exr [--minus DIRECT.exr] [--out DIFF.exr]
+//       the same error and energy for the R G B layer of an image (minus another one: POV-Ray's
+//       render without photons, so that only the caustic is compared; tests/bench/pov_compare.py).
 //   ring_mirror_bench --reference FILE.exr      writes the analytic reference (R G B).
 //   ring_mirror_bench --static-frame 10000 --static-frame 1000000 [--photons P] [--frames N]
 //       still-frame time of one set with its map filled to each size (staticFrame below).
@@ -50,10 +51,11 @@ struct Options {
     uint32_t photons = 100000;
     int frames = 16;
     int width = 320, height = 240, m = 3, f = 0;
-    float alpha = 0.7f;
+    float alpha = 0.5f;
+    double seconds = 0.0;  ///< --seconds: stop after the frame that reaches this wall time
     double mask = 0.97;
     uint32_t k = 64;
-    std::string csv, compare, reference, out;
+    std::string csv, compare, reference, out, minus;
     std::vector<uint64_t> staticStored;  ///< --static-frame, repeatable
 };
 
@@ -122,10 +124,12 @@ int converge(const Options& o) {
     std::printf("%6s %9s %9s %9s %8s %10s\n", "frame", "wall_s", "cpu_s", "rel_mae", "energy", "stored");
     for (int f = 1; f <= o.frames; ++f) {
         const FrameStats st = job.renderFrame(camera, true, pixels);
+        const bool last = f == o.frames ||
+                          (o.seconds > 0.0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= o.seconds);
         for (const SetPixels& sp : pixels)
             image.scatter(pattern, sp.set, sp.pixels, causticOwnWeight(sp.passes, rs.filterSize()));
         image.filterAndCompose(rs.filterSize());
-        const bool report = (f & (f - 1)) == 0 || f == o.frames;
+        const bool report = (f & (f - 1)) == 0 || f % 16 == 0 || last;
         if (!report) continue;
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const double cpu = cpuSeconds() - cpu0;
@@ -136,6 +140,7 @@ int converge(const Options& o) {
         if (csv)
             std::fprintf(csv, "%s,%u,%d,%.3f,%.3f,%.5f,%.5f\n", o.estimator.c_str(), o.photons, f, wall,
                          cpu, s.relMae, s.energy);
+        if (last) break;
     }
     if (csv) std::fclose(csv);
     if (!o.out.empty()) {
@@ -210,7 +215,18 @@ int compareFile(const Options& o) {
     std::vector<float> ref;
     std::vector<uint8_t> mask;
     rm.referenceImage(img.width, img.height, ref, mask);
-    const std::vector<float> rgb = img.layerRgb("");
+    std::vector<float> rgb = img.layerRgb("");
+    if (!o.minus.empty()) {  // e.g. the same render without photons: its direct light
+        const ExrImage direct = readExr(o.minus);
+        if (direct.width != img.width || direct.height != img.height)
+            throw std::invalid_argument(o.minus + " is not the size of " + o.compare);
+        const std::vector<float> d = direct.layerRgb("");
+        for (size_t i = 0; i < rgb.size(); ++i) rgb[i] -= d[i];
+    }
+    if (!o.out.empty()) {
+        const ImageLayer layers[2] = {{"", rgb}, {"reference", ref}};
+        writeExr(o.out, img.width, img.height, layers);
+    }
     const Score s = score(rgb, ref, mask, img.width, img.height);
     std::printf("rel_mae %.5f energy %.5f\n", s.relMae, s.energy);
     return 0;
@@ -251,6 +267,8 @@ int main(int argc, char** argv) {
             else if (a == "--compare") o.compare = next();
             else if (a == "--reference") o.reference = next();
             else if (a == "--out") o.out = next();
+            else if (a == "--minus") o.minus = next();
+            else if (a == "--seconds") o.seconds = std::stod(next());
             else if (a == "--mask") o.mask = std::stod(next());
             else if (a == "--static-frame") o.staticStored.push_back(std::stoull(next()));
             else if (a == "--k") o.k = uint32_t(std::stoul(next()));
