@@ -10,7 +10,8 @@
 // found photons (N₀ = k) while a pass brings about as many (M ≈ k for B₀ = 1) holds the shrink
 // factor (N + αM)/(N + M) near 1 for many passes. r_k is not a fixed radius the photons were
 // counted in but one chosen by them, so the restart is weighted as a fraction of its photons;
-// R₀² and τ₀/(π R₀² B₀) are unchanged, so the image stays continuous across the restart. Each pass then gathers only the new batch's M photons (Σ power Φ) within R:
+// R₀² and τ₀/(π R₀² B₀) are unchanged, so the image stays continuous across the restart.
+// Each pass then gathers only the new batch's M photons (Σ power Φ) within R:
 //   N' = N + αM,  R'² = R² (N + αM)/(N + M),  τ' = (τ + Φ)(N + αM)/(N + M),
 //   L_c = ρ/π · τ / (π R² (B₀ + t))   after t passes,
 // which converges to the true caustic radiance (bias and variance → 0) as t grows. A pass costs
