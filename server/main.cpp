@@ -68,6 +68,9 @@ int run(int argc, char** argv) {
     app.add_option("--viewer-token", o.viewerToken, "token the viewer's controls need (default: the cluster token)");
     app.add_flag("--viewer-public", o.viewerPublic, "viewers without a token may watch (controls still need it)");
     app.add_option("--max-viewers", o.maxViewers, "viewers connected at once")->capture_default_str();
+    app.add_option("--viewer-fps", o.viewerFps,
+                   "frames per second sent to a viewer at most (0 = every frame the master composes)")
+        ->capture_default_str();
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -76,6 +79,8 @@ int run(int argc, char** argv) {
     rs.photons.selective = !plain;
     if (!o.http.empty() && framesOpt->count() == 0) o.frames = 0;
     if (o.maxViewers < 1) throw std::invalid_argument("--max-viewers must be >= 1");
+    if (!(o.viewerFps >= 0.0 && o.viewerFps <= 1000.0))
+        throw std::invalid_argument("--viewer-fps must be in [0, 1000] (0 = no cap)");
     if (deadlineMs < 1) throw std::invalid_argument("--deadline-ms must be >= 1");
     o.deadline = std::chrono::milliseconds(deadlineMs);
     if (o.token.empty())

@@ -52,6 +52,7 @@ struct MasterOptions {
     std::string viewerToken;           ///< controls need this (default: the cluster token)
     bool viewerPublic = false;         ///< viewers without a token may watch (no controls)
     int maxViewers = 8;
+    double viewerFps = 30.0;           ///< frames sent to each viewer per second at most (0 = every frame)
 };
 
 /// Totals of a run, for the summary line and tests.

@@ -1,6 +1,7 @@
 // Display tone mapping with a vectorisable fit of the sRGB transfer curve.
 #include "common/image/tone_map.h"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -11,12 +12,29 @@ namespace rtpm {
 
 
 float displayScale(std::span<const float> rgb, float exposureStops, size_t stride) {
+    std::vector<float> scratch;
+    return displayScale(rgb, exposureStops, stride, scratch);
+}
+
+float displayScale(std::span<const float> rgb, float exposureStops, size_t stride, std::vector<float>& scratch) {
+    // autoExposureScale's 99th percentile of luminance over every stride-th pixel, in `scratch`.
     const size_t n = rgb.size() / 3;
     if (stride < 1) stride = 1;
-    std::vector<float> sample;
-    sample.reserve(3 * (n / stride + 1));
-    for (size_t i = 0; i < n; i += stride) sample.insert(sample.end(), rgb.begin() + 3 * i, rgb.begin() + 3 * i + 3);
-    const float s = autoExposureScale(sample) * std::exp2(exposureStops);
+    scratch.clear();
+    for (size_t i = 0; i < n; i += stride) {
+        const float* p = rgb.data() + 3 * i;
+        const float l = 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2];
+        scratch.push_back(std::isfinite(l) ? l : 0.0f);
+    }
+    float s = 1.0f;
+    if (!scratch.empty()) {
+        const size_t m = scratch.size();
+        const size_t k = std::min(m - 1, size_t(std::floor(0.99 * double(m - 1) + 0.5)));
+        std::nth_element(scratch.begin(), scratch.begin() + std::ptrdiff_t(k), scratch.end());
+        const float p99 = scratch[k];
+        s = p99 > 0.0f && std::isfinite(1.0f / p99) ? 1.0f / p99 : 1.0f;
+    }
+    s *= std::exp2(exposureStops);
     return std::isfinite(s) && s > 0.0f ? s : 1.0f;
 }
 

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <span>
+#include <vector>
 
 namespace rtpm {
 
@@ -10,6 +11,8 @@ namespace rtpm {
 /// automatic exposure of writePng (1 / 99th-percentile luminance), estimated from every
 /// `stride`-th pixel so it costs O(W·H / stride) rather than a full nth_element. Pure.
 float displayScale(std::span<const float> rgb, float exposureStops, size_t stride = 8);
+/// The same, with the sample kept in `scratch` (reused across calls: no allocation per frame).
+float displayScale(std::span<const float> rgb, float exposureStops, size_t stride, std::vector<float>& scratch);
 
 /// out[i] = 8-bit sRGB of clamp(rgb[i] · scale, 0, 1) — writePng's operator, with the transfer
 /// curve from a vectorisable fit (within one 8-bit step of the exact curve) instead of a pow()

@@ -7,8 +7,8 @@
 
 namespace rtpm::server {
 
-/// Encodes 8-bit RGB images to baseline JPEG (4:2:0, fast DCT). Reuses one compressor and one
-/// output buffer. Not thread-safe: one per thread.
+/// Encodes 8-bit RGB images to baseline JPEG (4:2:0, fast DCT). Reuses one compressor; encodeInto
+/// writes into the caller's buffer (no allocation once it has grown). Not thread-safe: one per thread.
 class JpegEncoder {
 public:
     explicit JpegEncoder(int quality = 85);
@@ -19,6 +19,9 @@ public:
     /// JPEG bytes of `rgb` (width·height·3, rows from the top). Throws std::runtime_error with
     /// libjpeg-turbo's message on failure, std::invalid_argument on a size mismatch.
     std::string encode(std::span<const uint8_t> rgb, int width, int height);
+    /// The same, written into `out` from byte `offset` on (out is resized to offset + JPEG size;
+    /// bytes before offset are kept). Same errors as encode().
+    void encodeInto(std::span<const uint8_t> rgb, int width, int height, std::string& out, size_t offset);
 
 private:
     void* handle_ = nullptr;

@@ -1,9 +1,11 @@
 // Viewer server: websocketpp endpoint on its own io_context thread; frames flow output thread →
-// tone map (caller) → JPEG (viewer thread) → each viewer that acknowledged its previous frame.
+// tone map (caller, only for display settings a waiting viewer uses) → JPEG (viewer thread, into
+// a reused buffer) → each viewer that acknowledged its previous frame.
 #include "server/viewer/viewer_server.h"
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -20,6 +22,12 @@
 #include "server/viewer/ws_endpoint.h"
 
 namespace rtpm::server {
+
+double threadCpuSeconds() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
 
 namespace {
 
@@ -48,21 +56,15 @@ struct Viewer {
 };
 
 struct Encoded {
-    uint64_t frame = 0;
-    std::shared_ptr<const std::string> message;  // 8-byte little-endian frame number + JPEG
+    uint64_t frame = UINT64_MAX;
+    std::string message;  // 8-byte little-endian frame number + JPEG; the buffer is reused
 };
 
 struct Pending {
     uint64_t frame = 0;
     int width = 0, height = 0;
-    std::vector<uint8_t> rgb;
+    std::vector<uint8_t> rgb;  // from and back to Impl::pool
 };
-
-double threadCpuSeconds() {
-    timespec ts{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
 
 bool sameToken(const std::string& a, const std::string& b) {
     // Constant time in the common length: no early exit on the first differing byte.
@@ -88,19 +90,26 @@ struct ViewerServer::Impl {
     // Viewer thread only.
     std::map<ConnId, Viewer> viewers;
     std::map<DisplayKey, Encoded> latest;
+    std::vector<std::pair<DisplayKey, Pending>> work;  // being encoded (capacity reused)
     std::string status, scene;
     JpegEncoder jpeg;
     bool stopping = false;
     asio::steady_timer stopTimer{io};
 
+    // Output thread only.
+    std::vector<float> scaleScratch;  // displayScale's sample
+    std::vector<DisplayKey> wantedCopy;
+
     // Shared with the output thread.
     mutable std::mutex mu;
-    std::map<DisplayKey, int> keys;  // display settings in use → viewers using them
-    std::map<DisplayKey, Pending> pending;
+    std::vector<DisplayKey> wanted;  // display settings some viewer is waiting for a frame in
+    std::map<DisplayKey, Pending> pending;  // tone-mapped, not yet encoded (latest wins)
+    std::vector<std::vector<uint8_t>> pool;  // 8-bit frame buffers for reuse
     bool encodeQueued = false;
+    Clock::time_point nextPublish{};  // frame-rate cap
     std::deque<std::pair<uint64_t, Clock::time_point>> composedAt;  // last frames' composition times
     std::atomic<uint64_t> newestFrame{0};
-    double toneMapCpu = 0.0;
+    double toneMapCpu = 0.0, statusCpu = 0.0;
     double viewerThreadCpu = 0.0;
     ViewerReport stats;
     double lagSum = 0.0, latencySum = 0.0;
@@ -172,19 +181,35 @@ struct ViewerServer::Impl {
     void onClose(ConnId h) {
         auto it = viewers.find(h);
         if (it == viewers.end()) return;
-        if (it->second.helloed) dropKey(it->second.key);
         viewers.erase(it);
+        refreshWanted();
     }
 
-    void addKey(const DisplayKey& k) {
+    /// Tells the output thread which display settings to tone-map the next frame for: those of
+    /// viewers that are waiting (acknowledged their last frame) and have nothing newer to get.
+    /// Encoded frames of settings nobody uses any more are dropped.
+    void refreshWanted() {
+        std::vector<DisplayKey> w;
+        for (const auto& [h, v] : viewers) {
+            if (!v.helloed || v.awaitingAck) continue;
+            auto it = latest.find(v.key);
+            if (it != latest.end() && it->second.frame != v.lastSent) continue;  // it will get that one
+            if (std::find(w.begin(), w.end(), v.key) == w.end()) w.push_back(v.key);
+        }
+        for (auto it = latest.begin(); it != latest.end();) {
+            bool used = false;
+            for (const auto& [h, v] : viewers) used |= v.helloed && v.key == it->first;
+            it = used ? std::next(it) : latest.erase(it);
+        }
         std::lock_guard lock(mu);
-        ++keys[k];
-    }
-    void dropKey(const DisplayKey& k) {
-        std::lock_guard lock(mu);
-        if (--keys[k] <= 0) {
-            keys.erase(k);
-            pending.erase(k);
+        wanted = std::move(w);
+        for (auto it = pending.begin(); it != pending.end();) {
+            if (std::find(wanted.begin(), wanted.end(), it->first) != wanted.end()) {
+                ++it;
+                continue;
+            }
+            pool.push_back(std::move(it->second.rgb));
+            it = pending.erase(it);
         }
     }
 
@@ -196,8 +221,8 @@ struct ViewerServer::Impl {
     void trySendFrame(ConnId h, Viewer& v) {
         if (!v.helloed || v.awaitingAck) return;
         auto it = latest.find(v.key);
-        if (it == latest.end() || it->second.frame == v.lastSent) return;
-        if (!ws->send(h, it->second.message->data(), it->second.message->size(), true)) return;
+        if (it == latest.end() || it->second.frame == UINT64_MAX || it->second.frame == v.lastSent) return;
+        if (!ws->send(h, it->second.message.data(), it->second.message.size(), true)) return;
         v.awaitingAck = true;
         v.lastSent = it->second.frame;
     }
@@ -229,11 +254,11 @@ struct ViewerServer::Impl {
             }
             v.helloed = true;
             v.control = tokenOk;
-            addKey(v.key);
             sendText(h, nlohmann::json{{"type", "hello"}, {"control", v.control}}.dump());
             if (!scene.empty()) sendText(h, scene);
             if (!status.empty()) sendText(h, status);
             trySendFrame(h, v);
+            refreshWanted();
             return;
         }
         if (!v.helloed) {
@@ -243,12 +268,11 @@ struct ViewerServer::Impl {
         if (auto* d = std::get_if<ViewerDisplay>(&cmd)) {
             DisplayKey k{d->layer, d->exposureStops};
             if (!(k == v.key)) {
-                addKey(k);
-                dropKey(v.key);
                 v.key = k;
                 v.lastSent = UINT64_MAX;
             }
             trySendFrame(h, v);
+            refreshWanted();
             return;
         }
         if (auto* a = std::get_if<ViewerAck>(&cmd)) {
@@ -259,6 +283,7 @@ struct ViewerServer::Impl {
             v.awaitingAck = false;
             noteShown(a->frame);
             trySendFrame(h, v);
+            refreshWanted();
             return;
         }
         if (!v.control) {
@@ -280,24 +305,36 @@ struct ViewerServer::Impl {
         lagSum += double(lag);
         stats.maxLagFrames = std::max(stats.maxLagFrames, lag);
         for (const auto& [f, t] : composedAt)
-            if (f == frame) latencySum += std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+            if (f == frame) {
+                const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+                latencySum += ms;
+                stats.maxLatencyMs = std::max(stats.maxLatencyMs, ms);
+            }
     }
 
     // ---- frames ------------------------------------------------------------------------------
 
     void publishFrame(uint64_t frame, const FrameImage& image) {
-        std::vector<DisplayKey> wanted;
+        const auto now = Clock::now();
         {
             std::lock_guard lock(mu);
             newestFrame = frame;
-            composedAt.emplace_back(frame, Clock::now());
+            composedAt.emplace_back(frame, now);
             if (composedAt.size() > 16) composedAt.pop_front();
-            for (const auto& [k, n] : keys) wanted.push_back(k);
+            if (wanted.empty()) return;
+            if (opt.maxFps > 0.0) {
+                // Frame-rate cap: at most maxFps frames a second on average; a frame up to a
+                // quarter interval early still goes (a master at the cap's rate is not halved by
+                // jitter), and an idle spell earns no burst.
+                const auto interval = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / opt.maxFps));
+                const auto slack = interval / 4;
+                if (now < nextPublish - slack) return;
+                nextPublish = std::max(nextPublish, now - slack) + interval;
+            }
+            wantedCopy = wanted;
         }
-        if (wanted.empty()) return;
         const double cpu0 = threadCpuSeconds();
-        std::map<DisplayKey, Pending> made;
-        for (const DisplayKey& k : wanted) {
+        for (const DisplayKey& k : wantedCopy) {
             const std::vector<float>& buf = k.layer == ViewerLayer::Direct              ? image.direct()
                                             : k.layer == ViewerLayer::Caustic           ? image.causticFiltered()
                                             : k.layer == ViewerLayer::CausticUnfiltered ? image.caustic()
@@ -306,12 +343,21 @@ struct ViewerServer::Impl {
             p.frame = frame;
             p.width = image.width();
             p.height = image.height();
+            {
+                std::lock_guard lock(mu);
+                if (!pool.empty()) {
+                    p.rgb = std::move(pool.back());
+                    pool.pop_back();
+                }
+            }
             p.rgb.resize(buf.size());
-            toneMapSrgb8(buf, displayScale(buf, k.exposure), p.rgb);
-            made.emplace(k, std::move(p));
+            toneMapSrgb8(buf, displayScale(buf, k.exposure, 8, scaleScratch), p.rgb);
+            std::lock_guard lock(mu);
+            auto [it, fresh] = pending.try_emplace(k);
+            if (!fresh) pool.push_back(std::move(it->second.rgb));  // latest wins: the unencoded older frame is dropped
+            it->second = std::move(p);
         }
         std::lock_guard lock(mu);
-        for (auto& [k, p] : made) pending[k] = std::move(p);  // latest wins: an unencoded older frame is dropped
         ++stats.framesPublished;
         toneMapCpu += threadCpuSeconds() - cpu0;
         if (!encodeQueued) {
@@ -321,22 +367,30 @@ struct ViewerServer::Impl {
     }
 
     void encodePending() {
-        std::map<DisplayKey, Pending> work;
+        work.clear();
         {
             std::lock_guard lock(mu);
-            work.swap(pending);
+            for (auto& [k, p] : pending) work.emplace_back(k, std::move(p));
+            pending.clear();
             encodeQueued = false;
         }
         for (auto& [k, p] : work) {
-            std::string jpg = jpeg.encode(p.rgb, p.width, p.height);
-            auto msg = std::make_shared<std::string>(8, '\0');
-            for (int i = 0; i < 8; ++i) (*msg)[size_t(i)] = char((p.frame >> (8 * i)) & 0xff);
-            msg->append(jpg);
-            latest[k] = Encoded{p.frame, std::move(msg)};
+            Encoded& e = latest[k];
+            e.message.resize(8);
+            for (int i = 0; i < 8; ++i) e.message[size_t(i)] = char((p.frame >> (8 * i)) & 0xff);
+            try {
+                jpeg.encodeInto(p.rgb, p.width, p.height, e.message, 8);
+                e.frame = p.frame;
+            } catch (const std::exception& ex) {
+                std::fprintf(stderr, "rtpm-server: viewer: %s\n", ex.what());
+                e.frame = UINT64_MAX;
+            }
             std::lock_guard lock(mu);
+            pool.push_back(std::move(p.rgb));
             ++stats.framesEncoded;
         }
         for (auto& [h, v] : viewers) trySendFrame(h, v);
+        refreshWanted();
     }
 
     void broadcast(const std::string& text, bool droppable) {
@@ -365,6 +419,11 @@ ViewerServer::~ViewerServer() { stop(); }
 uint16_t ViewerServer::port() const { return impl_->ws->port(); }
 
 void ViewerServer::publishFrame(uint64_t frame, const FrameImage& image) { impl_->publishFrame(frame, image); }
+
+void ViewerServer::chargeCpu(double seconds) {
+    std::lock_guard lock(impl_->mu);
+    impl_->statusCpu += seconds;
+}
 
 void ViewerServer::publishStatus(std::string json) {
     asio::post(impl_->io, [this, json = std::move(json)]() mutable {
@@ -397,7 +456,10 @@ ViewerReport ViewerServer::report() const {
         r.meanLagFrames = impl_->lagSum / double(r.framesShown);
         r.meanLatencyMs = impl_->latencySum / double(r.framesShown);
     }
-    r.cpuSeconds = impl_->toneMapCpu + impl_->viewerThreadCpu;
+    r.toneMapCpuSeconds = impl_->toneMapCpu;
+    r.threadCpuSeconds = impl_->viewerThreadCpu;
+    r.statusCpuSeconds = impl_->statusCpu;
+    r.cpuSeconds = r.toneMapCpuSeconds + r.threadCpuSeconds + r.statusCpuSeconds;
     return r;
 }
 

@@ -18,6 +18,7 @@ struct ViewerOptions {
     bool publicView = false;         ///< viewers without the token may watch (no controls)
     int maxViewers = 8;              ///< WebSocket viewers at once; more are refused at the handshake
     int jpegQuality = 85;
+    double maxFps = 30.0;            ///< frames sent to viewers per second at most (0 = every frame)
 };
 
 /// Lag and cost figures, for the summary line and tests.
@@ -28,14 +29,23 @@ struct ViewerReport {
     double meanLagFrames = 0.0;    ///< newest composed frame − drawn frame, when the page drew it
     uint64_t maxLagFrames = 0;
     double meanLatencyMs = 0.0;    ///< composed → drawn (acknowledged)
-    double cpuSeconds = 0.0;       ///< viewer thread + tone mapping on the output thread
+    double maxLatencyMs = 0.0;
+    double cpuSeconds = 0.0;       ///< all of the below
+    double toneMapCpuSeconds = 0.0;  ///< tone mapping (and auto exposure) on the output thread
+    double threadCpuSeconds = 0.0;   ///< the viewer thread: JPEG, WebSocket and HTTP I/O, controls
+    double statusCpuSeconds = 0.0;   ///< building the status JSON on the frame loop (chargeCpu)
 };
+
+/// CPU seconds the calling thread has used (CLOCK_THREAD_CPUTIME_ID).
+double threadCpuSeconds();
 
 /// Serves server/web/ (embedded at build time) and one WebSocket per viewer. The page says hello
 /// with a token; it then receives JSON text (status, scene, clients, errors) and binary JPEG
 /// frames, and sends controls (viewer_command.h). A viewer gets a new frame only after it
 /// acknowledged the previous one, and then the newest: a slow viewer drops frames for itself
-/// only, and holds at most one frame. publishFrame() is cheap (one mutex) when nobody watches.
+/// only, and holds at most one frame. A composed frame is tone-mapped and encoded only if some
+/// viewer is waiting for one (and at most maxFps times a second), once per display setting
+/// however many viewers share it; publishFrame() is one mutex and no work otherwise.
 /// Controls are validated on the viewer thread; edits, pause, snapshot and script requests go
 /// to `onCommand` (called on the viewer thread; `reply` may be called from any thread, once).
 class ViewerServer {
@@ -50,9 +60,11 @@ public:
     ViewerServer& operator=(const ViewerServer&) = delete;
 
     uint16_t port() const;
-    /// Output thread: frame `frame` was composed into `image`. Tone-maps it for every display
-    /// setting some viewer uses (on the caller's thread) and hands it over for encoding.
+    /// Output thread: frame `frame` was composed into `image`. Tone-maps it (on the caller's
+    /// thread) for every display setting a waiting viewer uses and hands it over for encoding.
     void publishFrame(uint64_t frame, const FrameImage& image);
+    /// Any thread: count `seconds` of that thread's CPU as the viewer's (e.g. building status).
+    void chargeCpu(double seconds);
     /// Any thread: the frame's figures and the clients (JSON object text), to every viewer.
     void publishStatus(std::string json);
     /// Any thread: the scene's editable state (JSON object text), kept for viewers joining later.

@@ -7,7 +7,7 @@ const $ = (id) => document.getElementById(id);
 const state = {
   ws: null, control: false, scene: null, status: null, camera: null,
   framesDrawn: 0, lastFrame: -1, errors: [], oks: [], lastScript: null, events: [], epochs: [], modes: [],
-  chart: [],
+  chart: [], lag: { n: 0, sum: 0, max: 0 },
 };
 window.rtpmViewer = state;  // figures for tests and the curious
 
@@ -87,17 +87,23 @@ function onText(msg) {
   }
 }
 
+// The master sends the next frame only after this one is acknowledged, and acknowledges it at
+// the page's next paint: the page never gets frames faster than it shows them (a hidden tab,
+// which does not paint, stops receiving frames and costs the master nothing).
 async function onFrame(buf) {
   const view = new DataView(buf);
   const frame = view.getUint32(0, true) + view.getUint32(4, true) * 4294967296;
-  const bitmap = await createImageBitmap(new Blob([buf.slice(8)], { type: 'image/jpeg' }));
+  const bitmap = await createImageBitmap(new Blob([new Uint8Array(buf, 8)], { type: 'image/jpeg' }));
   const c = $('frame-canvas');
   if (c.width !== bitmap.width || c.height !== bitmap.height) { c.width = bitmap.width; c.height = bitmap.height; }
   c.getContext('2d').drawImage(bitmap, 0, 0);
   bitmap.close();
   state.framesDrawn++;
   state.lastFrame = frame;
-  send({ type: 'ack', frame });
+  // Lag as the page sees it: the newest frame the master reported minus the one drawn.
+  const lag = state.status ? Math.max(0, state.status.frame - frame) : 0;
+  state.lag.n++; state.lag.sum += lag; state.lag.max = Math.max(state.lag.max, lag);
+  requestAnimationFrame(() => send({ type: 'ack', frame }));
 }
 
 // ---- figures ---------------------------------------------------------------------------------
