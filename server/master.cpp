@@ -630,6 +630,7 @@ struct Master::Impl : net::ConnectionHandler {
         std::string slowestName;
         size_t arrived = 0;
         std::vector<ClientId> owners;
+        uint32_t passes = 0;  ///< progressive estimator: fewest passes of a set that arrived (0 = knn or a restart)
     };
 
     std::optional<std::pair<FrameStatus, double>> lastStatus;  // re-sent when pausing
@@ -653,6 +654,7 @@ struct Master::Impl : net::ConnectionHandler {
             {"type", "status"}, {"frame", f.frame}, {"epoch", f.epoch}, {"mode", proto::frameModeName(f.mode)},
             {"fps", f.fps}, {"photonsPerSet", f.photonsPerSet}, {"cap", opt.settings.photons.capPhotons},
             {"M", opt.settings.interleave}, {"setsArrived", f.arrived}, {"paused", paused},
+            {"estimator", causticEstimatorName(opt.settings.photons.estimator)}, {"passes", f.passes},
             {"split", {{"photonMs", f.slowest.photonMs}, {"renderMs", f.slowest.renderMs},
                        {"encodeMs", f.slowest.encodeMs}, {"clientMs", f.slowest.frameMs}, {"masterMs", masterMs}}},
             {"slowest", f.slowestName}, {"owners", f.owners}, {"clients", clients},
@@ -748,10 +750,12 @@ struct Master::Impl : net::ConnectionHandler {
         job.setCount = setCount;
         job.deadlineHit = r.deadlineHit;
         job.owners = std::move(info.owners);
+        uint32_t passes = UINT32_MAX;
+        for (const proto::FrameData& d : info.data) passes = std::min(passes, d.passes);
         job.data = std::move(info.data);
         job.last = r.frame + 1 == static_cast<uint64_t>(opt.frames);
         FrameStatus status{r.frame, info.epoch, info.mode, job.fps, job.photonsPerSet, info.slowestStats,
-                           info.slowest, job.arrived, job.owners};
+                           info.slowest, job.arrived, job.owners, passes == UINT32_MAX ? 0u : passes};
         if (!opt.out.empty() && opt.saveEvery > 0 && r.frame > 0 && r.frame % uint64_t(opt.saveEvery) == 0)
             job.saveAs = numberedPath(opt.out, r.frame, ".exr");
         ++summary.framesShown;

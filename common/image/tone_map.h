@@ -17,7 +17,8 @@ float displayScale(std::span<const float> rgb, float exposureStops, size_t strid
 /// out[i] = 8-bit sRGB of clamp(rgb[i] · scale, 0, 1) — writePng's operator, with the transfer
 /// curve from a vectorisable fit (within one 8-bit step of the exact curve) instead of a pow()
 /// per channel. NaN and negative values become 0, +Inf 255. Precondition (checked): out.size() ==
-/// rgb.size(). Thread-safe. Cost: three square roots per channel, SIMD.
+/// rgb.size(). Thread-safe. Cost: three approximate square roots per channel (AVX2 rsqrt where the
+/// CPU has AVX2 and FMA, full square roots otherwise), SIMD.
 void toneMapSrgb8(std::span<const float> rgb, float scale, std::span<uint8_t> out);
 
 }  // namespace rtpm

@@ -351,7 +351,9 @@ struct ViewerServer::Impl {
                 }
             }
             p.rgb.resize(buf.size());
-            toneMapSrgb8(buf, displayScale(buf, k.exposure, 8, scaleScratch), p.rgb);
+            // Auto exposure from every 17th pixel (a stride prime to common widths: a lattice,
+            // not a few columns), ~18 k samples at 640×480.
+            toneMapSrgb8(buf, displayScale(buf, k.exposure, 17, scaleScratch), p.rgb);
             std::lock_guard lock(mu);
             auto [it, fresh] = pending.try_emplace(k);
             if (!fresh) pool.push_back(std::move(it->second.rgb));  // latest wins: the unencoded older frame is dropped

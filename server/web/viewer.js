@@ -119,8 +119,13 @@ function onStatus(s) {
   $('epoch').textContent = s.epoch;
   $('photons').textContent = Math.round(s.photonsPerSet).toLocaleString('en');
   $('pause').textContent = s.paused ? 'resume' : 'pause';
-  $('progress').textContent = s.cap > 0
-    ? `estimator: ${(100 * Math.min(1, s.photonsPerSet / s.cap)).toFixed(1)} % of the ${s.cap.toLocaleString('en')} photons/set cap` : '';
+  // The estimator's progress: progressive passes since the view or scene last changed (each pass
+  // shrinks every pixel's radius: the caustic converges while nothing moves), or for knn how full
+  // the photon maps are against the cap at which accumulation stops.
+  const capped = s.cap > 0 ? `${(100 * Math.min(1, s.photonsPerSet / s.cap)).toFixed(1)} % of the ${s.cap.toLocaleString('en')} photons/set cap` : '';
+  $('progress').textContent = s.estimator === 'progressive'
+    ? `estimator progressive: ${s.passes} pass${s.passes === 1 ? '' : 'es'} since the last change${s.mode === 'converging' ? ', converging' : ''}`
+    : `estimator ${s.estimator || 'knn'}: ${capped}`;
   if (!drag) state.camera = { eye: s.camera.eye, forward: s.camera.forward, up: s.camera.up, yfov: s.camera.yfov };
   state.chart.push(s.split);
   if (state.chart.length > 120) state.chart.shift();
