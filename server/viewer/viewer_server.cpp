@@ -38,6 +38,12 @@ using Clock = std::chrono::steady_clock;
 /// flow-controlled by acknowledgements instead).
 constexpr size_t kMaxBufferedBytes = 1u << 20;
 
+/// Frames the frame-rate cap lets through at once (see publishFrame).
+constexpr double kCapBurst = 2.0;
+
+/// Frames between two estimates of the automatic exposure (~0.13 s at 30 fps).
+constexpr uint64_t kExposureEvery = 4;
+
 struct DisplayKey {
     ViewerLayer layer = ViewerLayer::Final;
     float exposure = 0.0f;
@@ -99,6 +105,12 @@ struct ViewerServer::Impl {
     // Output thread only.
     std::vector<float> scaleScratch;  // displayScale's sample
     std::vector<DisplayKey> wantedCopy;
+    struct Exposure {
+        float scale = 1.0f;
+        uint64_t frame = 0;
+        bool valid = false;
+    };
+    std::map<DisplayKey, Exposure> exposures;  // last automatic exposure per display setting
 
     // Shared with the output thread.
     mutable std::mutex mu;
@@ -106,7 +118,8 @@ struct ViewerServer::Impl {
     std::map<DisplayKey, Pending> pending;  // tone-mapped, not yet encoded (latest wins)
     std::vector<std::vector<uint8_t>> pool;  // 8-bit frame buffers for reuse
     bool encodeQueued = false;
-    Clock::time_point nextPublish{};  // frame-rate cap
+    double capTokens = kCapBurst;  // frame-rate cap
+    Clock::time_point lastPublish{};
     std::deque<std::pair<uint64_t, Clock::time_point>> composedAt;  // last frames' composition times
     std::atomic<uint64_t> newestFrame{0};
     double toneMapCpu = 0.0, statusCpu = 0.0;
@@ -185,17 +198,12 @@ struct ViewerServer::Impl {
         refreshWanted();
     }
 
-    /// Tells the output thread which display settings to tone-map the next frame for: those of
-    /// viewers that are waiting (acknowledged their last frame) and have nothing newer to get.
-    /// Encoded frames of settings nobody uses any more are dropped.
+    /// Tells the output thread which display settings to tone-map frames for: those some viewer
+    /// uses. Frames of settings nobody uses any more are dropped.
     void refreshWanted() {
         std::vector<DisplayKey> w;
-        for (const auto& [h, v] : viewers) {
-            if (!v.helloed || v.awaitingAck) continue;
-            auto it = latest.find(v.key);
-            if (it != latest.end() && it->second.frame != v.lastSent) continue;  // it will get that one
-            if (std::find(w.begin(), w.end(), v.key) == w.end()) w.push_back(v.key);
-        }
+        for (const auto& [h, v] : viewers)
+            if (v.helloed && std::find(w.begin(), w.end(), v.key) == w.end()) w.push_back(v.key);
         for (auto it = latest.begin(); it != latest.end();) {
             bool used = false;
             for (const auto& [h, v] : viewers) used |= v.helloed && v.key == it->first;
@@ -257,8 +265,9 @@ struct ViewerServer::Impl {
             sendText(h, nlohmann::json{{"type", "hello"}, {"control", v.control}}.dump());
             if (!scene.empty()) sendText(h, scene);
             if (!status.empty()) sendText(h, status);
-            trySendFrame(h, v);
             refreshWanted();
+            trySendFrame(h, v);
+            encodePending();
             return;
         }
         if (!v.helloed) {
@@ -271,8 +280,9 @@ struct ViewerServer::Impl {
                 v.key = k;
                 v.lastSent = UINT64_MAX;
             }
-            trySendFrame(h, v);
             refreshWanted();
+            trySendFrame(h, v);
+            encodePending();
             return;
         }
         if (auto* a = std::get_if<ViewerAck>(&cmd)) {
@@ -282,8 +292,8 @@ struct ViewerServer::Impl {
             }
             v.awaitingAck = false;
             noteShown(a->frame);
-            trySendFrame(h, v);
-            refreshWanted();
+            trySendFrame(h, v);  // an encoded newer frame, or
+            encodePending();     // the newest tone-mapped one, encoded now
             return;
         }
         if (!v.control) {
@@ -323,13 +333,15 @@ struct ViewerServer::Impl {
             if (composedAt.size() > 16) composedAt.pop_front();
             if (wanted.empty()) return;
             if (opt.maxFps > 0.0) {
-                // Frame-rate cap: at most maxFps frames a second on average; a frame up to a
-                // quarter interval early still goes (a master at the cap's rate is not halved by
-                // jitter), and an idle spell earns no burst.
-                const auto interval = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / opt.maxFps));
-                const auto slack = interval / 4;
-                if (now < nextPublish - slack) return;
-                nextPublish = std::max(nextPublish, now - slack) + interval;
+                // Frame-rate cap: a token bucket filled at maxFps a second holding at most
+                // kCapBurst frames. The master retires frames in bursts (pipelining: often two
+                // at once), so a plain minimum interval would drop one of each pair of a master
+                // running at the cap's rate; the bucket passes them and holds the average.
+                const double dt = std::chrono::duration<double>(now - lastPublish).count();
+                lastPublish = now;
+                capTokens = std::min(kCapBurst, capTokens + dt * opt.maxFps);
+                if (capTokens < 1.0) return;
+                capTokens -= 1.0;
             }
             wantedCopy = wanted;
         }
@@ -352,13 +364,22 @@ struct ViewerServer::Impl {
             }
             p.rgb.resize(buf.size());
             // Auto exposure from every 17th pixel (a stride prime to common widths: a lattice,
-            // not a few columns), ~18 k samples at 640×480.
-            toneMapSrgb8(buf, displayScale(buf, k.exposure, 17, scaleScratch), p.rgb);
+            // not a few columns), ~18 k samples at 640×480, renewed every kExposureEvery frames:
+            // its strided reads cost half as much as the tone map itself.
+            Exposure& e = exposures[k];
+            if (!e.valid || frame < e.frame || frame - e.frame >= kExposureEvery) {
+                e.scale = displayScale(buf, k.exposure, 17, scaleScratch);
+                e.frame = frame;
+                e.valid = true;
+            }
+            toneMapSrgb8(buf, e.scale, p.rgb);
             std::lock_guard lock(mu);
             auto [it, fresh] = pending.try_emplace(k);
             if (!fresh) pool.push_back(std::move(it->second.rgb));  // latest wins: the unencoded older frame is dropped
             it->second = std::move(p);
         }
+        for (auto it = exposures.begin(); it != exposures.end();)  // bounded by the settings in use
+            it = std::find(wantedCopy.begin(), wantedCopy.end(), it->first) == wantedCopy.end() ? exposures.erase(it) : std::next(it);
         std::lock_guard lock(mu);
         ++stats.framesPublished;
         toneMapCpu += threadCpuSeconds() - cpu0;
@@ -368,14 +389,28 @@ struct ViewerServer::Impl {
         }
     }
 
+    /// Encodes the tone-mapped frames some viewer is waiting for (acknowledged its last frame)
+    /// and sends them; the others stay pending until a newer frame replaces them or their viewer
+    /// acknowledges. So a frame is tone-mapped at most maxFps times a second while someone
+    /// watches, and encoded only for a waiting viewer, once however many viewers share it.
     void encodePending() {
         work.clear();
         {
             std::lock_guard lock(mu);
-            for (auto& [k, p] : pending) work.emplace_back(k, std::move(p));
-            pending.clear();
             encodeQueued = false;
+            for (auto it = pending.begin(); it != pending.end();) {
+                bool waiting = false;
+                for (const auto& [h, v] : viewers)
+                    waiting |= v.helloed && !v.awaitingAck && v.key == it->first && v.lastSent != it->second.frame;
+                if (!waiting) {
+                    ++it;
+                    continue;
+                }
+                work.emplace_back(it->first, std::move(it->second));
+                it = pending.erase(it);
+            }
         }
+        if (work.empty()) return;
         for (auto& [k, p] : work) {
             Encoded& e = latest[k];
             e.message.resize(8);
@@ -392,7 +427,6 @@ struct ViewerServer::Impl {
             ++stats.framesEncoded;
         }
         for (auto& [h, v] : viewers) trySendFrame(h, v);
-        refreshWanted();
     }
 
     void broadcast(const std::string& text, bool droppable) {

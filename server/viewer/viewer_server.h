@@ -43,9 +43,11 @@ double threadCpuSeconds();
 /// with a token; it then receives JSON text (status, scene, clients, errors) and binary JPEG
 /// frames, and sends controls (viewer_command.h). A viewer gets a new frame only after it
 /// acknowledged the previous one, and then the newest: a slow viewer drops frames for itself
-/// only, and holds at most one frame. A composed frame is tone-mapped and encoded only if some
-/// viewer is waiting for one (and at most maxFps times a second), once per display setting
-/// however many viewers share it; publishFrame() is one mutex and no work otherwise.
+/// only, and holds at most one frame. While someone watches, composed frames are tone-mapped at
+/// most maxFps times a second (latest wins), and encoded only when a viewer is waiting for one
+/// (has acknowledged its last), once per display setting however many viewers share it: a
+/// viewer's acknowledgement is answered at once with the newest frame. publishFrame() is one
+/// mutex and no work when nobody watches.
 /// Controls are validated on the viewer thread; edits, pause, snapshot and script requests go
 /// to `onCommand` (called on the viewer thread; `reply` may be called from any thread, once).
 class ViewerServer {
@@ -61,7 +63,7 @@ public:
 
     uint16_t port() const;
     /// Output thread: frame `frame` was composed into `image`. Tone-maps it (on the caller's
-    /// thread) for every display setting a waiting viewer uses and hands it over for encoding.
+    /// thread) for every display setting a viewer uses and hands it over for encoding.
     void publishFrame(uint64_t frame, const FrameImage& image);
     /// Any thread: count `seconds` of that thread's CPU as the viewer's (e.g. building status).
     void chargeCpu(double seconds);

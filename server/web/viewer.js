@@ -7,7 +7,7 @@ const $ = (id) => document.getElementById(id);
 const state = {
   ws: null, control: false, scene: null, status: null, camera: null,
   framesDrawn: 0, lastFrame: -1, errors: [], oks: [], lastScript: null, events: [], epochs: [], modes: [],
-  chart: [], lag: { n: 0, sum: 0, max: 0 },
+  chart: [], lag: { n: 0, sum: 0, max: 0 }, heldAck: null,
 };
 window.rtpmViewer = state;  // figures for tests and the curious
 
@@ -41,6 +41,7 @@ function send(obj) {
 function connect() {
   const ws = new WebSocket(`ws://${location.host}/ws`);
   ws.binaryType = 'arraybuffer';
+  state.heldAck = null;
   state.ws = ws;
   ws.onopen = () => {
     send({ type: 'hello', token: token() });
@@ -87,9 +88,11 @@ function onText(msg) {
   }
 }
 
-// The master sends the next frame only after this one is acknowledged, and acknowledges it at
-// the page's next paint: the page never gets frames faster than it shows them (a hidden tab,
-// which does not paint, stops receiving frames and costs the master nothing).
+// The master sends the next frame only after this one is acknowledged, and the page acknowledges
+// a frame once it is drawn: it never gets frames faster than it draws them. A hidden tab holds
+// its acknowledgement until it is shown again, so it receives no frames and costs the master
+// nothing. (Acknowledging at the next animation frame instead cost a third of the frames at
+// 30 fps: the acknowledgement came after the master's next frame, which then nobody wanted.)
 async function onFrame(buf) {
   const view = new DataView(buf);
   const frame = view.getUint32(0, true) + view.getUint32(4, true) * 4294967296;
@@ -103,8 +106,16 @@ async function onFrame(buf) {
   // Lag as the page sees it: the newest frame the master reported minus the one drawn.
   const lag = state.status ? Math.max(0, state.status.frame - frame) : 0;
   state.lag.n++; state.lag.sum += lag; state.lag.max = Math.max(state.lag.max, lag);
-  requestAnimationFrame(() => send({ type: 'ack', frame }));
+  if (document.hidden) state.heldAck = frame;
+  else send({ type: 'ack', frame });
 }
+
+document.addEventListener('visibilitychange', () => {
+  if (!document.hidden && state.heldAck !== null) {
+    send({ type: 'ack', frame: state.heldAck });
+    state.heldAck = null;
+  }
+});
 
 // ---- figures ---------------------------------------------------------------------------------
 function onStatus(s) {

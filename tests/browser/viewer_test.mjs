@@ -77,6 +77,7 @@ try {
   const viewer = () => page.evaluate(() => ({
     framesDrawn: rtpmViewer.framesDrawn, lastFrame: rtpmViewer.lastFrame, control: rtpmViewer.control,
     status: rtpmViewer.status, epochs: rtpmViewer.epochs, modes: rtpmViewer.modes, errors: rtpmViewer.errors,
+    lag: rtpmViewer.lag,
   }));
   // Luminance statistics of the drawn frame, and the pixels themselves for differences.
   const pixels = () => page.evaluate(() => {
@@ -110,6 +111,11 @@ try {
   const accDiff = meanAbsDiff(first, later);
   check(accDiff > 0.05, `the picture changes as photons accumulate (frames ${f0} → ${(await viewer()).lastFrame}, mean |Δ| ${accDiff.toFixed(3)} grey levels)`);
   check((await viewer()).status.photonsPerSet > 0, 'stored photons per set are reported');
+  // The progressive estimator (the default): still frames are converging passes, and the page
+  // says how many.
+  await waitFor('a converging frame', async () => (await viewer()).modes.some((m) => m.mode === 'converging'));
+  const progress = await page.$eval('#progress', (e) => e.textContent);
+  check(/estimator progressive: \d+ pass/.test(progress), `the estimator's progress is shown ("${progress}")`);
 
   // Camera: drag across the image → camera edits → a walkthrough frame and a different picture.
   const box = await (await page.$('#frame-canvas')).boundingBox();
@@ -159,6 +165,12 @@ try {
   await waitFor('two frames after the refused controls', async () => (await viewer()).lastFrame >= lastFrameNow + 2);
   check((await viewer()).status.epoch === epochNow, 'refused controls change nothing (same epoch)');
 
+  // Latency: when the page drew a frame, the newest frame the master had reported was at most
+  // one later (on average; the server's own figure, newest composed frame at the acknowledgement,
+  // is checked after the stop).
+  const lag = (await viewer()).lag;
+  check(lag.n > 0 && lag.sum / lag.n <= 1, `the page is at most one frame behind on average (mean ${(lag.sum / Math.max(1, lag.n)).toFixed(2)}, max ${lag.max} over ${lag.n} frames)`);
+
   if (args.screenshot) {
     await page.screenshot({ path: args.screenshot });
     console.log(`screenshot: ${args.screenshot}`);
@@ -174,7 +186,12 @@ try {
   check(existsSync(path.join(args.work, 'ring.exr')) && existsSync(path.join(args.work, 'ring.png')),
     'the last image was written as EXR and PNG');
   const report = /viewer: \d+ frames.*/.exec(server.out);
-  if (report) console.log(report[0]);
+  check(Boolean(report), 'the server reports the viewer\'s figures');
+  if (report) {
+    console.log(report[0]);
+    const m = /lag behind the newest frame mean ([0-9.]+) max (\d+) frames/.exec(report[0]);
+    check(m && Number(m[1]) <= 1, `the server sees the page at most one frame behind on average (${m && m[0]})`);
+  }
 } catch (e) {
   failures.push(String(e && e.stack || e));
   console.error(e);

@@ -14,7 +14,7 @@ try {
   let announced = false;
   for (;;) {
     const s = await page.evaluate(() => ({ drawn: rtpmViewer.framesDrawn, open: !!rtpmViewer.ws,
-      ready: !!rtpmViewer.scene, lag: rtpmViewer.lag }));
+      ready: !!rtpmViewer.scene, lag: rtpmViewer.lag || { n: 0, sum: 0, max: 0 } }));
     if (s.ready && !announced) {
       console.log('watch: open');
       announced = true;
