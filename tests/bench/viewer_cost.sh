@@ -22,10 +22,12 @@ frames=${1:-300}; width=${2:-640}; height=${3:-480}; fps=${4:-30}; shift $(($# <
 work=$(mktemp -d)
 pids=()
 cleanup() {
-    for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
+    # /usr/bin/time's child (the server) first: killing time alone would orphan it.
+    for p in "${pids[@]}"; do pkill -P "$p" 2>/dev/null || true; kill "$p" 2>/dev/null || true; done
     rm -rf "$work"
 }
 trap cleanup EXIT
+trap 'exit 130' INT TERM  # runs the EXIT trap
 export RTPM_TOKEN=cost-$$
 
 exr=$build/viewer_cost_ring_${width}x${height}.exr
