@@ -15,6 +15,7 @@
 # drawn frame when the page acknowledged it, and the composed → drawn time.
 #
 #   tests/bench/viewer_cost.sh [frames=300] [width=640] [height=480] [fps=30] [extra rtpm-server flags…]
+#   VIEWER_COST_PAGES=2 …   (pages watching at once, all with the same display setting; default 1)
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
 build=${RTPM_BUILD_DIR:-$root/build}
@@ -51,7 +52,7 @@ run() {  # $1 = with|without
     url=$(sed -n 's/^viewer: \(http:[^ ]*\)$/\1/p' "$work/server.out")
     [[ -n $url ]] || { echo "the server printed no viewer URL" >&2; cat "$work/server.err" >&2; exit 1; }
     if [[ $tag == with ]]; then
-        (cd "$root/tests/browser" && exec node watch.mjs "${url}#token=$RTPM_TOKEN") >"$work/watch.out" 2>&1 &
+        (cd "$root/tests/browser" && exec node watch.mjs "${url}#token=$RTPM_TOKEN" "${VIEWER_COST_PAGES:-1}") >"$work/watch.out" 2>&1 &
         pids+=("$!")
         for ((i = 0; i < 1200; i++)); do grep -qs "^watch: open" "$work/watch.out" && break; sleep 0.05; done
         grep -q '^watch: open' "$work/watch.out" || { echo "the page did not open in 60 s" >&2; cat "$work/watch.out" >&2; exit 1; }
@@ -73,7 +74,7 @@ run() {  # $1 = with|without
     eval "wall_$tag=$wall"
     eval "frames_s_$tag=$(sed -n 's/.* in \([0-9.]*\) s = .*/\1/p' <<<"$summary")"
     eval "vcpu_$tag=${vcpu:-0}"
-    echo "== $tag a viewer page: $frames frames at ${width}x${height}, feeders at ${fps} fps (0 = unpaced)"
+    echo "== $tag viewer pages (${VIEWER_COST_PAGES:-1} with): $frames frames at ${width}x${height}, feeders at ${fps} fps (0 = unpaced)"
     echo "server CPU: user $user s, sys $sys s, wall $wall s ($(awk -v f="$frames" -v w="$wall" 'BEGIN { printf "%.1f", f / w }') fps)"
     [[ -n $summary ]] && echo "$summary"
     [[ -n $viewer ]] && echo "$viewer"
