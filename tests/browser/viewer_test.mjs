@@ -100,12 +100,15 @@ try {
   const first = await pixels();
   const s0 = stats(first);
   check(s0.sd > 10 && s0.mean > 5 && s0.mean < 250, `the picture is not blank (mean ${s0.mean.toFixed(1)}, sd ${s0.sd.toFixed(1)})`);
-  // Frames whose client was still busy show their sets' previous values, so wait for the stored
-  // photons to double as well as for later frames.
-  const f0 = v0.lastFrame, p0 = v0.status.photonsPerSet;
+  // Frames whose client was still busy show their sets' previous values, so wait for later frames
+  // with more photons in them: the stored photons doubled, or (progressive estimator, the
+  // default) three more passes — a still frame's pass photons refine every pixel's estimate but
+  // reach the stored maps only when the progression ends.
+  const f0 = v0.lastFrame, p0 = v0.status.photonsPerSet, passes0 = v0.status.passes || 0;
   await waitFor('more photons', async () => {
     const v = await viewer();
-    return v.lastFrame >= f0 + 3 && v.status.photonsPerSet >= 2 * p0 && v.lastFrame === v.status.frame;
+    const more = v.status.photonsPerSet >= 2 * p0 || (v.status.estimator === 'progressive' && v.status.passes >= passes0 + 3);
+    return v.lastFrame >= f0 + 3 && more && v.lastFrame === v.status.frame;
   });
   const later = await pixels();
   const accDiff = meanAbsDiff(first, later);
