@@ -36,7 +36,8 @@ inline constexpr float kMinDensityRadiusRelative = 1e-5f;
 /// Result-set policy for density estimation: a kNN heap that ignores photons arriving from
 /// behind the surface (dot(incoming, normal) > 0: the photon travelled away from the front
 /// side). Back photons are skipped *during* the search, so they never take one of the k slots.
-/// The direction is decoded only for photons that would enter the heap. `Index` is any photon
+/// The direction is tested (arrivesFromBehind: no normalisation) only for photons that would
+/// enter the heap. `Index` is any photon
 /// index with photonIncoming(i) (KdTree, MedianKdTree, PhotonGrid).
 template <class Index>
 class FrontFacingKnn {
@@ -46,8 +47,7 @@ public:
     float worstDist2() const { return heap_.worstDist2(); }
     void add(float dist2, uint32_t index) {
         if (!(dist2 < heap_.worstDist2())) return;
-        const Vec3 dir = decodeOctahedral(index_.photonIncoming(index));
-        if (dir.x * normal_.x + dir.y * normal_.y + dir.z * normal_.z > 0.0f) return;
+        if (arrivesFromBehind(index_.photonIncoming(index), normal_)) return;
         heap_.add(dist2, index);
     }
 
@@ -123,8 +123,7 @@ public:
     float worstDist2() const { return radius2_; }
     void add(float dist2, uint32_t i) {
         if (!(dist2 < radius2_)) return;
-        const Vec3 dir = decodeOctahedral(index_.photonIncoming(i));
-        if (dir.x * normal_.x + dir.y * normal_.y + dir.z * normal_.z > 0.0f) return;
+        if (arrivesFromBehind(index_.photonIncoming(i), normal_)) return;
         if (!visible_(index_.photon(i))) return;
         power += decodeRgb9e5(index_.photonPower(i));
         ++count;

@@ -32,99 +32,95 @@ concept ResultSet = requires(T& set, const T& constSet, float d2, uint32_t i) {
 };
 
 /// The k nearest hits strictly closer than sqrt(maxDist2) (the role of nanoflann's
-/// KNNResultSet, with a radius bound). Not a binary heap: hits are appended to a buffer of up to
-/// 2k entries; when it fills, a selection (std::nth_element, O(k)) keeps the k nearest and the
-/// bound drops to the k-th distance. That is O(1) amortised per hit against O(log k) with
-/// unpredictable branches for a heap's sift-down, which dominated the query profile at k = 64;
-/// the price is a bound that tightens in steps (at k, then at every 2k hits) rather than per hit.
-/// The readers (entries, size, full, farthestDist2) finish the selection on first use.
+/// KNNResultSet, with a radius bound): a bounded binary max-heap keyed on dist2. Hits are
+/// appended until k are held (the bound stays maxDist2), then the array is heapified once and
+/// every later hit that beats the farthest replaces it with one sift-down (≤ log2 k levels,
+/// child choice by conditional move). The bound therefore tightens with every kept hit, so the
+/// traversal prunes as early as it can; a hit that does not beat the bound costs one compare in
+/// the caller's leaf scan and never reaches the heap.
 /// The caller owns it and reuses it across queries: `reset` allocates only when k exceeds every
 /// k seen before, so steady-state queries never allocate. Not thread-safe: one per thread.
 class KnnHeap {
 public:
     KnnHeap() = default;
-    explicit KnnHeap(uint32_t capacity) { entries_.reserve(2 * size_t(capacity)); }
+    explicit KnnHeap(uint32_t capacity) { entries_.reserve(size_t(capacity) + 1); }
 
     /// Empties the heap for a query of the k nearest within squared radius maxDist2 (m²).
     /// maxDist2 may be +inf (unbounded). k = 0 gives a heap that accepts nothing.
     void reset(uint32_t k, float maxDist2) {
-        if (entries_.capacity() < 2 * size_t(k)) entries_.reserve(2 * size_t(k));
-        entries_.clear();
+        if (entries_.size() < size_t(k) + 1) entries_.resize(size_t(k) + 1);
+        entries_[k] = {-1.0f, 0};  // sentinel for the sift-down
+        size_ = 0;
         k_ = k;
         maxDist2_ = maxDist2;
         worst_ = k == 0 ? -1.0f : maxDist2;
-        settled_ = true;
     }
 
-    /// Current pruning bound: maxDist2 until k hits are held, then the k-th smallest dist2 among
-    /// the hits at the last selection. Never increases during a query.
+    /// Current pruning bound: maxDist2 until k hits are held, then the k-th smallest dist2 held.
+    /// Never increases during a query.
     float worstDist2() const { return worst_; }
 
-    /// Offers a hit; kept only if dist2 < worstDist2(). O(1) amortised.
+    /// Offers a hit; kept only if dist2 < worstDist2(). O(1) until k hits are held, then
+    /// O(log k) per kept hit.
     void add(float dist2, uint32_t index) {
         if (!(dist2 < worst_)) return;
-        entries_.push_back({dist2, index});
-        settled_ = false;
-        const size_t n = entries_.size();
-        if (n == k_) {
-            // The k-th hit: the bound becomes the farthest of them (what a heap's top would be).
-            float m = 0.0f;
-            for (const KnnEntry& e : entries_) m = std::max(m, e.dist2);
-            worst_ = m;
-        } else if (n == 2 * size_t(k_)) {
-            select();
+        KnnEntry* h = entries_.data();
+        if (size_ < k_) {
+            h[size_++] = {dist2, index};
+            if (size_ == k_) {
+                std::make_heap(h, h + k_, farther);
+                worst_ = h[0].dist2;
+            }
+            return;
         }
+        // Replace the farthest (the root) and sift the new entry down. entries_[k] is a
+        // sentinel (dist2 = -1), so the right child of the last parent can always be read and
+        // the larger child is chosen without a branch.
+        const uint32_t n = k_;
+        uint32_t i = 0;
+        for (;;) {
+            uint32_t c = 2 * i + 1;
+            if (c >= n) break;
+            c += h[c + 1].dist2 > h[c].dist2 ? 1u : 0u;
+            if (!(h[c].dist2 > dist2)) break;
+            h[i] = h[c];
+            i = c;
+        }
+        h[i] = {dist2, index};
+        worst_ = h[0].dist2;
     }
 
-    uint32_t size() const {
-        settle();
-        return static_cast<uint32_t>(entries_.size());
-    }
-    bool empty() const { return entries_.empty(); }
-    bool full() const { return size() == k_; }
+    uint32_t size() const { return size_; }
+    bool empty() const { return size_ == 0; }
+    bool full() const { return size_ == k_; }
     uint32_t k() const { return k_; }
     float maxDist2() const { return maxDist2_; }
-    /// Largest dist2 held (the k-th nearest when full); 0 when empty. O(k).
+    /// Largest dist2 held (the k-th nearest when full); 0 when empty. O(1) when full, else O(size).
     float farthestDist2() const {
-        settle();
+        if (size_ == 0) return 0.0f;
+        if (size_ == k_) return entries_[0].dist2;
         float m = 0.0f;
-        for (const KnnEntry& e : entries_) m = std::max(m, e.dist2);
+        for (uint32_t i = 0; i < size_; ++i) m = std::max(m, entries_[i].dist2);
         return m;
     }
 
     /// The hits, unsorted. Valid until the next reset/add.
-    std::span<const KnnEntry> entries() const {
-        settle();
-        return entries_;
-    }
+    std::span<const KnnEntry> entries() const { return {entries_.data(), size_}; }
     /// Sorts the hits nearest first; the heap accepts no more hits until reset.
     void sortNearestFirst() {
-        settle();
-        std::sort(entries_.begin(), entries_.end(),
+        std::sort(entries_.begin(), entries_.begin() + size_,
                   [](const KnnEntry& a, const KnnEntry& b) { return a.dist2 < b.dist2; });
         worst_ = -1.0f;
     }
 
 private:
-    // Keeps the k nearest of the buffer (any order) and lowers the bound to the k-th distance.
-    void select() const {
-        std::nth_element(entries_.begin(), entries_.begin() + (k_ - 1), entries_.end(),
-                         [](const KnnEntry& a, const KnnEntry& b) { return a.dist2 < b.dist2; });
-        entries_.resize(k_);
-        worst_ = entries_[k_ - 1].dist2;  // nth_element puts the k-th smallest at k - 1
-    }
-    void settle() const {
-        if (settled_) return;
-        if (entries_.size() > k_) select();
-        settled_ = true;
-    }
+    static bool farther(const KnnEntry& a, const KnnEntry& b) { return a.dist2 < b.dist2; }
 
-    // Mutable: the readers finish a pending selection (a cache of the same logical content).
-    mutable std::vector<KnnEntry> entries_;
+    std::vector<KnnEntry> entries_;  // k slots and a sentinel; [0, size_) used; a max-heap once full
+    uint32_t size_ = 0;
     uint32_t k_ = 0;
     float maxDist2_ = std::numeric_limits<float>::infinity();
-    mutable float worst_ = -1.0f;
-    mutable bool settled_ = true;
+    float worst_ = -1.0f;
 };
 
 /// Radius search policy: collects every hit strictly closer than sqrt(maxDist2) into a

@@ -17,7 +17,7 @@ namespace {
 // a 100 km one), so PhotonMaps stores them in units of a power of two near the largest path
 // power: stored values are < 2, and the 2^-20 of range below keeps SPT weights, absorption and
 // colour ratios at full relative precision.
-using PowerWord = Rgb9e5<20>;
+using PowerWord = PhotonPowerWord;
 
 float signNotZero(float v) { return v < 0.0f ? -1.0f : 1.0f; }
 
@@ -27,17 +27,9 @@ uint32_t quantizeUnit16(float v) {  // [-1, 1] → [0, 65534], round to nearest
     return static_cast<uint32_t>(std::lround(t * 65534.0f));
 }
 
-float dequantizeUnit16(uint32_t q) { return static_cast<float>(q) * (2.0f / 65534.0f) - 1.0f; }
-
 }  // namespace
 
 uint32_t encodeRgb9e5(Vec3 rgb) { return PowerWord::pack(rgb.x, rgb.y, rgb.z); }
-
-Vec3 decodeRgb9e5(uint32_t packed) {
-    Vec3 v;
-    PowerWord::unpack(packed, &v.x);
-    return v;
-}
 
 uint32_t encodeOctahedral(Vec3 dir) {
     const float l1 = std::abs(dir.x) + std::abs(dir.y) + std::abs(dir.z);
@@ -54,15 +46,5 @@ uint32_t encodeOctahedral(Vec3 dir) {
     return quantizeUnit16(u) | (quantizeUnit16(v) << 16);
 }
 
-Vec3 decodeOctahedral(uint32_t packed) {
-    const float u = dequantizeUnit16(packed & 0xffffu);
-    const float v = dequantizeUnit16(packed >> 16);
-    Vec3 d(u, v, 1.0f - std::abs(u) - std::abs(v));
-    if (d.z < 0.0f) {
-        d.x = (1.0f - std::abs(v)) * signNotZero(u);
-        d.y = (1.0f - std::abs(u)) * signNotZero(v);
-    }
-    return d * (1.0f / std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z));
-}
 
 }  // namespace rtpm

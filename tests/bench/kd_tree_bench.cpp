@@ -25,6 +25,7 @@
 #include <nanoflann.hpp>
 
 #include "common/trace/embree_scene.h"
+#include "common/photon/density.h"
 #include "common/photon/kd_tree.h"
 #include "common/photon/median_kd_tree.h"
 #include "common/trace/optics.h"
@@ -48,11 +49,13 @@ struct PhotonScene {
     float rMax = 0.0f;            ///< m
     std::vector<Photon> pool;     ///< ≥ kPoolSize photons of one map, shuffled
     std::vector<Vec3> queries;    ///< diffuse hits in scan order
+    std::vector<Vec3> normals;    ///< their shading normals, facing the arriving ray
     uint32_t batches = 0;
 };
 
 // First diffuse hit along the camera ray of pixel (x, y), following specular surfaces.
-bool diffuseHit(const EmbreeScene& es, const Camera& camera, int x, int y, Vec3& out) {
+bool diffuseHit(const EmbreeScene& es, const Camera& camera, int x, int y, Vec3& out,
+                Vec3& normal) {
     Ray ray{camera.position, camera.rayDirection(x, y, kImageWidth, kImageHeight)};
     for (int bounce = 0; bounce <= kMaxSpecularBounces; ++bounce) {
         SurfaceHit hit;
@@ -60,6 +63,8 @@ bool diffuseHit(const EmbreeScene& es, const Camera& camera, int x, int y, Vec3&
         const Material& mat = es.scene().materials[hit.material];
         if (mat.type == MaterialType::Diffuse) {
             out = hit.position;
+            normal = glm::dot(ray.dir, hit.geometricNormal) > 0.0f ? -hit.shadingNormal
+                                                                    : hit.shadingNormal;
             return true;
         }
         const Vec3 dir = glm::normalize(ray.dir);
@@ -102,8 +107,11 @@ const PhotonScene& photonScene(const std::string& name) {
     const Camera camera = *s.scene.camera;
     for (int y = 0; y < kImageHeight; ++y)
         for (int x = 0; x < kImageWidth; ++x) {
-            Vec3 p;
-            if (diffuseHit(*s.embree, camera, x, y, p)) s.queries.push_back(p);
+            Vec3 p, n;
+            if (diffuseHit(*s.embree, camera, x, y, p, n)) {
+                s.queries.push_back(p);
+                s.normals.push_back(n);
+            }
         }
     std::fprintf(stderr, "%s: %zu photons after %u batches, rMax %.4f m, %zu queries\n",
                  name.c_str(), s.pool.size(), s.batches, double(s.rMax), s.queries.size());
@@ -220,6 +228,30 @@ void queryMiddle(benchmark::State& state, const std::string& scene) {
     runQueries(state, s, tree, uint32_t(state.range(1)));
 }
 
+// One frame of the renderer's gather (density.h causticRadiance: k-NN within rMax skipping
+// photons from behind the shading normal, then the power sum): what a pixel pays, per query.
+void gatherMiddle(benchmark::State& state, const std::string& scene) {
+    const PhotonScene& s = photonScene(scene);
+    KdTree tree(s.bounds, kLeafSize);
+    tree.build(photonSet(s, size_t(state.range(0))));
+    const uint32_t k = uint32_t(state.range(1));
+    KnnHeap heap(k);
+    uint64_t found = 0, none = 0;
+    Vec3 sum(0.0f);
+    for (auto _ : state) {
+        found = none = 0;
+        for (size_t i = 0; i < s.queries.size(); ++i) {
+            sum += causticRadiance(tree, s.queries[i], s.normals[i], Vec3(0.8f), k, s.rMax, 1.0f,
+                                   heap);
+            found += heap.size();
+            none += heap.empty() ? 1 : 0;
+        }
+        benchmark::DoNotOptimize(sum);
+    }
+    setQueryCounters(state, s, found);
+    state.counters["none/query"] = double(none) / double(s.queries.size());
+}
+
 // Ten equal batches inserted into one tree, as accumulation builds a map (paper §5.4).
 void insertInTenBatches(KdTree& tree, std::span<const Photon> photons) {
     const size_t batch = (photons.size() + 9) / 10;
@@ -334,6 +366,7 @@ void registerAll() {
         for (int64_t n : kSizes) {
             for (int64_t k : kKs) {
                 reg("knn/middle", scene, queryMiddle)->Args({n, k});
+                reg("gather/middle", scene, gatherMiddle)->Args({n, k});
                 reg("knn/middle-incremental", scene, queryMiddleIncremental)->Args({n, k});
                 reg("knn/median", scene, queryMedian)->Args({n, k});
                 reg("knn/nanoflann", scene, queryNanoflann)->Args({n, k});
