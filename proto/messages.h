@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -60,11 +61,12 @@ struct Welcome {
     bool operator==(const Welcome&) const = default;
 };
 
-/// Why a handshake was refused. Append-only ids.
+/// Why a handshake was refused. Append-only ids. A refusal is permanent (the client exits) unless
+/// rejectIsTransient() says a later attempt may succeed (the client retries with backoff).
 enum class RejectReason : uint16_t {
     VersionMismatch = 1,  ///< Hello.protocolVersion or header version differs
     BadToken = 2,         ///< authToken does not match the server's
-    ServerFull = 3,       ///< no interleaving set left to assign
+    ServerFull = 3,       ///< no room now (capacity): transient, retry later
     ProtocolError = 4,    ///< first message was not a valid Hello
 };
 inline constexpr uint16_t kMaxRejectReason = 4;
@@ -212,6 +214,11 @@ struct Stats {
 };
 
 /// Why a peer leaves. Append-only ids.
+///  * Normal: the run is complete (server) / —.
+///  * Shutdown: the sender stops before the run is complete (operator, signal).
+///  * ProtocolError: the receiver sent something unusable; `text` names it.
+///  * Timeout: server → client: the client is evicted (it missed frame deadlines, or was frozen);
+///    it may rejoin. Client → server: the server fell silent past the client's idle timeout.
 enum class ByeReason : uint16_t { Normal = 0, Shutdown = 1, ProtocolError = 2, Timeout = 3 };
 inline constexpr uint16_t kMaxByeReason = 3;
 
@@ -222,9 +229,18 @@ struct Bye {
     bool operator==(const Bye&) const = default;
 };
 
+/// Server → client, no payload: sent to an authenticated client when nothing else was sent to it
+/// for kHeartbeatInterval, so a client tells a silent (frozen, partitioned) server from an idle
+/// one (paused, waiting for clients, a spare) by its idle timeout. Clients ignore it otherwise.
+struct Heartbeat {
+    bool operator==(const Heartbeat&) const = default;
+};
+/// How often the server sends Heartbeat to a client it has sent nothing else to.
+inline constexpr auto kHeartbeatInterval = std::chrono::milliseconds(1000);
+
 /// Any message. The alternative order matches nothing on the wire; use typeOf().
 using Message = std::variant<Hello, Welcome, Reject, Scene, Settings, FrameBegin, FrameData, Edit,
-                             Stats, Bye>;
+                             Stats, Bye, Heartbeat>;
 
 /// The header type of a message.
 MessageType typeOf(const Message& m);
@@ -233,6 +249,8 @@ MessageType typeOf(const Message& m);
 const char* messageTypeName(MessageType type);
 const char* rejectReasonName(RejectReason reason);
 const char* byeReasonName(ByeReason reason);
+/// True for refusals a later attempt may overcome (capacity): the client retries with backoff.
+bool rejectIsTransient(RejectReason reason);
 const char* frameModeName(FrameMode mode);
 
 /// Header + payload, ready to write to a socket. Precondition (a bug otherwise, aborts): the

@@ -21,6 +21,8 @@ struct FramePlan {
     std::vector<ClientId> owners;
     /// The clients to send FrameBegin to, with their sets (ascending).
     std::map<ClientId, std::vector<uint32_t>> sets;
+    /// Sets were dealt afresh or changed owner with this frame (their new owners build maps).
+    bool reassigned = false;
 };
 
 /// The master's frame-loop policy, pure: no sockets, no clock, no threads (DESIGN §2–§3).

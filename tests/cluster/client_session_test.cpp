@@ -409,6 +409,37 @@ TEST(FrameRenderer, SetsThatStayKeepAccumulatingWhenOthersMove) {
     EXPECT_EQ(r.batches(2), 1u);
 }
 
+// Issue 13: with --walkthrough, sets that moved to a client after the epoch's first frame were
+// never shot there (zero caustic for the rest of the run). A map with no batch shoots one even in
+// a Walkthrough frame; maps that have photons still shoot nothing.
+TEST(FrameRenderer, SetsMovedHereShootTheirFirstBatchEvenInAWalkthroughFrame) {
+    client::FrameRenderer r(1);
+    r.setSettings(smallSettings());
+    r.setScene(ringScene());
+    const auto now = std::chrono::steady_clock::now();
+    r.render(frameBegin(0, 0, 1, {0, 1}, proto::FrameMode::Interaction), now);
+    client::RenderedFrame f = r.render(frameBegin(1, 0, 1, {0, 1, 2, 3}, proto::FrameMode::Walkthrough), now);
+    EXPECT_GT(f.stats.photonsShot, 0u);
+    EXPECT_EQ(r.batches(0), 1u);  // had photons: walkthrough, nothing shot
+    EXPECT_EQ(r.batches(1), 1u);
+    EXPECT_EQ(r.batches(2), 1u);  // moved here: its first batch
+    EXPECT_EQ(r.batches(3), 1u);
+    f = r.render(frameBegin(2, 0, 1, {0, 1, 2, 3}, proto::FrameMode::Walkthrough), now);
+    EXPECT_EQ(f.stats.photonsShot, 0u);
+    EXPECT_EQ(r.batches(2), 1u);
+    // The moved sets' maps equal what their first owner built from the same batch: bit for bit.
+    client::FrameRenderer first(1);
+    first.setSettings(smallSettings());
+    first.setScene(ringScene());
+    client::RenderedFrame ref = first.render(frameBegin(0, 0, 1, {0, 1, 2, 3}, proto::FrameMode::Interaction), now);
+    ref = first.render(frameBegin(1, 0, 1, {0, 1, 2, 3}, proto::FrameMode::Walkthrough), now);
+    ASSERT_EQ(ref.data.size(), f.data.size());
+    for (size_t i = 0; i < f.data.size(); ++i) {
+        EXPECT_EQ(f.data[i].set, ref.data[i].set);
+        EXPECT_EQ(f.data[i].pixels, ref.data[i].pixels) << "set " << f.data[i].set;
+    }
+}
+
 TEST(FrameRenderer, OnlyFilterOrEncodingChangesKeepPhotons) {
     client::FrameRenderer r(1);
     proto::Settings s = smallSettings();
