@@ -716,7 +716,8 @@ struct Master::Impl : net::ConnectionHandler {
                                     " frames in a row (frame deadline " +
                                     std::to_string(deadlines.forFrame(false).count()) +
                                     " ms); its sets go to others, it may rejoin";
-            std::fprintf(stderr, "rtpm-server: client %u (%s) %s\n", id, c->name.c_str(), why.c_str());
+            std::fprintf(stderr, "rtpm-server: client %u (%s) %s (before frame %llu)\n", id, c->name.c_str(),
+                         why.c_str(), (unsigned long long)nextFrame);
             ++summary.clientsEvicted;
             connection->send(proto::Bye{proto::ByeReason::Timeout, why});
             connection->closeAfterFlush();
