@@ -229,13 +229,13 @@ struct Bye {
     bool operator==(const Bye&) const = default;
 };
 
-/// Server → client, no payload: sent to an authenticated client when nothing else was sent to it
-/// for kHeartbeatInterval, so a client tells a silent (frozen, partitioned) server from an idle
+/// Server → client, no payload: sent every kHeartbeatInterval to each authenticated client with
+/// nothing queued for it, so a client tells a silent (frozen, partitioned) server from an idle
 /// one (paused, waiting for clients, a spare) by its idle timeout. Clients ignore it otherwise.
 struct Heartbeat {
     bool operator==(const Heartbeat&) const = default;
 };
-/// How often the server sends Heartbeat to a client it has sent nothing else to.
+/// How often the server sends Heartbeat.
 inline constexpr auto kHeartbeatInterval = std::chrono::milliseconds(1000);
 
 /// Any message. The alternative order matches nothing on the wire; use typeOf().
