@@ -429,11 +429,11 @@ const char* rejectReasonName(RejectReason reason) {
         case RejectReason::BadToken: return "bad token";
         case RejectReason::ServerFull: return "server full";
         case RejectReason::ProtocolError: return "protocol error";
+        case RejectReason::Capacity: return "server at capacity";
+        case RejectReason::RateLimited: return "rate limited";
     }
     return "unknown";
 }
-
-bool rejectIsTransient(RejectReason reason) { return reason == RejectReason::ServerFull; }
 
 const char* byeReasonName(ByeReason reason) {
     switch (reason) {

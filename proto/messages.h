@@ -61,15 +61,21 @@ struct Welcome {
     bool operator==(const Welcome&) const = default;
 };
 
-/// Why a handshake was refused. Append-only ids. A refusal is permanent (the client exits) unless
-/// rejectIsTransient() says a later attempt may succeed (the client retries with backoff).
+/// Why a handshake was refused. Append-only ids.
 enum class RejectReason : uint16_t {
     VersionMismatch = 1,  ///< Hello.protocolVersion or header version differs
-    BadToken = 2,         ///< authToken does not match the server's
-    ServerFull = 3,       ///< no room now (capacity): transient, retry later
-    ProtocolError = 4,    ///< first message was not a valid Hello
+    BadToken = 2,         ///< authentication failed (Auth does not prove the server's token): do not retry
+    ServerFull = 3,       ///< no interleaving set left to assign (not sent by this server)
+    ProtocolError = 4,    ///< first message was not a valid Hello, or the handshake broke the protocol
+    Capacity = 5,         ///< the master is at a connection limit: retry later, with backoff (version 3)
+    RateLimited = 6,      ///< too many failed authentications from this address: retry later (version 3)
 };
-inline constexpr uint16_t kMaxRejectReason = 4;
+inline constexpr uint16_t kMaxRejectReason = 6;
+
+/// True for refusals a client should retry with backoff (the master is busy, not hostile to it).
+inline bool rejectIsTransient(RejectReason r) {
+    return r == RejectReason::Capacity || r == RejectReason::RateLimited;
+}
 
 /// Server → client: refused; the server closes the connection after sending it.
 struct Reject {
@@ -249,8 +255,6 @@ MessageType typeOf(const Message& m);
 const char* messageTypeName(MessageType type);
 const char* rejectReasonName(RejectReason reason);
 const char* byeReasonName(ByeReason reason);
-/// True for refusals a later attempt may overcome (capacity): the client retries with backoff.
-bool rejectIsTransient(RejectReason reason);
 const char* frameModeName(FrameMode mode);
 
 /// Header + payload, ready to write to a socket. Precondition (a bug otherwise, aborts): the

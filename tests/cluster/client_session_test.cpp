@@ -105,13 +105,18 @@ struct FakeServer {
     }
 
     /// Hello checked, Welcome sent.
-    void handshake(std::vector<uint32_t> sets) {
-        proto::Hello hello = expect<proto::Hello>();
+    void handshake(std::vector<uint32_t> sets) { handshakeOn(peer, std::move(sets)); }
+    /// The same on another connection of the client (a rejoin).
+    void handshakeOn(Socket& s, std::vector<uint32_t> sets) {
+        proto::Message m;
+        ASSERT_EQ(s.receive(m, 30s), Socket::Got::Message) << client->logs();
+        ASSERT_TRUE(std::holds_alternative<proto::Hello>(m)) << client->logs();
+        const proto::Hello hello = std::get<proto::Hello>(m);
         EXPECT_EQ(hello.protocolVersion, proto::kProtocolVersion);
         EXPECT_EQ(hello.authToken, "s3cret");
         EXPECT_EQ(hello.cores, 2u);
         EXPECT_EQ(hello.clientName, "fake-test");
-        ASSERT_TRUE(peer.send(proto::Welcome{3, std::move(sets)}));
+        ASSERT_TRUE(s.send(proto::Welcome{3, std::move(sets)}));
     }
 
     ExitStatus exitStatus(std::chrono::milliseconds timeout = 20s) {
@@ -362,11 +367,8 @@ TEST(ClientSession, EvictedClientRejoinsWithAFreshHello) {
     fs.peer.close();
     Socket again = fs.listener.accept(20s);
     ASSERT_TRUE(again.valid()) << "no rejoin\n" << fs.client->logs();
+    fs.handshakeOn(again, {1});
     proto::Message m;
-    ASSERT_EQ(again.receive(m, 10s), Socket::Got::Message);
-    ASSERT_TRUE(std::holds_alternative<proto::Hello>(m));
-    EXPECT_EQ(std::get<proto::Hello>(m).authToken, "s3cret");
-    ASSERT_TRUE(again.send(proto::Welcome{9, {1}}));
     ASSERT_TRUE(again.send(smallSettings()));
     ASSERT_TRUE(again.send(ringScene()));
     ASSERT_TRUE(again.send(frameBegin(0, 0, 1, {1}, proto::FrameMode::Interaction)));
@@ -393,10 +395,10 @@ TEST(ClientSession, CapacityRefusalIsRetriedOtherRefusalsAreFinal) {
     FakeServer fs;
     fs.start();
     fs.expect<proto::Hello>();
-    ASSERT_TRUE(fs.peer.send(proto::Reject{proto::RejectReason::ServerFull, "full"}));
+    ASSERT_TRUE(fs.peer.send(proto::Reject{proto::RejectReason::Capacity, "at the connection limit"}));
     fs.peer.close();
     Socket again = fs.listener.accept(20s);
-    ASSERT_TRUE(again.valid()) << "no retry after ServerFull\n" << fs.client->logs();
+    ASSERT_TRUE(again.valid()) << "no retry after Capacity\n" << fs.client->logs();
     proto::Message m;
     ASSERT_EQ(again.receive(m, 10s), Socket::Got::Message);
     ASSERT_TRUE(std::holds_alternative<proto::Hello>(m));

@@ -1,5 +1,5 @@
 // Soak (label `soak`, issue 13): a service cluster on loopback under a bounded flood of hostile
-// peers (garbage bytes, tokenless and wrong-token Hellos, oversized and stalled announcements,
+// peers (garbage bytes, tokenless Hellos, Hello then garbage, oversized and stalled announcements,
 // idle sockets) while one client is killed and restarted periodically. Frames must keep flowing
 // in every period, the master's resident memory and open descriptors must stay flat (sampled
 // from /proc), and the image written at SIGTERM must be complete and finite.
@@ -95,11 +95,8 @@ private:
         std::deque<Socket> idle;
         std::vector<uint8_t> garbage(512);
         for (size_t i = 0; i < garbage.size(); ++i) garbage[i] = uint8_t(i * 131 + 7);
-        proto::Hello tokenless;
+        proto::Hello tokenless;  // never proves the token
         tokenless.clientName = "tokenless";
-        proto::Hello wrong;
-        wrong.authToken = "not-the-token";
-        wrong.clientName = "guesser";
         for (uint64_t i = 0; !stop_; ++i) {
             Socket s = Socket::connectLocal(port_);
             ++peers_;
@@ -108,7 +105,7 @@ private:
                 switch (i % 6) {
                     case 0: s.sendAll(garbage); break;
                     case 1: s.send(tokenless); s.receive(m, 2s); break;
-                    case 2: s.send(wrong); s.receive(m, 2s); break;
+                    case 2: s.send(tokenless); s.sendAll(garbage); s.receive(m, 2s); break;
                     case 3:  // beyond any type's limit: refused from the header alone
                         s.sendAll(rawHeader(uint16_t(proto::MessageType::FrameData), 0xFFFFFFF0u));
                         break;

@@ -70,8 +70,10 @@ TEST(Messages, HeartbeatIsABareHeaderAndRefusesAnyPayload) {
     EXPECT_FALSE(decodePayload(MessageType::Heartbeat, std::vector<uint8_t>{0}).ok());
 }
 
-TEST(Messages, OnlyCapacityRefusalsAreTransient) {
-    EXPECT_TRUE(rejectIsTransient(RejectReason::ServerFull));
+TEST(Messages, OnlyBusyRefusalsAreTransient) {
+    EXPECT_TRUE(rejectIsTransient(RejectReason::Capacity));
+    EXPECT_TRUE(rejectIsTransient(RejectReason::RateLimited));
+    EXPECT_FALSE(rejectIsTransient(RejectReason::ServerFull));
     EXPECT_FALSE(rejectIsTransient(RejectReason::BadToken));
     EXPECT_FALSE(rejectIsTransient(RejectReason::VersionMismatch));
     EXPECT_FALSE(rejectIsTransient(RejectReason::ProtocolError));
