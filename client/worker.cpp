@@ -98,6 +98,7 @@ struct Worker::Impl : net::ConnectionHandler {
         std::condition_variable cv;
         std::deque<Item> queue;
         bool stop = false;
+        std::atomic<bool> finished{false};  ///< the render thread has returned (join will not block)
         std::thread thread;
         FrameRenderer renderer;
     };
@@ -308,6 +309,7 @@ struct Worker::Impl : net::ConnectionHandler {
                 backoff = kFirstBackoff;
                 lossCode.reset();
                 ++sessionsStarted;
+                pruneSessions();  // earlier sessions' photon maps are freed, not kept for the run
                 session = std::make_shared<Session>(sessionsStarted, threadCount());
                 session->thread = std::thread([this, s = session] { renderLoop(s); });
                 return;
@@ -455,6 +457,15 @@ struct Worker::Impl : net::ConnectionHandler {
         session.reset();
     }
 
+    /// Joins and frees the retired sessions whose thread has returned (without blocking).
+    void pruneSessions() {
+        std::erase_if(retired, [](const std::shared_ptr<Session>& s) {
+            if (!s->finished) return false;
+            if (s->thread.joinable()) s->thread.join();
+            return true;
+        });
+    }
+
     void joinSessions() {
         retireSession();
         for (auto& s : retired)
@@ -463,6 +474,10 @@ struct Worker::Impl : net::ConnectionHandler {
     }
 
     void renderLoop(std::shared_ptr<Session> s) {
+        struct Finished {
+            Session& s;
+            ~Finished() { s.finished = true; }
+        } finished{*s};
         FrameRenderer& renderer = s->renderer;
         const uint64_t sid = s->id;
         // Results are posted to the io thread, which sends them only if this session still runs.
