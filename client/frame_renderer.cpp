@@ -175,13 +175,18 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
     adoptSets(fb.sets);
 
     RenderedFrame out;
-    const bool shoot = fb.mode != proto::FrameMode::Walkthrough;
     double photonMs = 0.0, renderMs = 0.0, encodeMs = 0.0;
     uint64_t shot = 0, stored = 0;
     // Pixels by set id, in the order of FrameBegin.sets.
     std::vector<const SetPixels*> bySet(setCount, nullptr);
     std::vector<std::vector<SetPixels>> results(groups_.size());
     for (size_t gi = 0; gi < groups_.size(); ++gi) {
+        // A Walkthrough frame shoots nothing, except into a group with no batch yet (sets that
+        // moved here, or maps dropped by new settings): a walkthrough would otherwise show those
+        // sets without caustics for the rest of the epoch (PROTOCOL.md §5.6).
+        const Group& g = *groups_[gi];
+        const bool empty = g.job->photons().stats(g.sets.front()).batches == 0;
+        const bool shoot = fb.mode != proto::FrameMode::Walkthrough || empty;
         FrameStats st = groups_[gi]->job->renderFrame(camera, shoot, results[gi]);
         photonMs += st.shootSeconds * 1e3;
         renderMs += st.eyeSeconds * 1e3;

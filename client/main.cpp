@@ -19,8 +19,10 @@ int main(int argc, char** argv) {
 
     CLI::App app{"rtpm-client: render worker of the rtpm cluster. Connects to rtpm-server, renders the "
                  "interleaving sets it is given on every core and streams their pixels back.\n"
-                 "Exit codes: 0 server said bye, 1 startup/connect failure, 2 refused by the server, "
-                 "3 server closed the connection, 4 protocol error, 128+N stopped by signal N."};
+                 "Exit codes: 0 the master said the run is complete, 1 startup/connect failure, 2 refused by "
+                 "the master, 3 the master stopped, closed the connection or fell silent (and did not take the "
+                 "client back within --rejoin-timeout), 4 protocol error, 7 evicted (and not taken back within "
+                 "--rejoin-timeout), 128+N stopped by signal N."};
     auto* serverOpt = app.add_option("--server", server, "server address host:port ([v6]:port for IPv6)");
     auto* portFileOpt = app.add_option("--port-file", o.portFile,
                                        "read the port from this file (rtpm-server --port-file); host from --host");
@@ -31,6 +33,16 @@ int main(int argc, char** argv) {
         CLI::NonNegativeNumber);
     app.add_option("--connect-timeout", o.connectTimeoutSeconds,
                    "seconds to keep retrying the connection (backoff 100 ms to 2 s)")
+        ->capture_default_str()
+        ->check(CLI::NonNegativeNumber);
+    app.add_option("--rejoin-timeout", o.rejoinTimeoutSeconds,
+                   "after being evicted, or losing a master that closed the connection or fell silent, keep "
+                   "trying to rejoin this many seconds (same backoff; 0 = exit at once)")
+        ->capture_default_str()
+        ->check(CLI::NonNegativeNumber);
+    app.add_option("--idle-timeout", o.idleTimeoutSeconds,
+                   "seconds without any byte from the master (it sends a heartbeat every second) after which it "
+                   "is taken as frozen or unreachable: Bye(timeout), then rejoin; 0 = never")
         ->capture_default_str()
         ->check(CLI::NonNegativeNumber);
     app.add_flag("--verbose,-v", o.verbose, "print one line per rendered frame");
@@ -47,6 +59,11 @@ int main(int argc, char** argv) {
     if (serverOpt->count() && !parseHostPort(server, o.host, o.port)) {
         std::fprintf(stderr, "rtpm-client: --server \"%s\" is not host:port with a port in 1..65535\n",
                      server.c_str());
+        return kExitStartup;
+    }
+    if (o.idleTimeoutSeconds > 0 && o.idleTimeoutSeconds < 2.0) {
+        std::fprintf(stderr, "rtpm-client: --idle-timeout must be 0 (never) or >= 2 s: the master's heartbeat "
+                             "comes every second\n");
         return kExitStartup;
     }
     if (o.token.empty())

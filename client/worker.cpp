@@ -16,11 +16,13 @@
 #include <fstream>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <thread>
 #include <variant>
 
 #include "client/frame_renderer.h"
+#include "common/core/printable_text.h"
 #include "proto/messages.h"
 #include "proto/net/connection.h"
 
@@ -80,40 +82,53 @@ bool parseHostPort(const std::string& text, std::string& host, uint16_t& port) {
 }
 
 struct Worker::Impl : net::ConnectionHandler {
-    enum class State { Connecting, AwaitWelcome, Running, Closing, Done };
+    enum class State { Connecting, AwaitWelcome, Running, Done };
     /// What the render thread consumes, in arrival order.
     struct FrameItem {
         proto::FrameBegin begin;
         Clock::time_point received;
     };
     using Item = std::variant<proto::Settings, proto::Scene, proto::Edit, FrameItem>;
+    /// The render side of one session (Welcome to its end): its queue, thread and photon maps.
+    /// A rejoin starts a new one; the old thread finishes its current item and is joined later.
+    struct Session {
+        explicit Session(uint64_t id, uint32_t threads) : id(id), renderer(threads) {}
+        const uint64_t id;
+        std::mutex mu;
+        std::condition_variable cv;
+        std::deque<Item> queue;
+        bool stop = false;
+        std::atomic<bool> finished{false};  ///< the render thread has returned (join will not block)
+        std::thread thread;
+        FrameRenderer renderer;
+    };
 
-    explicit Impl(WorkerOptions o) : opt(std::move(o)), renderer(threadCount()) {}
+    explicit Impl(WorkerOptions o) : opt(std::move(o)) {}
 
-    ~Impl() { stopRenderThread(); }
+    ~Impl() { joinSessions(); }
 
     uint32_t threadCount() const {
         return opt.threads > 0 ? uint32_t(opt.threads) : uint32_t(std::max(1, tbb::info::default_concurrency()));
     }
 
+    static Clock::duration seconds(double s) {
+        return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::max(0.0, s)));
+    }
+
     int run() {
-        deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                      std::chrono::duration<double>(std::max(0.0, opt.connectTimeoutSeconds)));
+        deadline = Clock::now() + seconds(opt.connectTimeoutSeconds);
         // As PID 1 in a container SIGTERM would otherwise be ignored; leave with a Bye instead.
         signals.async_wait([this](const asio::error_code& e, int sig) {
             if (e) return;
             std::fprintf(stderr, "rtpm-client: stopped by signal %d\n", sig);
-            if (state == State::AwaitWelcome || state == State::Running) {
-                sayByeAndClose(proto::ByeReason::Shutdown, "client stopped by signal " + std::to_string(sig),
-                               128 + sig);
-            } else {
-                exitCode = 128 + sig;
-                closeNow();
-            }
+            if (state == State::AwaitWelcome || state == State::Running)
+                leave(proto::ByeReason::Shutdown, "client stopped by signal " + std::to_string(sig), 128 + sig);
+            else
+                finish(128 + sig);
         });
         asio::post(io, [this] { attempt(); });
         io.run();
-        stopRenderThread();
+        joinSessions();
         return exitCode;
     }
 
@@ -136,11 +151,13 @@ struct Worker::Impl : net::ConnectionHandler {
     }
 
     void attempt() {
+        if (state != State::Connecting) return;
         if (Clock::now() >= deadline) {
-            std::fprintf(stderr, "rtpm-client: could not connect to %s within %.1f s (%d attempts): %s\n",
-                         addrText().c_str(), opt.connectTimeoutSeconds, attempts, lastError.c_str());
-            exitCode = kExitStartup;
-            return closeNow();
+            const bool rejoin = sessionsStarted > 0;
+            std::fprintf(stderr, "rtpm-client: could not %s %s within %.1f s (%d attempts): %s\n",
+                         rejoin ? "rejoin" : "connect to", addrText().c_str(),
+                         rejoin ? opt.rejoinTimeoutSeconds : opt.connectTimeoutSeconds, attempts, lastError.c_str());
+            return finish(lossCode.value_or(kExitStartup));
         }
         ++attempts;
         port = opt.port;
@@ -202,43 +219,113 @@ struct Worker::Impl : net::ConnectionHandler {
         hello.clientName = opt.name;
         conn->send(hello);
         conn->start(std::chrono::milliseconds(0));
+        watchIdle();
+    }
+
+    // ---- idle timeout ------------------------------------------------------------------------
+
+    /// Checks a few times per idle timeout that bytes keep arriving from the master (it sends a
+    /// Heartbeat every second). A tick that comes much later than asked means this process was
+    /// stopped (SIGSTOP, a suspended VM): that gap is not the master's silence.
+    void watchIdle() {
+        const Clock::duration idle = seconds(opt.idleTimeoutSeconds);
+        if (idle <= Clock::duration::zero()) return;
+        const Clock::duration tick = std::min<Clock::duration>(idle / 4, std::chrono::seconds(1));
+        lastBytes = conn->bytesReceived();
+        lastProgress = lastTick = Clock::now();
+        const auto watched = conn.get();
+        idleTimer.expires_after(tick);
+        idleTimer.async_wait([this, watched, idle, tick](const asio::error_code& e) {
+            if (!e) idleTick(watched, idle, tick);
+        });
+    }
+
+    void idleTick(const net::Connection* watched, Clock::duration idle, Clock::duration tick) {
+        if (!conn || conn.get() != watched || (state != State::AwaitWelcome && state != State::Running)) return;
+        const auto now = Clock::now();
+        if (conn->bytesReceived() != lastBytes || now - lastTick > tick + idle / 2) {
+            lastBytes = conn->bytesReceived();
+            lastProgress = now;
+        }
+        lastTick = now;
+        if (now - lastProgress >= idle) {
+            const double s = std::chrono::duration<double>(now - lastProgress).count();
+            std::fprintf(stderr, "rtpm-client: no message from server %s for %.1f s (idle timeout %.1f s): it is "
+                                 "frozen or unreachable\n",
+                         addrText().c_str(), s, opt.idleTimeoutSeconds);
+            char text[96];
+            std::snprintf(text, sizeof text, "no message from the server for %.1f s", s);
+            return lose(kExitServerGone, "the server fell silent", proto::ByeReason::Timeout, text);
+        }
+        idleTimer.expires_after(tick);
+        idleTimer.async_wait([this, watched, idle, tick](const asio::error_code& e) {
+            if (!e) idleTick(watched, idle, tick);
+        });
     }
 
     // ---- receiving (net::ConnectionHandler, io thread) ----------------------------------------
 
-    void onMessage(net::Connection&, proto::Message&& m, size_t) override {
+    void onMessage(net::Connection& c, proto::Message&& m, size_t) override {
+        // A previous session's connection still flushing its Bye, or ours after we said Bye.
+        if (&c != conn.get() || leaving) return;
         if (state == State::AwaitWelcome || state == State::Running) handle(std::move(m));
     }
 
-    void onBadBytes(net::Connection&, const proto::Error& e) override {
+    void onBadBytes(net::Connection& c, const proto::Error& e) override {
+        if (&c != conn.get() || leaving) return;
         if (state == State::AwaitWelcome || state == State::Running)
             protocolError("undecodable bytes: " + e.message);
     }
 
-    void onClosed(net::Connection&, const std::string& why) override {
+    void onClosed(net::Connection& c, const std::string& why) override {
+        if (&c != conn.get()) return;
+        conn.reset();
         if (state == State::Done) return;
-        // Closing: we said Bye and the server hung up first (or the Bye was written); nothing is lost.
-        if (state == State::Closing) return closeNow();
-        serverGone(why);
+        if (leaving) return finish(exitCode);  // our Bye is written (or the master hung up first)
+        if (state == State::AwaitWelcome) {
+            // Closed before Welcome: the master is starting, full or busy refusing others. A failed
+            // attempt like a refused connect, within the same window.
+            lastError = "the server closed the connection before Welcome (" + why + ")";
+            stopIdle();
+            state = State::Connecting;
+            return scheduleRetry();
+        }
+        if (state != State::Running) return;
+        std::fprintf(stderr, "rtpm-client: server %s closed the connection (%s)\n", addrText().c_str(), why.c_str());
+        lose(kExitServerGone, "the server closed the connection", std::nullopt, "");
     }
 
     void handle(proto::Message msg) {
         const proto::MessageType type = proto::typeOf(msg);
         if (auto* bye = std::get_if<proto::Bye>(&msg)) return handleBye(*bye);
+        if (type == proto::MessageType::Heartbeat) return;  // its bytes already reset the idle timer
         if (state == State::AwaitWelcome) {
             if (auto* w = std::get_if<proto::Welcome>(&msg)) {
-                std::fprintf(stderr, "rtpm-client: connected to %s as client %u (sets %s, %u threads)\n",
-                             addrText().c_str(), w->clientId, setList(w->sets).c_str(), threadCount());
+                std::fprintf(stderr, "rtpm-client: %s %s as client %u (sets %s, %u threads)\n",
+                             lossCode ? "rejoined" : "connected to", addrText().c_str(), w->clientId,
+                             setList(w->sets).c_str(), threadCount());
                 state = State::Running;
                 conn->markAuthenticated();
-                renderThread = std::thread([this] { renderLoop(); });
+                backoff = kFirstBackoff;
+                lossCode.reset();
+                ++sessionsStarted;
+                pruneSessions();  // earlier sessions' photon maps are freed, not kept for the run
+                session = std::make_shared<Session>(sessionsStarted, threadCount());
+                session->thread = std::thread([this, s = session] { renderLoop(s); });
                 return;
             }
             if (auto* r = std::get_if<proto::Reject>(&msg)) {
                 std::fprintf(stderr, "rtpm-client: server %s refused the connection: %s: %s\n", addrText().c_str(),
-                             proto::rejectReasonName(r->reason), r->text.c_str());
-                exitCode = kExitRejected;
-                return closeNow();
+                             proto::rejectReasonName(r->reason), printableText(r->text).c_str());
+                if (proto::rejectIsTransient(r->reason)) {
+                    // Capacity: a later attempt may get in. The window is the one in force.
+                    lastError = std::string("refused: ") + proto::rejectReasonName(r->reason);
+                    if (!lossCode) lossCode = kExitRejected;
+                    closeConnection();
+                    state = State::Connecting;
+                    return scheduleRetry();
+                }
+                return finish(kExitRejected);
             }
             return protocolError(std::string("expected Welcome or Reject, got ") + proto::messageTypeName(type));
         }
@@ -253,86 +340,164 @@ struct Worker::Impl : net::ConnectionHandler {
     }
 
     void handleBye(const proto::Bye& bye) {
-        const bool normal = bye.reason == proto::ByeReason::Normal || bye.reason == proto::ByeReason::Shutdown;
         std::fprintf(stderr, "rtpm-client: server %s said bye (%s)%s%s; %llu frames rendered\n", addrText().c_str(),
-                     proto::byeReasonName(bye.reason), bye.text.empty() ? "" : ": ", bye.text.c_str(),
-                     (unsigned long long)framesRendered.load());
-        exitCode = normal ? kExitOk : kExitProtocolError;
-        closeNow();
-    }
-
-    void serverGone(const std::string& why) {
-        std::fprintf(stderr, "rtpm-client: server %s closed the connection (%s)\n", addrText().c_str(), why.c_str());
-        exitCode = kExitServerGone;
-        closeNow();
+                     proto::byeReasonName(bye.reason), bye.text.empty() ? "" : ": ",
+                     printableText(bye.text).c_str(), (unsigned long long)framesRendered.load());
+        switch (bye.reason) {
+            case proto::ByeReason::Normal: return finish(kExitOk);
+            case proto::ByeReason::Shutdown: return finish(kExitServerGone);  // stopped before the run ended
+            case proto::ByeReason::Timeout: return lose(kExitEvicted, "evicted", std::nullopt, "");
+            case proto::ByeReason::ProtocolError: return finish(kExitProtocolError);
+        }
+        finish(kExitProtocolError);
     }
 
     // ---- leaving -----------------------------------------------------------------------------
 
-    /// Tells the server why we leave, then closes once that is written (or after kByeGrace).
-    void sayByeAndClose(proto::ByeReason reason, const std::string& text, int code) {
-        if (state == State::Closing || state == State::Done) return;
+    /// The session is over for a reason that may pass: say why (if `bye`), drop the session's
+    /// render state and connect again with backoff within the rejoin window; once it has run out,
+    /// exit with `code`.
+    void lose(int code, const std::string& what, std::optional<proto::ByeReason> bye, const std::string& text) {
+        if (leaving || state == State::Done) return;
+        const bool hadWelcome = state == State::Running;
+        retireSession();
+        stopIdle();
+        if (conn) {
+            auto old = conn;
+            conn.reset();  // its onClosed is ignored from now on
+            if (bye) {
+                old->dropUnsent();
+                old->send(proto::Bye{*bye, clip(text)});
+                old->closeAfterFlush(kByeGrace);
+            } else {
+                old->close("session lost");
+            }
+        }
+        if (!lossCode || hadWelcome) lossCode = code;
+        if (hadWelcome) deadline = Clock::now() + seconds(opt.rejoinTimeoutSeconds);
+        if (Clock::now() >= deadline) {
+            std::fprintf(stderr, "rtpm-client: %s; not rejoining (--rejoin-timeout %.1f s)\n", what.c_str(),
+                         opt.rejoinTimeoutSeconds);
+            return finish(code);
+        }
+        std::fprintf(stderr, "rtpm-client: %s; rejoining %s (for up to %.1f s)\n", what.c_str(), addrText().c_str(),
+                     std::chrono::duration<double>(deadline - Clock::now()).count());
+        lastError = what;
+        state = State::Connecting;
+        scheduleRetry();
+    }
+
+    /// Tells the server why we leave, then exits with `code` once that is written (or after kByeGrace).
+    void leave(proto::ByeReason reason, const std::string& text, int code) {
+        if (leaving || state == State::Done) return;
         exitCode = code;
-        state = State::Closing;
-        stopRenderThread(false);
-        if (!conn) return closeNow();
+        leaving = true;
+        retireSession();
+        stopIdle();
+        if (!conn) return finish(code);
         // Frames not yet on the wire are moot; keep only the write in progress.
         conn->dropUnsent();
         conn->send(proto::Bye{reason, clip(text)});
-        conn->closeAfterFlush(kByeGrace);  // onClosed → closeNow
+        conn->closeAfterFlush(kByeGrace);  // onClosed → finish
     }
 
     void protocolError(const std::string& why) {
         std::fprintf(stderr, "rtpm-client: protocol error with server %s: %s\n", addrText().c_str(), why.c_str());
-        sayByeAndClose(proto::ByeReason::ProtocolError, why, kExitProtocolError);
+        leave(proto::ByeReason::ProtocolError, why, kExitProtocolError);
     }
 
-    void closeNow() {
+    void closeConnection() {
+        stopIdle();
+        if (!conn) return;
+        auto old = conn;
+        conn.reset();
+        old->close("client done");
+    }
+
+    void stopIdle() {
+        asio::error_code ignored;
+        idleTimer.cancel();
+    }
+
+    /// Ends the process's run with `code`: everything closes, io.run() returns.
+    void finish(int code) {
+        exitCode = code;
         state = State::Done;
         asio::error_code ignored;
         socket.close(ignored);  // a connection attempt in progress
-        if (conn) conn->close("client done");
+        closeConnection();
         attemptTimer.cancel();
         retryTimer.cancel();
         asio::error_code ignoredSignal;
         signals.cancel(ignoredSignal);
-        stopRenderThread(false);
+        retireSession();
     }
 
     // ---- render thread -----------------------------------------------------------------------
 
     void enqueue(Item item) {
+        if (!session) return;
         {
-            std::lock_guard<std::mutex> lock(mu);
-            queue.push_back(std::move(item));
+            std::lock_guard<std::mutex> lock(session->mu);
+            session->queue.push_back(std::move(item));
         }
-        cv.notify_one();
+        session->cv.notify_one();
     }
 
-    /// Stops the render thread after its current item; joins it unless called from an io handler
-    /// that must not block (join = false: the thread is joined when run() returns).
-    void stopRenderThread(bool join = true) {
+    /// Stops the current session's render thread after its current item, without blocking the
+    /// io thread; it is joined when run() returns (or at once if it is already done).
+    void retireSession() {
+        if (!session) return;
         {
-            std::lock_guard<std::mutex> lock(mu);
-            stopRender = true;
+            std::lock_guard<std::mutex> lock(session->mu);
+            session->stop = true;
         }
-        cv.notify_all();
-        if (join && renderThread.joinable()) renderThread.join();
+        session->cv.notify_all();
+        retired.push_back(std::move(session));
+        session.reset();
     }
 
-    void renderLoop() {
+    /// Joins and frees the retired sessions whose thread has returned (without blocking).
+    void pruneSessions() {
+        std::erase_if(retired, [](const std::shared_ptr<Session>& s) {
+            if (!s->finished) return false;
+            if (s->thread.joinable()) s->thread.join();
+            return true;
+        });
+    }
+
+    void joinSessions() {
+        retireSession();
+        for (auto& s : retired)
+            if (s->thread.joinable()) s->thread.join();
+        retired.clear();
+    }
+
+    void renderLoop(std::shared_ptr<Session> s) {
+        struct Finished {
+            Session& s;
+            ~Finished() { s.finished = true; }
+        } finished{*s};
+        FrameRenderer& renderer = s->renderer;
+        const uint64_t sid = s->id;
+        // Results are posted to the io thread, which sends them only if this session still runs.
+        auto post = [this, sid](auto f) {
+            asio::post(io, [this, sid, f = std::move(f)]() mutable {
+                if (session && session->id == sid && state == State::Running) f();
+            });
+        };
         for (;;) {
             Item item;
             {
-                std::unique_lock<std::mutex> lock(mu);
-                cv.wait(lock, [this] { return stopRender || !queue.empty(); });
-                if (stopRender) return;
-                item = std::move(queue.front());
-                queue.pop_front();
+                std::unique_lock<std::mutex> lock(s->mu);
+                s->cv.wait(lock, [&] { return s->stop || !s->queue.empty(); });
+                if (s->stop) return;
+                item = std::move(s->queue.front());
+                s->queue.pop_front();
             }
             try {
-                if (auto* s = std::get_if<proto::Settings>(&item)) {
-                    renderer.setSettings(*s);
+                if (auto* st = std::get_if<proto::Settings>(&item)) {
+                    renderer.setSettings(*st);
                 } else if (auto* sc = std::get_if<proto::Scene>(&item)) {
                     const auto t0 = Clock::now();
                     renderer.setScene(*sc);
@@ -360,21 +525,20 @@ struct Worker::Impl : net::ConnectionHandler {
                                     double(r.stats.photonMs), double(r.stats.renderMs), double(r.stats.encodeMs),
                                     (unsigned long long)r.stats.photonsStored);
                     if (opt.verbose) std::fflush(stdout);  // scripts and tests follow progress live
-                    asio::post(io, [this, b = std::move(bytes)]() mutable {
-                        if (state != State::Running) return;
+                    post([this, b = std::move(bytes)]() mutable {
                         for (auto& m : b) conn->send(std::make_shared<const std::vector<uint8_t>>(std::move(m)));
                     });
                 }
             } catch (const ProtocolViolation& e) {
-                asio::post(io, [this, why = std::string(e.what())] { protocolError(why); });
+                post([this, why = std::string(e.what())] { protocolError(why); });
                 return;
             } catch (const SceneError& e) {
-                asio::post(io, [this, why = std::string(e.what())] { protocolError(why); });
+                post([this, why = std::string(e.what())] { protocolError(why); });
                 return;
             } catch (const std::exception& e) {
-                asio::post(io, [this, why = std::string(e.what())] {
+                post([this, why = std::string(e.what())] {
                     std::fprintf(stderr, "rtpm-client: internal error: %s\n", why.c_str());
-                    sayByeAndClose(proto::ByeReason::Shutdown, "client internal error: " + why, kExitStartup);
+                    leave(proto::ByeReason::Shutdown, "client internal error: " + why, kExitStartup);
                 });
                 return;
             }
@@ -386,25 +550,29 @@ struct Worker::Impl : net::ConnectionHandler {
     tcp::socket socket{io};
     asio::steady_timer attemptTimer{io};
     asio::steady_timer retryTimer{io};
+    asio::steady_timer idleTimer{io};
     asio::signal_set signals{io, SIGINT, SIGTERM};
     State state = State::Connecting;
+    bool leaving = false;  ///< our Bye is queued: exit with exitCode once the connection closes
     int exitCode = kExitStartup;
+    /// Exit code of the session lost last (evicted, server gone, refused for capacity), while
+    /// trying to (re)join; cleared by a Welcome.
+    std::optional<int> lossCode;
 
-    Clock::time_point deadline;
+    Clock::time_point deadline;  ///< of the current connect or rejoin window
     Clock::duration backoff = kFirstBackoff;
     int attempts = 0;
     uint16_t port = 0;
     std::string lastError = "no attempt made";
 
-    std::shared_ptr<net::Connection> conn;  ///< once connected
+    uint64_t lastBytes = 0;
+    Clock::time_point lastProgress, lastTick;
 
-    std::mutex mu;
-    std::condition_variable cv;
-    std::deque<Item> queue;
-    bool stopRender = false;
-    std::thread renderThread;
+    std::shared_ptr<net::Connection> conn;  ///< the current session's, once connected
+    std::shared_ptr<Session> session;       ///< the current session's render side, after Welcome
+    std::vector<std::shared_ptr<Session>> retired;
+    uint64_t sessionsStarted = 0;
     std::atomic<uint64_t> framesRendered{0};
-    FrameRenderer renderer;
 };
 
 Worker::Worker(WorkerOptions options) : options_(std::move(options)) {}

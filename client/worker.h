@@ -6,13 +6,18 @@
 
 namespace rtpm::client {
 
-/// Process exit codes of rtpm-client (also returned by Worker::run).
-inline constexpr int kExitOk = 0;             ///< the server said Bye{Normal or Shutdown}
-inline constexpr int kExitStartup = 1;        ///< bad flags, no server reachable in time, internal error
-inline constexpr int kExitRejected = 2;       ///< the server refused the handshake (token, version, full)
-inline constexpr int kExitServerGone = 3;     ///< the server closed or reset the connection
-inline constexpr int kExitProtocolError = 4;  ///< the server sent something unusable, or said Bye{error}
+/// Process exit codes of rtpm-client (also returned by Worker::run); deploy/MULTI-HOST.md §10.
+inline constexpr int kExitOk = 0;             ///< the master said the run is complete (Bye{Normal})
+inline constexpr int kExitStartup = 1;        ///< bad flags, no master reachable in time, internal error
+inline constexpr int kExitRejected = 2;       ///< refused: token, version (at once), capacity (once retries ran out)
+inline constexpr int kExitServerGone = 3;     ///< the master stopped (Bye{Shutdown}), closed or reset the
+                                              ///< connection, or fell silent past the idle timeout, and did
+                                              ///< not take the client back within the rejoin timeout
+inline constexpr int kExitProtocolError = 4;  ///< the master sent something unusable, or said Bye{ProtocolError}
+inline constexpr int kExitEvicted = 7;        ///< evicted (Bye{Timeout}: late or frozen) and not taken back
+                                              ///< within the rejoin timeout
 // SIGINT / SIGTERM: the client says Bye{Shutdown} and exits with 128 + the signal number.
+// (Codes 5 and 6 are rtpm-server's: image not written, no complete frame.)
 
 /// How to reach the server and what to tell it.
 struct WorkerOptions {
@@ -22,7 +27,13 @@ struct WorkerOptions {
     std::string token;         ///< shared secret sent in Hello
     std::string name;          ///< client name for the server's logs
     int threads = 0;           ///< TBB worker threads; 0 = every core
-    double connectTimeoutSeconds = 30.0;  ///< total time for connection attempts
+    double connectTimeoutSeconds = 30.0;  ///< total time for the first connection attempts
+    /// After a session is lost for a reason that may pass (evicted, master closed the connection
+    /// or fell silent, refused for capacity), keep trying to rejoin this long; 0 = exit at once.
+    double rejoinTimeoutSeconds = 60.0;
+    /// No byte from the master for this long means it is frozen or unreachable (it sends a
+    /// Heartbeat every second): the client says Bye{Timeout} and tries to rejoin.
+    double idleTimeoutSeconds = 10.0;
     bool verbose = false;      ///< one line per rendered frame on stdout
 };
 
@@ -30,13 +41,15 @@ struct WorkerOptions {
 /// outputs unchanged) if the port is missing, not a number or outside 1..65535.
 bool parseHostPort(const std::string& text, std::string& host, uint16_t& port);
 
-/// One client session. run() connects (retrying with exponential backoff from 100 ms to 2 s
-/// until connectTimeoutSeconds have passed; a port file that does not exist yet counts as a
-/// failed attempt), sends Hello, then runs the flow of PROTOCOL.md: one io_context on the calling
-/// thread receives and writes; a render thread takes Settings, Scene, Edit and FrameBegin in
-/// arrival order and renders frames in order while the next FrameBegin is being received.
-/// Bad server data is answered with Bye{ProtocolError, reason}. Prints what happened to stderr.
-/// Not reusable: call run() once.
+/// The render worker. run() connects (retrying with exponential backoff from 100 ms to 2 s until
+/// connectTimeoutSeconds have passed; a port file that does not exist yet, a refused connection,
+/// a connection closed before Welcome and a capacity refusal all count as failed attempts), sends
+/// Hello, then runs the flow of PROTOCOL.md: one io_context on the calling thread receives and
+/// writes; a render thread takes Settings, Scene, Edit and FrameBegin in arrival order and renders
+/// frames in order while the next FrameBegin is being received. A session lost for a reason that
+/// may pass (evicted, master gone or silent) is followed by a new one — fresh photon maps, the same
+/// backoff — for up to rejoinTimeoutSeconds. Bad server data is answered with
+/// Bye{ProtocolError, reason}. Prints what happened to stderr. Not reusable: call run() once.
 class Worker {
 public:
     explicit Worker(WorkerOptions options);

@@ -138,6 +138,7 @@ void putPayload(Writer& w, const Bye& m) {
     w.u16(static_cast<uint16_t>(m.reason));
     w.str(m.text);
 }
+void putPayload(Writer&, const Heartbeat&) {}
 
 // ---- decoding -----------------------------------------------------------------------------
 
@@ -391,6 +392,7 @@ void get(Reader& r, Bye& m) {
     m.reason = static_cast<ByeReason>(reason);
     r.str(m.text, kMaxTextBytes, "bye.text");
 }
+void get(Reader&, Heartbeat&) {}
 
 template <class M>
 Result<Message> decodeAs(std::span<const uint8_t> payload, const char* name) {
@@ -416,6 +418,7 @@ const char* messageTypeName(MessageType type) {
         case MessageType::Edit: return "Edit";
         case MessageType::Stats: return "Stats";
         case MessageType::Bye: return "Bye";
+        case MessageType::Heartbeat: return "Heartbeat";
     }
     return "unknown";
 }
@@ -426,6 +429,8 @@ const char* rejectReasonName(RejectReason reason) {
         case RejectReason::BadToken: return "bad token";
         case RejectReason::ServerFull: return "server full";
         case RejectReason::ProtocolError: return "protocol error";
+        case RejectReason::Capacity: return "server at capacity";
+        case RejectReason::RateLimited: return "rate limited";
     }
     return "unknown";
 }
@@ -435,7 +440,7 @@ const char* byeReasonName(ByeReason reason) {
         case ByeReason::Normal: return "normal";
         case ByeReason::Shutdown: return "shutdown";
         case ByeReason::ProtocolError: return "protocol error";
-        case ByeReason::Timeout: return "timeout";
+        case ByeReason::Timeout: return "timeout (evicted, or the peer fell silent)";
     }
     return "unknown";
 }
@@ -451,7 +456,7 @@ const char* frameModeName(FrameMode mode) {
 }
 
 MessageType typeOf(const Message& m) {
-    // Variant alternatives are listed in MessageType order, ids 1..10.
+    // Variant alternatives are listed in MessageType order, ids 1..kMaxMessageType.
     static_assert(std::variant_size_v<Message> == kMaxMessageType);
     return static_cast<MessageType>(m.index() + 1);
 }
@@ -499,6 +504,7 @@ Result<Message> decodePayload(MessageType type, std::span<const uint8_t> payload
         case MessageType::Edit: return decodeAs<Edit>(payload, "edit");
         case MessageType::Stats: return decodeAs<Stats>(payload, "stats");
         case MessageType::Bye: return decodeAs<Bye>(payload, "bye");
+        case MessageType::Heartbeat: return decodeAs<Heartbeat>(payload, "heartbeat");
     }
     return Error{ErrorCode::UnknownType,
                  "unknown message type " + std::to_string(static_cast<int>(type))};

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -63,11 +64,18 @@ struct Welcome {
 /// Why a handshake was refused. Append-only ids.
 enum class RejectReason : uint16_t {
     VersionMismatch = 1,  ///< Hello.protocolVersion or header version differs
-    BadToken = 2,         ///< authToken does not match the server's
-    ServerFull = 3,       ///< no interleaving set left to assign
-    ProtocolError = 4,    ///< first message was not a valid Hello
+    BadToken = 2,         ///< authentication failed (Auth does not prove the server's token): do not retry
+    ServerFull = 3,       ///< no interleaving set left to assign (not sent by this server)
+    ProtocolError = 4,    ///< first message was not a valid Hello, or the handshake broke the protocol
+    Capacity = 5,         ///< the master is at a connection limit: retry later, with backoff (version 3)
+    RateLimited = 6,      ///< too many failed authentications from this address: retry later (version 3)
 };
-inline constexpr uint16_t kMaxRejectReason = 4;
+inline constexpr uint16_t kMaxRejectReason = 6;
+
+/// True for refusals a client should retry with backoff (the master is busy, not hostile to it).
+inline bool rejectIsTransient(RejectReason r) {
+    return r == RejectReason::Capacity || r == RejectReason::RateLimited;
+}
 
 /// Server → client: refused; the server closes the connection after sending it.
 struct Reject {
@@ -212,6 +220,11 @@ struct Stats {
 };
 
 /// Why a peer leaves. Append-only ids.
+///  * Normal: the run is complete (server) / —.
+///  * Shutdown: the sender stops before the run is complete (operator, signal).
+///  * ProtocolError: the receiver sent something unusable; `text` names it.
+///  * Timeout: server → client: the client is evicted (it missed frame deadlines, or was frozen);
+///    it may rejoin. Client → server: the server fell silent past the client's idle timeout.
 enum class ByeReason : uint16_t { Normal = 0, Shutdown = 1, ProtocolError = 2, Timeout = 3 };
 inline constexpr uint16_t kMaxByeReason = 3;
 
@@ -222,9 +235,18 @@ struct Bye {
     bool operator==(const Bye&) const = default;
 };
 
+/// Server → client, no payload: sent every kHeartbeatInterval to each authenticated client with
+/// nothing queued for it, so a client tells a silent (frozen, partitioned) server from an idle
+/// one (paused, waiting for clients, a spare) by its idle timeout. Clients ignore it otherwise.
+struct Heartbeat {
+    bool operator==(const Heartbeat&) const = default;
+};
+/// How often the server sends Heartbeat.
+inline constexpr auto kHeartbeatInterval = std::chrono::milliseconds(1000);
+
 /// Any message. The alternative order matches nothing on the wire; use typeOf().
 using Message = std::variant<Hello, Welcome, Reject, Scene, Settings, FrameBegin, FrameData, Edit,
-                             Stats, Bye>;
+                             Stats, Bye, Heartbeat>;
 
 /// The header type of a message.
 MessageType typeOf(const Message& m);

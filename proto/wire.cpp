@@ -227,6 +227,7 @@ uint32_t payloadLimit(MessageType type) {
         case MessageType::Edit: return 1 * kKiB;
         case MessageType::Stats: return 1 * kKiB;
         case MessageType::Bye: return 4 * kKiB;
+        case MessageType::Heartbeat: return 0;
     }
     return 0;
 }

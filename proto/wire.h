@@ -15,7 +15,7 @@ namespace rtpm::proto {
 /// 'R','T','P','M' on the wire (little-endian u32 0x4D505452).
 inline constexpr uint32_t kMagic = 0x4D505452u;
 /// Bumped on any change of a message layout; peers must match exactly (PROTOCOL.md §2).
-inline constexpr uint16_t kProtocolVersion = 2;
+inline constexpr uint16_t kProtocolVersion = 3;
 /// Size of the fixed header that precedes every payload.
 inline constexpr size_t kHeaderBytes = 16;
 
@@ -31,9 +31,10 @@ enum class MessageType : uint16_t {
     Edit = 8,        ///< server → client, one scene edit
     Stats = 9,       ///< client → server, timings and counters
     Bye = 10,        ///< either way, orderly close
+    Heartbeat = 11,  ///< server → client, "still here" while no other message is due
 };
 /// Highest id this build knows; ids 1..kMaxMessageType are all assigned.
-inline constexpr uint16_t kMaxMessageType = 10;
+inline constexpr uint16_t kMaxMessageType = 11;
 
 /// What went wrong while decoding bytes from a peer. Every code is fatal for the connection.
 enum class ErrorCode : uint8_t {

@@ -33,7 +33,8 @@ FrameAssembler::Frame* FrameAssembler::findFrame(uint64_t frame) {
     return nullptr;
 }
 
-void FrameAssembler::beginFrame(uint64_t frame, const std::vector<ClientId>& owner, TimePoint now) {
+void FrameAssembler::beginFrame(uint64_t frame, const std::vector<ClientId>& owner, TimePoint now,
+                                std::optional<std::chrono::milliseconds> deadline) {
     RTPM_CHECK(owner.size() == setCount_);
     RTPM_CHECK(frames_.empty() || frame > frames_.back().frame);
     Frame f;
@@ -41,7 +42,11 @@ void FrameAssembler::beginFrame(uint64_t frame, const std::vector<ClientId>& own
     f.owner = owner;
     f.arrived.assign(setCount_, 0);
     f.begun = now;
-    if (frames_.empty()) f.deadline = now + deadline_;
+    f.budget = deadline.value_or(deadline_);
+    if (frames_.empty()) {
+        f.oldestSince = now;
+        f.deadline = now + f.budget;
+    }
     for (uint32_t s = 0; s < setCount_; ++s) {
         ClientId c = owner[s];
         if (c == kNoClient) continue;
@@ -118,6 +123,7 @@ std::vector<RetiredFrame> FrameAssembler::takeReady(TimePoint now) {
         RetiredFrame r;
         r.frame = f.frame;
         r.deadlineHit = !complete;
+        r.waited = now - f.oldestSince;
         for (uint32_t s = 0; s < setCount_; ++s) (f.arrived[s] ? r.arrived : r.missing).push_back(s);
         if (!complete) {
             // Everyone who still owes this frame anything was late; the client's own bookkeeping
@@ -136,7 +142,11 @@ std::vector<RetiredFrame> FrameAssembler::takeReady(TimePoint now) {
         }
         out.push_back(std::move(r));
         frames_.pop_front();
-        if (!frames_.empty()) frames_.front().deadline = std::max(now, frames_.front().begun) + deadline_;
+        if (!frames_.empty()) {
+            Frame& next = frames_.front();
+            next.oldestSince = std::max(now, next.begun);
+            next.deadline = next.oldestSince + next.budget;
+        }
     }
     return out;
 }

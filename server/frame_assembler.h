@@ -38,6 +38,9 @@ struct RetiredFrame {
     std::vector<uint32_t> missing;  ///< sets to show with their previous values, ascending
     std::vector<ClientId> late;     ///< clients that were sent the frame and had not finished it
     bool deadlineHit = false;       ///< retired by its deadline rather than complete
+    /// Time from becoming the oldest frame in flight to retirement: what its deadline measures
+    /// (for a complete frame, the frame time the adaptive deadline learns from).
+    std::chrono::nanoseconds waited{0};
 };
 
 /// Tracks the frames in flight of the master (pure: no sockets, no clock of its own — every call
@@ -53,8 +56,10 @@ public:
 
     /// Starts `frame` (strictly greater than every earlier one). `owner[s]` is the client asked
     /// to render set s in this frame, kNoClient for a set nobody renders (it is shown with its
-    /// previous values). Precondition (checked): owner.size() == setCount.
-    void beginFrame(uint64_t frame, const std::vector<ClientId>& owner, TimePoint now);
+    /// previous values). `deadline`: this frame's own wait once it is the oldest (default: the
+    /// constructor's). Precondition (checked): owner.size() == setCount.
+    void beginFrame(uint64_t frame, const std::vector<ClientId>& owner, TimePoint now,
+                    std::optional<std::chrono::milliseconds> deadline = std::nullopt);
 
     /// Records FrameData{frame, set} from `client`; see Verdict.
     Verdict onFrameData(ClientId client, uint64_t frame, uint32_t set);
@@ -92,6 +97,8 @@ private:
         std::vector<ClientId> pendingStats;
         std::vector<uint32_t> dropped;  // sets given up (client left)
         TimePoint begun{};
+        std::chrono::milliseconds budget{0};  // how long it may wait once it is the oldest
+        TimePoint oldestSince{};              // when it became the oldest (valid with deadline)
         std::optional<TimePoint> deadline;
     };
     struct ClientFrame {

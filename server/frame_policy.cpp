@@ -19,13 +19,18 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
     }
     started_ = true;
     if (newEpoch) epochStart_ = frame;
+    bool reassigned = false;
     if (newEpoch || assignment_.owner.size() != setCount_) {
-        assignment_ = dealSets(setCount_, joinOrder);
+        Assignment next = dealSets(setCount_, joinOrder);
+        reassigned = newEpoch || next != assignment_;
+        assignment_ = std::move(next);
         for (auto& [id, s] : state_) s.capped = false;
     } else if (clientsChanged_) {
         Assignment next = rebalance(assignment_, setCount_, joinOrder);
-        if (!movedSets(assignment_, next).empty())
+        if (!movedSets(assignment_, next).empty()) {
+            reassigned = true;
             for (auto& [id, s] : state_) s.capped = false;
+        }
         assignment_ = std::move(next);
     }
     clientsChanged_ = false;
@@ -36,6 +41,7 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
     FramePlan p;
     p.frame = frame;
     p.epoch = epoch_;
+    p.reassigned = reassigned;
     p.mode = frame == epochStart_                                ? proto::FrameMode::Interaction
              : cameraMoved                                  ? proto::FrameMode::Walkthrough
              : progressive_ && cameraStill && !walkthrough_ ? proto::FrameMode::Converging

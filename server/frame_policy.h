@@ -21,6 +21,8 @@ struct FramePlan {
     std::vector<ClientId> owners;
     /// The clients to send FrameBegin to, with their sets (ascending).
     std::map<ClientId, std::vector<uint32_t>> sets;
+    /// Sets were dealt afresh or changed owner with this frame (their new owners build maps).
+    bool reassigned = false;
 };
 
 /// The master's frame-loop policy, pure: no sockets, no clock, no threads (DESIGN §2–§3).
@@ -33,7 +35,9 @@ struct FramePlan {
 ///    otherwise Walkthrough when asked for, or when every client with sets reported that it
 ///    shot nothing (capped); otherwise Accumulate.
 ///  * Reassignment: clients joining or leaving within an epoch move as few sets as possible
-///    (rebalance()); moved sets restart accumulation on their new owner.
+///    (rebalance()); moved sets restart accumulation on their new owner, in every mode (a
+///    Walkthrough frame shoots the first batch of a map that has none: FrameRenderer), and the
+///    plan says `reassigned` so the master gives that frame the full deadline.
 ///  * Pipelining: a client with `pipeline` frames outstanding is skipped (its sets shown with
 ///    previous values); a client skipped or late `evictAfter` times in a row is evicted.
 /// Not thread-safe.

@@ -23,7 +23,7 @@ int run(int argc, char** argv) {
     RenderSettings& rs = o.settings;
     bool plain = false, noDefaultLight = false;
     std::string animate, editScript, encoding = "rgb9e5-zstd";
-    int deadlineMs = int(o.deadline.count());
+    std::string deadline = "auto";
     CLI::App app{"rtpm-server: the cluster master. Waits for rtpm-client processes, deals them the M×M "
                  "interleaving sets, runs the frame loop, assembles their pixels, box-filters the caustics and "
                  "writes the image rtpm-render writes for the same settings."};
@@ -42,11 +42,13 @@ int run(int argc, char** argv) {
     app.add_option("--token", o.token, "shared secret clients must present (default: $RTPM_TOKEN)");
     app.add_flag("--insecure-no-token", o.insecureNoToken, "accept clients without a token (trusted networks only)");
     app.add_option("--min-clients", o.minClients, "start frames once this many clients joined")->capture_default_str();
-    app.add_option("--deadline-ms", deadlineMs,
+    app.add_option("--deadline-ms", deadline,
                    "a frame still missing data this long after it became the oldest is shown with the sets' "
-                   "previous values")
+                   "previous values; auto = 4 x the median measured frame time within [1000, 10000] ms (the "
+                   "ceiling for a frame that starts an epoch, moves sets or is the last of the run)")
         ->capture_default_str();
-    app.add_option("--evict-after", o.evictAfter, "drop a client late or skipped this many frames in a row")
+    app.add_option("--evict-after", o.evictAfter,
+                   "evict a client late or skipped this many frames in a row (it is told why and may rejoin)")
         ->capture_default_str();
     app.add_option("--encoding", encoding,
                    "pixels on the wire (default rgb9e5-zstd: HDR in ~4 B/px; use float32 for a bit-exact copy of rtpm-render): float32 (exact, 24 B/px), rgb9e5 (8 B/px, <= 2^-9 relative error), "
@@ -81,8 +83,13 @@ int run(int argc, char** argv) {
     if (o.maxViewers < 1) throw std::invalid_argument("--max-viewers must be >= 1");
     if (!(o.viewerFps >= 0.0 && o.viewerFps <= 1000.0))
         throw std::invalid_argument("--viewer-fps must be in [0, 1000] (0 = no cap)");
-    if (deadlineMs < 1) throw std::invalid_argument("--deadline-ms must be >= 1");
-    o.deadline = std::chrono::milliseconds(deadlineMs);
+    if (deadline != "auto") {
+        if (deadline.empty() || deadline.size() > 9 || deadline.find_first_not_of("0123456789") != std::string::npos ||
+            std::stol(deadline) < 1)
+            throw std::invalid_argument("--deadline-ms must be auto or a whole number of milliseconds >= 1, got '" +
+                                        deadline + "'");
+        o.deadline.fixed = std::chrono::milliseconds(std::stol(deadline));
+    }
     if (o.token.empty())
         if (const char* env = std::getenv("RTPM_TOKEN")) o.token = env;
     if (o.token.empty() && !o.insecureNoToken)

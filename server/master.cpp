@@ -95,11 +95,13 @@ struct Master::Impl : net::ConnectionHandler {
     asio::ip::tcp::acceptor acceptor{io};
     asio::steady_timer deadlineTimer{io};
     asio::steady_timer finishTimer{io};
+    asio::steady_timer heartbeatTimer{io};
     asio::signal_set signals{io};
 
     std::set<std::shared_ptr<net::Connection>> connections;  // every peer, authenticated or not
     ClientRegistry registry;
     FramePolicy policy;
+    FrameDeadline deadlines;
     std::optional<proto::CameraState> previousCamera;  ///< of the last FrameBegin
     FrameAssembler assembler;
     std::map<uint64_t, FrameInfo> frameInfo;
@@ -134,11 +136,13 @@ struct Master::Impl : net::ConnectionHandler {
           live(std::move(scene)),
           policy(setCount, opt.walkthrough, kPipeline, static_cast<uint32_t>(std::max(1, opt.evictAfter)),
                  opt.settings.photons.estimator == CausticEstimatorKind::Progressive),
-          assembler(setCount, opt.deadline),
+          deadlines(opt.deadline),
+          assembler(setCount, deadlines.forFrame(true)),
           output(outputOptionsWithViewer()) {
         validateSettings(opt.settings);
         if (opt.frames < 0) throw std::invalid_argument("--frames must be >= 0 (0 = until stopped)");
         if (opt.minClients < 1) throw std::invalid_argument("--min-clients must be >= 1");
+        if (opt.evictAfter < 1) throw std::invalid_argument("--evict-after must be >= 1");
         if (opt.token.empty() && !opt.insecureNoToken)
             throw std::invalid_argument("no token: pass --token or set RTPM_TOKEN (or --insecure-no-token)");
         if (opt.token.size() > proto::kMaxTokenBytes)
@@ -230,10 +234,20 @@ struct Master::Impl : net::ConnectionHandler {
                     opt.settings.photons.k, opt.settings.photons.selective ? "SPT" : "plain shooting", opt.frames,
                     opt.minClients);
         std::fflush(stdout);
+        if (deadlines.adaptive())
+            std::printf("frame deadline: adaptive, %.0f x the median frame time within [%lld, %lld] ms; a client "
+                        "late or skipped %d frames in a row is evicted\n",
+                        opt.deadline.multiple, (long long)opt.deadline.floor.count(),
+                        (long long)opt.deadline.ceiling.count(), opt.evictAfter);
+        else
+            std::printf("frame deadline: %lld ms; a client late or skipped %d frames in a row is evicted\n",
+                        (long long)opt.deadline.fixed->count(), opt.evictAfter);
+        std::fflush(stdout);
         signals.add(SIGINT);
         signals.add(SIGTERM);
         waitForSignal();
         accept();
+        heartbeat();
         io.run();
         output.drain();  // the frame in the output stage is written before run() returns
         if (viewer) {
@@ -247,9 +261,32 @@ struct Master::Impl : net::ConnectionHandler {
                         r.meanLatencyMs, r.maxLatencyMs, r.cpuSeconds, r.toneMapCpuSeconds, r.threadCpuSeconds,
                         r.statusCpuSeconds);
         }
+        // Frames were shown but none complete: the image is not the scene's (issue 13: "4 frames
+        // shown (4 incomplete)" used to exit 0). An unwritten image says more and keeps its code.
+        if (exitCode != kExitImageNotWritten && summary.framesShown > 0 &&
+            summary.framesIncomplete == summary.framesShown) {
+            std::fprintf(stderr, "rtpm-server: no frame was complete (%llu shown, every one missing sets); "
+                                 "exit code %d\n",
+                         (unsigned long long)summary.framesShown, kExitNoCompleteFrame);
+            exitCode = kExitNoCompleteFrame;
+        }
         if (!opt.quiet || exitCode == 0) printSummary();
         return exitCode;
     }
+
+    // Every second, a Heartbeat to each client with nothing queued: its idle timeout then tells a
+    // frozen master from an idle one (paused, waiting for clients, a client without sets).
+    void heartbeat() {
+        heartbeatTimer.expires_after(proto::kHeartbeatInterval);
+        heartbeatTimer.async_wait([this](const asio::error_code& ec) {
+            if (ec || finishing) return;
+            if (!heartbeatMsg) heartbeatMsg = std::make_shared<const std::vector<uint8_t>>(proto::encode(proto::Heartbeat{}));
+            for (const auto& [id, c] : registry.clients())
+                if (c.connection->queuedBytes() == 0) c.connection->send(heartbeatMsg);
+            heartbeat();
+        });
+    }
+    net::Connection::Buffer heartbeatMsg;
 
     // First signal: finish the frames in flight, write the last image, Bye. Second: stop now.
     void waitForSignal() {
@@ -275,10 +312,11 @@ struct Master::Impl : net::ConnectionHandler {
     void printSummary() {
         double fps = summary.seconds > 0 ? double(summary.framesShown) / summary.seconds : 0.0;
         std::printf("summary: %llu frames shown (%llu incomplete) in %.2f s = %.2f fps, %.1f MB received, "
-                    "%llu clients joined, %llu peers refused or dropped for protocol errors\n",
+                    "%llu clients joined, %llu evicted, %llu peers refused or dropped for protocol errors\n",
                     (unsigned long long)summary.framesShown, (unsigned long long)summary.framesIncomplete,
                     summary.seconds, fps, double(summary.bytesReceived) / 1e6,
-                    (unsigned long long)summary.clientsJoined, (unsigned long long)summary.peersRejected);
+                    (unsigned long long)summary.clientsJoined, (unsigned long long)summary.clientsEvicted,
+                    (unsigned long long)summary.peersRejected);
         std::fflush(stdout);
     }
 
@@ -680,11 +718,16 @@ struct Master::Impl : net::ConnectionHandler {
         for (ClientId id : evict) {
             ClientInfo* c = registry.find(id);
             auto connection = c->connection;
-            std::fprintf(stderr, "rtpm-server: client %u (%s) missed %d frames in a row; its sets go to others\n",
-                         id, c->name.c_str(), opt.evictAfter);
-            connection->send(proto::Bye{proto::ByeReason::Timeout, "too slow: missed the frame deadline repeatedly"});
+            const std::string why = "evicted: late or skipped " + std::to_string(opt.evictAfter) +
+                                    " frames in a row (frame deadline " +
+                                    std::to_string(deadlines.forFrame(false).count()) +
+                                    " ms); its sets go to others, it may rejoin";
+            std::fprintf(stderr, "rtpm-server: client %u (%s) %s (before frame %llu)\n", id, c->name.c_str(),
+                         why.c_str(), (unsigned long long)nextFrame);
+            ++summary.clientsEvicted;
+            connection->send(proto::Bye{proto::ByeReason::Timeout, why});
             connection->closeAfterFlush();
-            dropClientOf(*connection, "evicted (too slow)");
+            dropClientOf(*connection, "evicted (late or frozen)");
         }
     }
 
@@ -726,7 +769,11 @@ struct Master::Impl : net::ConnectionHandler {
         frameInfo[f].mode = plan.mode;
         frameInfo[f].epoch = plan.epoch;
         frameInfo[f].owners = plan.owners;
-        assembler.beginFrame(f, plan.owners, now);
+        // A frame whose cost the last ones do not predict waits the ceiling, and so does the last
+        // frame of a finite run (it is the image written: nothing rendered may be cut short).
+        const bool last = opt.frames > 0 && f + 1 == static_cast<uint64_t>(opt.frames);
+        assembler.beginFrame(f, plan.owners, now,
+                             deadlines.forFrame(plan.mode == proto::FrameMode::Interaction || plan.reassigned || last));
     }
 
     void retire(RetiredFrame& r, TimePoint now) {
@@ -760,12 +807,15 @@ struct Master::Impl : net::ConnectionHandler {
             job.saveAs = numberedPath(opt.out, r.frame, ".exr");
         ++summary.framesShown;
         if (!r.missing.empty()) ++summary.framesIncomplete;
+        if (!r.deadlineHit && !r.arrived.empty()) deadlines.completed(r.waited);
         summary.seconds = std::chrono::duration<double>(now - startTime).count();
         if (r.deadlineHit) {
             std::string late;
             for (ClientId c : r.late) late += " " + std::to_string(c);
-            std::fprintf(stderr, "rtpm-server: frame %llu shown at its deadline with %zu/%u sets (late:%s)\n",
-                         (unsigned long long)r.frame, r.arrived.size(), setCount, late.c_str());
+            std::fprintf(stderr, "rtpm-server: frame %llu shown at its deadline (%lld ms) with %zu/%u sets (late:%s)\n",
+                         (unsigned long long)r.frame,
+                         (long long)std::chrono::duration_cast<std::chrono::milliseconds>(r.waited).count(),
+                         r.arrived.size(), setCount, late.c_str());
         }
         ++outputsQueued;
         output.post(std::move(job), [this, status = std::move(status)](OutputResult result) {
@@ -789,6 +839,7 @@ struct Master::Impl : net::ConnectionHandler {
         asio::error_code ec;
         acceptor.close(ec);
         deadlineTimer.cancel();
+        heartbeatTimer.cancel();
         signals.cancel();
         for (const auto& c : connections) {
             if (registry.find(*c)) c->send(proto::Bye{reason, text});

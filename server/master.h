@@ -10,12 +10,16 @@
 #include "common/core/render_settings.h"
 #include "common/scene/scene.h"
 #include "proto/messages.h"
+#include "server/deadline.h"
 #include "server/edit_script.h"
 
 namespace rtpm::server {
 
 /// Exit code of a run that rendered its frames but could not write an image (--out, --save-every).
 constexpr int kExitImageNotWritten = 5;
+/// Exit code of a run that showed frames but none complete (every one missed sets at its deadline
+/// or had sets nobody rendered): the image written is not the scene's. kExitImageNotWritten wins.
+constexpr int kExitNoCompleteFrame = 6;
 
 /// Everything rtpm-server's flags decide.
 struct MasterOptions {
@@ -33,8 +37,8 @@ struct MasterOptions {
     bool walkthrough = false;          ///< no shooting after the first frame of each epoch
 
     int minClients = 1;                ///< frames start once this many clients joined
-    std::chrono::milliseconds deadline{10000};  ///< how long the oldest frame waits for data
-    int evictAfter = 10;               ///< consecutive late or skipped frames before a client is dropped
+    DeadlinePolicy deadline;           ///< how long the oldest frame waits for data (adaptive by default)
+    int evictAfter = 3;                ///< consecutive late or skipped frames before a client is evicted
     std::chrono::milliseconds handshakeTimeout{5000};
     int maxPeers = 256;                ///< connections (any state) beyond this are closed at once
     size_t maxQueuedBytes = 256u << 20;  ///< per-peer unsent bytes before it is dropped
@@ -62,6 +66,7 @@ struct MasterSummary {
     double seconds = 0.0;           ///< first FrameBegin → last frame shown
     uint64_t bytesReceived = 0;     ///< FrameData wire bytes
     uint64_t clientsJoined = 0;
+    uint64_t clientsEvicted = 0;    ///< late or skipped evictAfter frames in a row (told Bye{Timeout})
     uint64_t peersRejected = 0;     ///< handshakes refused and peers closed for protocol errors
 };
 
@@ -85,7 +90,8 @@ public:
     /// Runs until every frame is shown (then Bye{Normal} to all) or stop() / SIGINT / SIGTERM:
     /// those finish the frames in flight, write the last image to `out` and say Bye{Shutdown};
     /// a second signal stops at once. Returns the process exit code: 0 when all frames were
-    /// shown or a service (frames = 0) was stopped, 130 when a finite run was interrupted.
+    /// shown or a service (frames = 0) was stopped, 130 when a finite run was interrupted,
+    /// kExitNoCompleteFrame when frames were shown but none complete, kExitImageNotWritten.
     int run();
     /// Thread-safe request to stop (clients get Bye{Shutdown}).
     void stop();

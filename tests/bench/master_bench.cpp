@@ -106,7 +106,7 @@ void BM_MasterCapacity(benchmark::State& state) {
         o.frames = frames;
         o.minClients = clients;
         o.encoding = encoding;
-        o.deadline = std::chrono::milliseconds(5000);
+        o.deadline.fixed = std::chrono::milliseconds(5000);
         o.quiet = true;
         server::Master master(o, scene);
         std::atomic<bool> failed{false};

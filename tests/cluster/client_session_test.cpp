@@ -2,6 +2,7 @@
 // equal to a local RenderJob, edits at epochs, validation of bad server data, exit codes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <numeric>
 
@@ -15,6 +16,7 @@ namespace rtpm::test {
 namespace {
 
 using namespace std::chrono_literals;
+using client::kExitEvicted;
 using client::kExitOk;
 using client::kExitProtocolError;
 using client::kExitRejected;
@@ -73,12 +75,16 @@ struct FakeServer {
     std::unique_ptr<Child> client;
     Socket peer;
 
-    void start(const std::string& token = "s3cret") {
-        client = std::make_unique<Child>(
-            std::vector<std::string>{binaryPath("client/rtpm-client"), "--server",
-                                     "127.0.0.1:" + std::to_string(listener.port()), "--token", token, "--threads",
-                                     "2", "--connect-timeout", "20", "--name", "fake-test"},
-            dir.file("client"));
+    /// `extra` flags are added; without a --rejoin-timeout among them it is 0 (most tests check
+    /// how one session ends).
+    void start(const std::string& token = "s3cret", const std::vector<std::string>& extra = {}) {
+        std::vector<std::string> argv{binaryPath("client/rtpm-client"), "--server",
+                                      "127.0.0.1:" + std::to_string(listener.port()), "--token", token, "--threads",
+                                      "2", "--connect-timeout", "20", "--name", "fake-test"};
+        if (std::find(extra.begin(), extra.end(), "--rejoin-timeout") == extra.end())
+            argv.insert(argv.end(), {"--rejoin-timeout", "0"});
+        argv.insert(argv.end(), extra.begin(), extra.end());
+        client = std::make_unique<Child>(argv, dir.file("client"));
         peer = listener.accept(20s);
         ASSERT_TRUE(peer.valid()) << client->logs();
     }
@@ -99,13 +105,18 @@ struct FakeServer {
     }
 
     /// Hello checked, Welcome sent.
-    void handshake(std::vector<uint32_t> sets) {
-        proto::Hello hello = expect<proto::Hello>();
+    void handshake(std::vector<uint32_t> sets) { handshakeOn(peer, std::move(sets)); }
+    /// The same on another connection of the client (a rejoin).
+    void handshakeOn(Socket& s, std::vector<uint32_t> sets) {
+        proto::Message m;
+        ASSERT_EQ(s.receive(m, 30s), Socket::Got::Message) << client->logs();
+        ASSERT_TRUE(std::holds_alternative<proto::Hello>(m)) << client->logs();
+        const proto::Hello hello = std::get<proto::Hello>(m);
         EXPECT_EQ(hello.protocolVersion, proto::kProtocolVersion);
         EXPECT_EQ(hello.authToken, "s3cret");
         EXPECT_EQ(hello.cores, 2u);
         EXPECT_EQ(hello.clientName, "fake-test");
-        ASSERT_TRUE(peer.send(proto::Welcome{3, std::move(sets)}));
+        ASSERT_TRUE(s.send(proto::Welcome{3, std::move(sets)}));
     }
 
     ExitStatus exitStatus(std::chrono::milliseconds timeout = 20s) {
@@ -210,7 +221,7 @@ TEST(ClientSession, EditBeforeNewEpochIsAppliedAndResetsPhotons) {
         fs.expect<proto::Stats>();
     }
     EXPECT_EQ(ref.photons().stats(1).batches, 1u);  // the reference restarted too
-    ASSERT_TRUE(fs.peer.send(proto::Bye{proto::ByeReason::Shutdown, ""}));
+    ASSERT_TRUE(fs.peer.send(proto::Bye{proto::ByeReason::Normal, ""}));
     EXPECT_EQ(fs.exitStatus().code, kExitOk);
 }
 
@@ -337,6 +348,83 @@ TEST(ClientSession, ServerVanishingWhileRenderingExitsThreeWithClearMessage) {
         << fs.client->logs();
 }
 
+TEST(ClientSession, ByeShutdownMeansTheMasterStoppedExitThreeWithoutRejoining) {
+    FakeServer fs;
+    fs.start("s3cret", {"--rejoin-timeout", "30"});
+    fs.handshake({0});
+    ASSERT_TRUE(fs.peer.send(proto::Bye{proto::ByeReason::Shutdown, "server stopped"}));
+    EXPECT_EQ(fs.exitStatus().code, kExitServerGone) << fs.client->logs();
+    EXPECT_FALSE(fs.listener.accept(500ms).valid()) << "no rejoin after a Shutdown";
+}
+
+// Issue 13: an evicted client exited with code 4 ("master sent something unusable") and never
+// came back. Now Bye{Timeout} is an eviction: it rejoins with a fresh Hello, or exits 7.
+TEST(ClientSession, EvictedClientRejoinsWithAFreshHello) {
+    FakeServer fs;
+    fs.start("s3cret", {"--rejoin-timeout", "30"});
+    fs.handshake({0});
+    ASSERT_TRUE(fs.peer.send(proto::Bye{proto::ByeReason::Timeout, "evicted: late 3 frames in a row"}));
+    fs.peer.close();
+    Socket again = fs.listener.accept(20s);
+    ASSERT_TRUE(again.valid()) << "no rejoin\n" << fs.client->logs();
+    fs.handshakeOn(again, {1});
+    proto::Message m;
+    ASSERT_TRUE(again.send(smallSettings()));
+    ASSERT_TRUE(again.send(ringScene()));
+    ASSERT_TRUE(again.send(frameBegin(0, 0, 1, {1}, proto::FrameMode::Interaction)));
+    ASSERT_EQ(again.receive(m, 30s), Socket::Got::Message) << fs.client->logs();
+    ASSERT_TRUE(std::holds_alternative<proto::FrameData>(m));
+    EXPECT_EQ(std::get<proto::FrameData>(m).set, 1u);
+    ASSERT_TRUE(again.send(proto::Bye{proto::ByeReason::Normal, ""}));
+    EXPECT_EQ(fs.exitStatus().code, kExitOk) << fs.client->logs();
+    const std::string err = fs.client->err();
+    EXPECT_NE(err.find("evicted; rejoining"), std::string::npos) << err;
+    EXPECT_NE(err.find("rejoined 127.0.0.1"), std::string::npos) << err;
+}
+
+TEST(ClientSession, EvictedClientWithoutRejoinExitsSeven) {
+    FakeServer fs;
+    fs.start();  // --rejoin-timeout 0
+    fs.handshake({0});
+    ASSERT_TRUE(fs.peer.send(proto::Bye{proto::ByeReason::Timeout, "evicted"}));
+    EXPECT_EQ(fs.exitStatus().code, kExitEvicted) << fs.client->logs();
+}
+
+// A capacity refusal is transient: the client retries (issue 13: 0 of 7 joins under a flood).
+TEST(ClientSession, CapacityRefusalIsRetriedOtherRefusalsAreFinal) {
+    FakeServer fs;
+    fs.start();
+    fs.expect<proto::Hello>();
+    ASSERT_TRUE(fs.peer.send(proto::Reject{proto::RejectReason::Capacity, "at the connection limit"}));
+    fs.peer.close();
+    Socket again = fs.listener.accept(20s);
+    ASSERT_TRUE(again.valid()) << "no retry after Capacity\n" << fs.client->logs();
+    proto::Message m;
+    ASSERT_EQ(again.receive(m, 10s), Socket::Got::Message);
+    ASSERT_TRUE(std::holds_alternative<proto::Hello>(m));
+    ASSERT_TRUE(again.send(proto::Reject{proto::RejectReason::BadToken, "no"}));
+    EXPECT_EQ(fs.exitStatus().code, kExitRejected) << fs.client->logs();
+}
+
+// A frozen master (issue 13: clients waited forever). Heartbeats keep an idle session alive;
+// silence past --idle-timeout makes the client say Bye{Timeout} and, with no rejoin, exit 3.
+TEST(ClientSession, HeartbeatsKeepAnIdleSessionSilenceEndsIt) {
+    FakeServer fs;
+    fs.start("s3cret", {"--idle-timeout", "2"});
+    fs.handshake({0});
+    proto::Message m;
+    for (int i = 0; i < 10; ++i) {  // 5 s of heartbeats, 2.5 idle timeouts
+        ASSERT_TRUE(fs.peer.send(proto::Heartbeat{})) << fs.client->logs();
+        ASSERT_EQ(fs.peer.receive(m, 500ms), Socket::Got::Timeout)
+            << "the client left although the master kept sending heartbeats\n" << fs.client->logs();
+    }
+    ASSERT_EQ(fs.peer.receive(m, 30s), Socket::Got::Message) << fs.client->logs();
+    ASSERT_TRUE(std::holds_alternative<proto::Bye>(m));
+    EXPECT_EQ(std::get<proto::Bye>(m).reason, proto::ByeReason::Timeout);
+    EXPECT_EQ(fs.exitStatus().code, kExitServerGone) << fs.client->logs();
+    EXPECT_NE(fs.client->err().find("idle timeout"), std::string::npos) << fs.client->logs();
+}
+
 TEST(ClientSession, SigtermLeavesWithByeShutdown) {
     FakeServer fs;
     fs.start();
@@ -352,7 +440,8 @@ TEST(ClientSession, SigtermLeavesWithByeShutdown) {
 TEST(ClientSession, RetriesUntilThePortFileAppears) {
     TempDir dir;
     const std::string portFile = dir.file("port");
-    Child client({binaryPath("client/rtpm-client"), "--port-file", portFile, "--token", "t", "--connect-timeout", "20"},
+    Child client({binaryPath("client/rtpm-client"), "--port-file", portFile, "--token", "t", "--connect-timeout", "5",
+                  "--idle-timeout", "2"},
                  dir.file("client"));
     // Let the client fail a few attempts first: it must keep retrying, not exit.
     EXPECT_FALSE(client.wait(400ms)) << client.logs();
@@ -366,10 +455,19 @@ TEST(ClientSession, RetriesUntilThePortFileAppears) {
     proto::Message m;
     ASSERT_EQ(peer.receive(m, 10s), Socket::Got::Message);
     EXPECT_TRUE(std::holds_alternative<proto::Hello>(m));
+    // Closed before Welcome (a master starting up, full, or refusing a flood): a failed attempt,
+    // retried within the connect window (issue 13: such clients exited at once with code 3).
     peer.close();
-    auto st = client.wait(10s);
-    ASSERT_TRUE(st);
-    EXPECT_EQ(st->code, kExitServerGone);
+    Socket again = listener.accept(10s);
+    ASSERT_TRUE(again.valid()) << "no second attempt\n" << client.logs();
+    ASSERT_EQ(again.receive(m, 10s), Socket::Got::Message);
+    EXPECT_TRUE(std::holds_alternative<proto::Hello>(m));
+    again.close();
+    // Once the connect window has run out, the client says why it stopped: a master was
+    // reached but never took it (code 3).
+    auto st = client.wait(30s);
+    ASSERT_TRUE(st) << client.logs();
+    EXPECT_EQ(st->code, kExitServerGone) << client.logs();
 }
 
 TEST(ClientSession, GivesUpAfterTheConnectTimeout) {
@@ -407,6 +505,37 @@ TEST(FrameRenderer, SetsThatStayKeepAccumulatingWhenOthersMove) {
     f = r.render(frameBegin(4, 1, 1, {2, 1}, proto::FrameMode::Walkthrough), now);
     EXPECT_EQ(f.stats.photonsShot, 0u);
     EXPECT_EQ(r.batches(2), 1u);
+}
+
+// Issue 13: with --walkthrough, sets that moved to a client after the epoch's first frame were
+// never shot there (zero caustic for the rest of the run). A map with no batch shoots one even in
+// a Walkthrough frame; maps that have photons still shoot nothing.
+TEST(FrameRenderer, SetsMovedHereShootTheirFirstBatchEvenInAWalkthroughFrame) {
+    client::FrameRenderer r(1);
+    r.setSettings(smallSettings());
+    r.setScene(ringScene());
+    const auto now = std::chrono::steady_clock::now();
+    r.render(frameBegin(0, 0, 1, {0, 1}, proto::FrameMode::Interaction), now);
+    client::RenderedFrame f = r.render(frameBegin(1, 0, 1, {0, 1, 2, 3}, proto::FrameMode::Walkthrough), now);
+    EXPECT_GT(f.stats.photonsShot, 0u);
+    EXPECT_EQ(r.batches(0), 1u);  // had photons: walkthrough, nothing shot
+    EXPECT_EQ(r.batches(1), 1u);
+    EXPECT_EQ(r.batches(2), 1u);  // moved here: its first batch
+    EXPECT_EQ(r.batches(3), 1u);
+    f = r.render(frameBegin(2, 0, 1, {0, 1, 2, 3}, proto::FrameMode::Walkthrough), now);
+    EXPECT_EQ(f.stats.photonsShot, 0u);
+    EXPECT_EQ(r.batches(2), 1u);
+    // The moved sets' maps equal what their first owner built from the same batch: bit for bit.
+    client::FrameRenderer first(1);
+    first.setSettings(smallSettings());
+    first.setScene(ringScene());
+    client::RenderedFrame ref = first.render(frameBegin(0, 0, 1, {0, 1, 2, 3}, proto::FrameMode::Interaction), now);
+    ref = first.render(frameBegin(1, 0, 1, {0, 1, 2, 3}, proto::FrameMode::Walkthrough), now);
+    ASSERT_EQ(ref.data.size(), f.data.size());
+    for (size_t i = 0; i < f.data.size(); ++i) {
+        EXPECT_EQ(f.data[i].set, ref.data[i].set);
+        EXPECT_EQ(f.data[i].pixels, ref.data[i].pixels) << "set " << f.data[i].set;
+    }
 }
 
 TEST(FrameRenderer, OnlyFilterOrEncodingChangesKeepPhotons) {

@@ -536,7 +536,8 @@ TEST(ClusterResilience, ClientWhoseServerDiesExitsThreeWithAClearMessage) {
     rs.frames = 100000;  // never finishes on its own
     Cluster c;
     c.startServer(rs, 1, "float32");
-    Child& cl = c.startClient();
+    // It tries to rejoin for 2 s (the master may come back), then gives up with code 3.
+    Child& cl = c.startClient({"--rejoin-timeout", "2"});
     ASSERT_TRUE(waitUntil([&] { return cl.out().find("frame 0:") != std::string::npos || cl.poll(); }, 30s))
         << c.logs();
     c.server->signal(SIGKILL);
@@ -545,6 +546,7 @@ TEST(ClusterResilience, ClientWhoseServerDiesExitsThreeWithAClearMessage) {
     EXPECT_NE(cl.err().find("rtpm-client: server 127.0.0.1:" + std::to_string(c.port) + " closed the connection"),
               std::string::npos)
         << c.logs();
+    EXPECT_NE(cl.err().find("could not rejoin"), std::string::npos) << c.logs();
 }
 
 // Start-up refusals (issue 13): an --out no image can be written to (before: every frame rendered,

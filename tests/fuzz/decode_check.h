@@ -57,6 +57,7 @@ inline std::vector<Message> sampleMessages() {
     out.push_back(Edit{10, tr});
     out.push_back(Stats{42, 1.5f, 20.25f, 0.5f, 25.0f, 1000, 50000, 1u << 20, 8});
     out.push_back(Bye{ByeReason::Shutdown, "server stopping"});
+    out.push_back(Heartbeat{});
     return out;
 }
 

@@ -55,7 +55,7 @@ TEST(Messages, HelloGoldenBytes) {
     auto bytes = encode(Hello{2, "tok", 8, "c1"});
     EXPECT_EQ(hex(bytes),
               "5254504d"   // magic 'RTPM'
-              "0200"       // version 2
+              "0300"       // version 3
               "0100"       // type Hello
               "00000000"   // flags
               "13000000"   // payload 19 bytes
@@ -65,10 +65,24 @@ TEST(Messages, HelloGoldenBytes) {
               "020000006331");  // "c1"
 }
 
+TEST(Messages, HeartbeatIsABareHeaderAndRefusesAnyPayload) {
+    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0300" "0b00" "00000000" "00000000");
+    EXPECT_FALSE(decodePayload(MessageType::Heartbeat, std::vector<uint8_t>{0}).ok());
+}
+
+TEST(Messages, OnlyBusyRefusalsAreTransient) {
+    EXPECT_TRUE(rejectIsTransient(RejectReason::Capacity));
+    EXPECT_TRUE(rejectIsTransient(RejectReason::RateLimited));
+    EXPECT_FALSE(rejectIsTransient(RejectReason::ServerFull));
+    EXPECT_FALSE(rejectIsTransient(RejectReason::BadToken));
+    EXPECT_FALSE(rejectIsTransient(RejectReason::VersionMismatch));
+    EXPECT_FALSE(rejectIsTransient(RejectReason::ProtocolError));
+}
+
 TEST(Messages, FrameBeginGoldenBytes) {
     FrameBegin fb{5, 2, 3, {{1, 2, 3}, {0, 0, -1}, {0, 1, 0}, 0.5f}, FrameMode::Accumulate, {0, 7}};
     EXPECT_EQ(hex(encode(fb)),
-              "5254504d02000600" "00000000" "45000000"  // header v2, type 6, payload 69 bytes
+              "5254504d03000600" "00000000" "45000000"  // header v3, type 6, payload 69 bytes
               "0500000000000000"                        // frame 5
               "02000000" "03000000"                     // epoch 2, sceneVersion 3
               "0000803f" "00000040" "00004040"          // position (1, 2, 3)

@@ -35,6 +35,28 @@ TEST(FrameAssembler, FrameIsReadyOnlyWhenAllSetsAndStatsArrived) {
     EXPECT_EQ(a.inFlight(), 0u);
 }
 
+// The adaptive deadline learns from `waited` (time as the oldest frame) and gives each frame its
+// own budget, armed when it becomes the oldest.
+TEST(FrameAssembler, EachFrameWaitsItsOwnDeadlineFromWhenItBecomesTheOldest) {
+    FrameAssembler a(4, milliseconds(10000));
+    a.beginFrame(0, twoClients(), t0, milliseconds(100));
+    a.beginFrame(1, twoClients(), t0 + milliseconds(10), milliseconds(5000));
+    EXPECT_EQ(a.nextDeadline(), t0 + milliseconds(100));
+    deliver(a, 1, 0, {0, 2});
+    deliver(a, 2, 0, {1, 3});
+    auto r = a.takeReady(t0 + milliseconds(40));
+    ASSERT_EQ(r.size(), 1u);
+    EXPECT_FALSE(r[0].deadlineHit);
+    EXPECT_EQ(r[0].waited, milliseconds(40));
+    // Frame 1 became the oldest at 40 ms: its own 5 s from then.
+    EXPECT_EQ(a.nextDeadline(), t0 + milliseconds(5040));
+    EXPECT_TRUE(a.takeReady(t0 + milliseconds(5039)).empty());
+    r = a.takeReady(t0 + milliseconds(5040));
+    ASSERT_EQ(r.size(), 1u);
+    EXPECT_TRUE(r[0].deadlineHit);
+    EXPECT_EQ(r[0].waited, milliseconds(5000));
+}
+
 TEST(FrameAssembler, FramesRetireInOrderEvenIfALaterOneCompletesFirst) {
     FrameAssembler a(4, milliseconds(100));
     a.beginFrame(0, twoClients(), t0);

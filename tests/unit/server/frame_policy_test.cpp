@@ -97,6 +97,22 @@ TEST(FramePolicy, LeavingClientsSetsMoveToSurvivorsWithinTheEpoch) {
     EXPECT_EQ(f1.mode, proto::FrameMode::Accumulate);
 }
 
+// Frames whose sets change owner (or are dealt afresh) say so: their cost is not the last ones'.
+TEST(FramePolicy, PlansSayWhenSetsChangeOwner) {
+    FramePolicy p(4, true, 2, 3);
+    EXPECT_TRUE(p.plan(0, false, {1, 2}, none).reassigned);
+    EXPECT_FALSE(p.plan(1, false, {1, 2}, none).reassigned);
+    p.clientLeft(2);
+    FramePlan f2 = p.plan(2, false, {1}, none);
+    EXPECT_TRUE(f2.reassigned);
+    EXPECT_EQ(f2.mode, proto::FrameMode::Walkthrough) << "forced walkthrough: the client shoots the moved sets' "
+                                                         "first batch itself (FrameRenderer)";
+    EXPECT_FALSE(p.plan(3, false, {1}, none).reassigned);
+    p.clientsChanged();  // client 3 joins: rebalancing moves sets to it
+    EXPECT_TRUE(p.plan(4, false, {1, 3}, none).reassigned) << "the newcomer takes sets";
+    EXPECT_TRUE(p.plan(5, true, {1, 3}, none).reassigned) << "a new epoch";
+}
+
 TEST(FramePolicy, TentativeSetsOfAJoiningClient) {
     FramePolicy p(4, false, 2, 3);
     EXPECT_EQ(p.tentativeSets(1, {1}), (std::vector<uint32_t>{0, 1, 2, 3}));
