@@ -11,8 +11,14 @@
 #   --resolution     fps vs resolution 640x480 … 1280x960 with --res-clients clients (Table 7)
 #   --memory         server and client VmRSS over a long run with an edit every --mem-every frames
 #   --all            --scaling --resolution --memory (references are still only made with --refs)
-#   --scenes "A B"   scenes (default "RING GLASS")
+#   --scenes "A B"   scenes (default "MIRROR RING GLASS HEADLIGHT"). MIRROR is the curved-mirror
+#                    scene of tests/support/ring_mirror.h (smooth cylinder, point light, camera
+#                    straight down), written as .glb by `ring_mirror_bench --write-scene` and
+#                    rendered with L S D paths only (--photon-depth 2 --diffuse-bounces 0); its
+#                    error is against the closed-form reference. The others are rtpm built-ins.
+#   --estimator E    caustic estimator of the runs: progressive (default) or knn
 #   --clients "1 2 4"            client counts for --scaling
+#   --scaling-size WxH           resolution for --scaling (default 640x480)
 #   --sizes "640x480 …"          resolutions for --resolution (and --refs)
 #   --frames N       frames per interaction run (default 6)
 #   --walk-frames N  frames per walkthrough run (default 6: 1 shooting frame + 5 walkthrough)
@@ -23,7 +29,7 @@
 #                    --mem-scene S (defaults 5000, 64x48, 100, 100, 2, 2000, RING)
 #
 # Binaries come from ${RTPM_BUILD_DIR:-<repo>/build-clusterbench} (built here if missing: only
-# rtpm-server, rtpm-client, rtpm-render, rtpm-compare, -j2). Clusters start as deploy/run-local.sh
+# rtpm-server, rtpm-client, rtpm-render, rtpm-compare, ring_mirror_bench, -j2). Clusters start as deploy/run-local.sh
 # starts them (server on port 0 with a port file, random token, each client max(1, cores/N)
 # render threads), but the processes are started here so their PIDs can be sampled.
 #
@@ -37,18 +43,27 @@
 # was shown); on a loaded machine it says what a frame costs when the wall clock does not, and
 # cores / (cpu s/frame) is the fps the run would reach on dedicated cores if it parallelised
 # perfectly (an upper bound, labelled "fps bound"). Photons: stored photons summed over all interleaving sets at the last frame.
-# Error: rtpm-compare caustic_filtered of the last frame against the converged reference,
-# relative RMSE over the caustic region (rtpm-compare's default region of the reference).
+# Errors, of the last frame's caustic_filtered layer (the caustic as shown):
+#   MIRROR: against the analytic reference (`ring_mirror_bench --compare --layer caustic_filtered`):
+#     rel. MAE over the caustic region of the reference and the caustic energy ratio Σ out / Σ ref
+#     over the floor inside the ring. Independent of the estimator (no photon map in it).
+#   RING, GLASS, HEADLIGHT: rtpm-compare relative RMSE over the caustic region against a
+#     self-rendered k-NN reference (--refs: rtpm-render, --estimator knn, one frame of
+#     --ref-photons paths per set, k = --ref-k, another seed). It shares the k-NN estimator's
+#     bias (blur of a gather radius), so it measures noise and the cluster's agreement with
+#     rtpm-render, not accuracy.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
 build=${RTPM_BUILD_DIR:-$root/build-clusterbench}
 refs=${REFS:-$build/refs}
-scenes="RING GLASS"
+scenes="MIRROR RING GLASS HEADLIGHT"
+estimator=progressive
 frames=6
 walkFrames=6
 walkPhotons=200000
 clientCounts="1 2 4"
+scalingSize=640x480
 sizes="640x480 800x600 1024x768 1280x960"
 resClients=2
 resModes="walkthrough interaction"
@@ -64,10 +79,12 @@ while (($#)); do
         --memory) doMemory=1 ;;
         --all) doScaling=1 doResolution=1 doMemory=1 ;;
         --scenes) scenes=$2; shift ;;
+        --estimator) estimator=$2; shift ;;
         --frames) frames=$2; shift ;;
         --walk-frames) walkFrames=$2; shift ;;
         --walk-photons) walkPhotons=$2; shift ;;
         --clients) clientCounts=$2; shift ;;
+        --scaling-size) scalingSize=$2; shift ;;
         --sizes) sizes=$2; shift ;;
         --ref-photons) refPhotons=$2; shift ;;
         --ref-k) refK=$2; shift ;;
@@ -80,10 +97,19 @@ while (($#)); do
         --mem-sample) memSample=$2; shift ;;
         --mem-clients) memClients=$2; shift ;;
         --mem-photons) memPhotons=$2; shift ;;
-        -h|--help) sed -n '2,41p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        -h|--help) awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "${BASH_SOURCE[0]}"; exit 0 ;;
         *) echo "cluster_bench.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
     esac
     shift
+done
+if [[ $estimator != progressive && $estimator != knn ]]; then
+    echo "cluster_bench.sh: --estimator must be progressive or knn, not '$estimator'" >&2
+    exit 2
+fi
+for scene in $scenes; do
+    case $scene in MIRROR | RING | GLASS | EGG | HEADLIGHT | CORNELL) ;;
+        *) echo "cluster_bench.sh: unknown scene '$scene' (MIRROR RING GLASS EGG HEADLIGHT CORNELL)" >&2; exit 2 ;;
+    esac
 done
 if ((frames < 3 || frames > 9 || walkFrames < 3 || walkFrames > 9)); then
     echo "cluster_bench.sh: --frames and --walk-frames must be in [3, 9] (fps is the server's rate over the frames after frame 0, a window of 8)" >&2
@@ -94,10 +120,11 @@ server_bin=$build/server/rtpm-server
 client_bin=$build/client/rtpm-client
 render_bin=$build/common/cmd/rtpm-render
 compare_bin=$build/common/cmd/rtpm-compare
-for b in "$server_bin" "$client_bin" "$render_bin" "$compare_bin"; do
+mirror_bin=$build/tests/bench/ring_mirror_bench
+for b in "$server_bin" "$client_bin" "$render_bin" "$compare_bin" "$mirror_bin"; do
     if [[ ! -x $b ]]; then
         [[ -f $build/CMakeCache.txt ]] || cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release >&2
-        cmake --build "$build" --target rtpm-server rtpm-client rtpm-render rtpm-compare -j2 >&2
+        cmake --build "$build" --target rtpm-server rtpm-client rtpm-render rtpm-compare ring_mirror_bench -j2 >&2
         break
     fi
 done
@@ -119,7 +146,22 @@ RTPM_TOKEN=$(od -An -tx1 -N16 /dev/urandom | tr -d ' \n')
 export RTPM_TOKEN
 cores=$(nproc)
 
-refPath() { echo "$refs/${1}_${2}x${3}.exr"; }
+refPath() { echo "$refs/${1}_${2}x${3}_knn.exr"; }
+
+# The curved-mirror scene as a file the server loads (and sends to the clients).
+mirrorGlb=$work/ring_mirror.glb
+if [[ " $scenes " == *" MIRROR "* ]]; then
+    "$mirror_bin" --write-scene "$mirrorGlb" >/dev/null
+fi
+
+# sceneArgs SCENE: the server's scene flags (MIRROR: the .glb with L S D photon paths only).
+sceneArgs() {
+    if [[ $1 == MIRROR ]]; then
+        echo "--scene $mirrorGlb --photon-depth 2 --diffuse-bounces 0"
+    else
+        echo "--scene $1"
+    fi
+}
 
 # start_cluster CLIENTS SCENE SERVER_ARGS... : starts the server and clients in the background,
 # sets server_pid and client_pids. Readiness is the port file (bounded poll).
@@ -127,8 +169,9 @@ start_cluster() {
     local n=$1 scene=$2
     shift 2
     rm -f "$work/port"
-    "$server_bin" --port 0 --port-file "$work/port" --min-clients "$n" --scene "$scene" --quiet \
-        --deadline-ms 600000 "$@" \
+    # shellcheck disable=SC2046  # sceneArgs: words without spaces ($work is mktemp's)
+    "$server_bin" --port 0 --port-file "$work/port" --min-clients "$n" $(sceneArgs "$scene") --quiet \
+        --deadline-ms 600000 --estimator "$estimator" "$@" \
         >"$work/server.log" 2>&1 &
     server_pid=$!
     pids+=("$server_pid")
@@ -161,12 +204,19 @@ wait_cluster() {
     return $status
 }
 
-# error OUT.exr SCENE W H: caustic_filtered relative RMSE over the caustic region, or n/a.
+# error OUT.exr SCENE W H: "analytic rel. MAE|analytic energy ratio|self-rendered rel. RMSE" of
+# the caustic_filtered layer, "—" where a column does not apply, n/a for a missing reference.
 error() {
+    if [[ $2 == MIRROR ]]; then
+        "$mirror_bin" --compare "$1" --layer caustic_filtered |
+            awk '$1 == "rel_mae" && $3 == "energy" { printf "%.3f|%.3f|—", $2, $4; ok = 1 }
+                 END { if (!ok) printf "n/a|n/a|—" }'
+        return
+    fi
     local ref
     ref=$(refPath "$2" "$3" "$4")
-    [[ -f $ref ]] || { echo "n/a"; return; }
-    "$compare_bin" --csv --layer caustic_filtered "$1" "$ref" | awk -F, 'NR == 2 { printf "%.3f", $6 }'
+    [[ -f $ref ]] || { echo "—|—|n/a"; return; }
+    "$compare_bin" --csv --layer caustic_filtered "$1" "$ref" | awk -F, 'NR == 2 { printf "—|—|%.3f", $6 }'
 }
 
 
@@ -188,7 +238,7 @@ procCpu() {
 clk=$(getconf CLK_TCK)
 
 # run_case CLIENTS SCENE W H MODE: one cluster run (in this shell, so `times` sees it); sets
-# result="fps|cpu_s_per_frame|photons_total|error|frames|incomplete|last_mode".
+# result="fps|cpu_s_per_frame|photons_total|analytic_mae|analytic_energy|self_rmse|frames|incomplete|last_mode".
 run_case() {
     local n=$1 scene=$2 w=$3 h=$4 mode=$5
     local csv=$work/run.csv out=$work/run.exr cpu0 cpu1 args
@@ -228,13 +278,14 @@ make_refs() {
     mkdir -p "$refs"
     local scene size w h ref
     for scene in $scenes; do
+        [[ $scene == MIRROR ]] && continue  # analytic reference
         for size in $sizes; do
             w=${size%x*} h=${size#*x}
             ref=$(refPath "$scene" "$w" "$h")
             [[ -f $ref ]] && continue
             echo "cluster_bench.sh: reference $ref" >&2
             "$render_bin" --scene "$scene" --width "$w" --height "$h" --frames 1 --photons "$refPhotons" \
-                --k "$refK" --seed "$refSeed" --out "$ref" >"$work/ref.log" 2>&1 ||
+                --k "$refK" --seed "$refSeed" --estimator knn --out "$ref" >"$work/ref.log" 2>&1 ||
                 { cat "$work/ref.log" >&2; return 1; }
             tail -n 2 "$work/ref.log" | head -n 1 >&2
         done
@@ -250,23 +301,24 @@ header() {
 }
 
 scaling() {
-    echo "### fps vs clients, 640x480 (paper Table 6)"
+    local sw=${scalingSize%x*} sh=${scalingSize#*x}
+    echo "### fps vs clients, $scalingSize, estimator $estimator (paper Table 6)"
     echo
     echo "Clients on loopback with max(1, $cores / N) render threads each, plus the master, on $cores cores:"
     echo "N = 4 oversubscribes the machine. Interaction: $frames frames of P = 20 000 paths/set;"
     echo "walkthrough: --walkthrough, frame 0 shoots $walkPhotons paths/set, $((walkFrames - 1)) walkthrough frames."
     echo
-    echo "| scene | mode | clients | fps | fps / fps(1 client) | cpu s/frame | cpu / cpu(1 client) | fps bound | photons (all sets) | caustic rel. RMSE | frames (incomplete) |"
-    echo "|---|---|---|---|---|---|---|---|---|---|---|"
+    echo "| scene | estimator | mode | clients | fps | fps / fps(1 client) | cpu s/frame | cpu / cpu(1 client) | fps bound | photons (all sets) | caustic rel. MAE vs analytic | caustic energy vs analytic | caustic rel. RMSE vs self-rendered k-NN ref. | frames (incomplete) |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     local scene mode n r base cbase
     for scene in $scenes; do
         for mode in interaction walkthrough; do
             base="" cbase=""
             for n in $clientCounts; do
-                run_case "$n" "$scene" 640 480 "$mode" && r=$result || { echo "| $scene | $mode | $n | failed | | | | | |"; continue; }
-                IFS='|' read -r fps cpuf ph err nf inc lastMode <<<"$r"
+                run_case "$n" "$scene" "$sw" "$sh" "$mode" && r=$result || { echo "| $scene | $estimator | $mode | $n | failed | | | | | | | | | |"; continue; }
+                IFS='|' read -r fps cpuf ph mae energy rmse nf inc lastMode <<<"$r"
                 [[ -z $base ]] && base=$fps cbase=$cpuf
-                echo "| $scene | $mode | $n | $fps | $(ratio "$fps" "$base") | $cpuf | $(ratio "$cpuf" "$cbase") | $(bound "$cpuf") | $ph | $err | $nf ($inc) |"
+                echo "| $scene | $estimator | $mode | $n | $fps | $(ratio "$fps" "$base") | $cpuf | $(ratio "$cpuf" "$cbase") | $(bound "$cpuf") | $ph | $mae | $energy | $rmse | $nf ($inc) |"
                 echo "  [$(date +%T) load$(uptime | sed 's/.*load average://')] $scene $mode $n: $r" >&2
             done
         done
@@ -275,20 +327,20 @@ scaling() {
 }
 
 resolution() {
-    echo "### fps vs resolution, $resClients clients (paper Table 7)"
+    echo "### fps vs resolution, $resClients clients, estimator $estimator (paper Table 7)"
     echo
-    echo "| scene | mode | resolution | fps | px/s ÷ px/s at first size | cpu s/frame | cpu µs/px | fps bound | photons (all sets) | caustic rel. RMSE | frames (incomplete) |"
-    echo "|---|---|---|---|---|---|---|---|---|---|---|"
+    echo "| scene | estimator | mode | resolution | fps | px/s ÷ px/s at first size | cpu s/frame | cpu µs/px | fps bound | photons (all sets) | caustic rel. MAE vs analytic | caustic energy vs analytic | caustic rel. RMSE vs self-rendered k-NN ref. | frames (incomplete) |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     local scene mode size w h r base
     for scene in $scenes; do
         for mode in $resModes; do
             base=""
             for size in $sizes; do
                 w=${size%x*} h=${size#*x}
-                run_case "$resClients" "$scene" "$w" "$h" "$mode" && r=$result || { echo "| $scene | $mode | $size | failed | | | | | |"; continue; }
-                IFS='|' read -r fps cpuf ph err nf inc lastMode <<<"$r"
+                run_case "$resClients" "$scene" "$w" "$h" "$mode" && r=$result || { echo "| $scene | $estimator | $mode | $size | failed | | | | | | | | | |"; continue; }
+                IFS='|' read -r fps cpuf ph mae energy rmse nf inc lastMode <<<"$r"
                 [[ -z $base ]] && base=$(awk -v f="$fps" -v w="$w" -v h="$h" 'BEGIN { print f * w * h }')
-                echo "| $scene | $mode | $size | $fps | $(awk -v f="$fps" -v w="$w" -v h="$h" -v b="$base" 'BEGIN { printf "%.2f", f * w * h / b }') | $cpuf | $(awk -v c="$cpuf" -v p="$((w * h))" 'BEGIN { if (c == "n/a") print "n/a"; else printf "%.2f", c / p * 1e6 }') | $(bound "$cpuf") | $ph | $err | $nf ($inc) |"
+                echo "| $scene | $estimator | $mode | $size | $fps | $(awk -v f="$fps" -v w="$w" -v h="$h" -v b="$base" 'BEGIN { printf "%.2f", f * w * h / b }') | $cpuf | $(awk -v c="$cpuf" -v p="$((w * h))" 'BEGIN { if (c == "n/a") print "n/a"; else printf "%.2f", c / p * 1e6 }') | $(bound "$cpuf") | $ph | $mae | $energy | $rmse | $nf ($inc) |"
                 echo "  [$(date +%T) load$(uptime | sed 's/.*load average://')] $scene $mode $size: $r" >&2
             done
         done

@@ -9,9 +9,15 @@
 //       the scene was ready, the caustic-region rel. MAE of the shown caustic (filtered and
 //       faded as rtpm-render shows it) and the caustic energy over the compared pixels relative
 //       to the reference.
-//   ring_mirror_bench --compare FILE.exr [--minus DIRECT.exr] [--out DIFF.exr]
-//       the same error and energy for the R G B layer of an image (minus another one: POV-Ray's
-//       render without photons, so that only the caustic is compared; tests/bench/pov_compare.py).
+//   ring_mirror_bench --compare FILE.exr [--layer NAME] [--minus DIRECT.exr] [--out DIFF.exr]
+//       the same error and energy for the R G B layer of an image (or layer NAME, e.g.
+//       caustic_filtered of an rtpm-render / rtpm-server EXR; at the image's own resolution),
+//       minus another one (POV-Ray's render without photons, so that only the caustic is
+//       compared; tests/bench/pov_compare.py).
+//   ring_mirror_bench --write-scene FILE.glb
+//       writes the scene as binary glTF (radial normals, light and camera included), so that
+//       rtpm-render and the cluster render it: `--scene FILE.glb --photon-depth 2
+//       --diffuse-bounces 0` (tests/bench/cluster_bench.sh, scene MIRROR).
 //   ring_mirror_bench --reference FILE.exr      writes the analytic reference (R G B).
 //   ring_mirror_bench --static-frame 10000 --static-frame 1000000 [--photons P] [--frames N]
 //       still-frame time of one set with its map filled to each size (staticFrame below).
@@ -33,6 +39,7 @@
 #include "common/image/frame_image.h"
 #include "common/image/image_io.h"
 #include "common/render/render_job.h"
+#include "common/scene/gltf_export.h"
 #include "tests/support/ring_mirror.h"
 
 namespace {
@@ -55,7 +62,7 @@ struct Options {
     double seconds = 0.0;  ///< --seconds: stop after the frame that reaches this wall time
     double mask = 0.97;
     uint32_t k = 64;
-    std::string csv, compare, reference, out, minus;
+    std::string csv, compare, reference, out, minus, layer, writeScene;
     std::vector<uint64_t> staticStored;  ///< --static-frame, repeatable
 };
 
@@ -215,7 +222,11 @@ int compareFile(const Options& o) {
     std::vector<float> ref;
     std::vector<uint8_t> mask;
     rm.referenceImage(img.width, img.height, ref, mask);
-    std::vector<float> rgb = img.layerRgb("");
+    for (const char* c : {"R", "G", "B"})
+        if (!img.channels.count(o.layer.empty() ? std::string(c) : o.layer + "." + c))
+            throw std::invalid_argument(o.compare + " has no layer '" + o.layer + "' (channel " +
+                                        (o.layer.empty() ? std::string(c) : o.layer + "." + c) + ")");
+    std::vector<float> rgb = img.layerRgb(o.layer);
     if (!o.minus.empty()) {  // e.g. the same render without photons: its direct light
         const ExrImage direct = readExr(o.minus);
         if (direct.width != img.width || direct.height != img.height)
@@ -229,6 +240,13 @@ int compareFile(const Options& o) {
     }
     const Score s = score(rgb, ref, mask, img.width, img.height);
     std::printf("rel_mae %.5f energy %.5f\n", s.relMae, s.energy);
+    return 0;
+}
+
+int writeScene(const Options& o) {
+    const testscenes::RingMirror rm;
+    exportGlb(rm.scene(), o.writeScene);
+    std::printf("wrote %s\n", o.writeScene.c_str());
     return 0;
 }
 
@@ -268,6 +286,8 @@ int main(int argc, char** argv) {
             else if (a == "--reference") o.reference = next();
             else if (a == "--out") o.out = next();
             else if (a == "--minus") o.minus = next();
+            else if (a == "--layer") o.layer = next();
+            else if (a == "--write-scene") o.writeScene = next();
             else if (a == "--seconds") o.seconds = std::stod(next());
             else if (a == "--mask") o.mask = std::stod(next());
             else if (a == "--static-frame") o.staticStored.push_back(std::stoull(next()));
@@ -275,6 +295,7 @@ int main(int argc, char** argv) {
             else throw std::invalid_argument("unknown argument " + a);
         }
         if (o.frames < 1 || o.width < 1 || o.height < 1) throw std::invalid_argument("sizes must be >= 1");
+        if (!o.writeScene.empty()) return writeScene(o);
         if (!o.compare.empty()) return compareFile(o);
         if (!o.reference.empty()) return writeReference(o);
         if (!o.staticStored.empty()) {
