@@ -21,6 +21,7 @@
 #include <variant>
 
 #include "client/frame_renderer.h"
+#include "proto/auth.h"
 #include "proto/messages.h"
 #include "proto/net/connection.h"
 
@@ -196,11 +197,11 @@ struct Worker::Impl : net::ConnectionHandler {
         state = State::AwaitWelcome;
         // The same connection class as the master's (framed reads, one write in flight).
         conn = std::make_shared<net::Connection>(std::move(socket), *this, kMaxQueuedBytes);
-        proto::Hello hello;
-        hello.authToken = opt.token;
+        hello = proto::Hello{};
+        challenged = false;
         hello.cores = threadCount();
         hello.clientName = opt.name;
-        conn->send(hello);
+        conn->send(hello);  // the token never travels: the server's Challenge is answered with a MAC
         conn->start(std::chrono::milliseconds(0));
     }
 
@@ -226,7 +227,14 @@ struct Worker::Impl : net::ConnectionHandler {
         const proto::MessageType type = proto::typeOf(msg);
         if (auto* bye = std::get_if<proto::Bye>(&msg)) return handleBye(*bye);
         if (state == State::AwaitWelcome) {
+            if (auto* ch = std::get_if<proto::Challenge>(&msg)) {
+                if (challenged) return protocolError("a second Challenge");
+                challenged = true;
+                conn->send(proto::Auth{proto::authMac(opt.token, ch->nonce, hello)});
+                return;
+            }
             if (auto* w = std::get_if<proto::Welcome>(&msg)) {
+                if (!challenged) return protocolError("Welcome without a Challenge");
                 std::fprintf(stderr, "rtpm-client: connected to %s as client %u (sets %s, %u threads)\n",
                              addrText().c_str(), w->clientId, setList(w->sets).c_str(), threadCount());
                 state = State::Running;
@@ -397,6 +405,8 @@ struct Worker::Impl : net::ConnectionHandler {
     std::string lastError = "no attempt made";
 
     std::shared_ptr<net::Connection> conn;  ///< once connected
+    proto::Hello hello;                     ///< what this connection said (the Auth MAC covers it)
+    bool challenged = false;                ///< the Challenge of this connection was answered
 
     std::mutex mu;
     std::condition_variable cv;

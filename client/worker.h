@@ -19,7 +19,7 @@ struct WorkerOptions {
     std::string host = "127.0.0.1";
     uint16_t port = 0;         ///< 0: read it from portFile
     std::string portFile;      ///< file holding the port as decimal text (rtpm-server --port-file)
-    std::string token;         ///< shared secret sent in Hello
+    std::string token;         ///< shared secret: keys the Auth MAC, never sent
     std::string name;          ///< client name for the server's logs
     int threads = 0;           ///< TBB worker threads; 0 = every core
     double connectTimeoutSeconds = 30.0;  ///< total time for connection attempts

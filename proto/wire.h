@@ -15,7 +15,7 @@ namespace rtpm::proto {
 /// 'R','T','P','M' on the wire (little-endian u32 0x4D505452).
 inline constexpr uint32_t kMagic = 0x4D505452u;
 /// Bumped on any change of a message layout; peers must match exactly (PROTOCOL.md §2).
-inline constexpr uint16_t kProtocolVersion = 2;
+inline constexpr uint16_t kProtocolVersion = 3;
 /// Size of the fixed header that precedes every payload.
 inline constexpr size_t kHeaderBytes = 16;
 
@@ -31,9 +31,11 @@ enum class MessageType : uint16_t {
     Edit = 8,        ///< server → client, one scene edit
     Stats = 9,       ///< client → server, timings and counters
     Bye = 10,        ///< either way, orderly close
+    Challenge = 11,  ///< server → client, answer to Hello: the nonce to authenticate with (version 3)
+    Auth = 12,       ///< client → server, HMAC of the nonce and the Hello (version 3)
 };
 /// Highest id this build knows; ids 1..kMaxMessageType are all assigned.
-inline constexpr uint16_t kMaxMessageType = 10;
+inline constexpr uint16_t kMaxMessageType = 12;
 
 /// What went wrong while decoding bytes from a peer. Every code is fatal for the connection.
 enum class ErrorCode : uint8_t {
@@ -41,7 +43,7 @@ enum class ErrorCode : uint8_t {
     BadMagic,         ///< header does not start with 'RTPM'
     BadVersion,       ///< header version differs from kProtocolVersion
     UnknownType,      ///< header type is not a known MessageType
-    BadFlags,         ///< header flags not zero (no flag is defined in version 2)
+    BadFlags,         ///< header flags not zero (no flag is defined in version 3)
     PayloadTooLarge,  ///< header payloadBytes above the per-type limit
     LengthTooLarge,   ///< a string, byte array or count above its field limit or the bytes left
     BadEnum,          ///< an enumerated field out of range
@@ -49,6 +51,7 @@ enum class ErrorCode : uint8_t {
     BadValue,         ///< a value out of its documented range or inconsistent with another field
     TrailingBytes,    ///< payload longer than the message it holds
     Corrupt,          ///< compressed data that does not decompress to the announced size
+    NotAllowed,       ///< a type or size the peer may not send in its state (e.g. before authenticating)
 };
 
 /// Short stable name of a code, e.g. "bad-magic" (for logs and tests).

@@ -4,16 +4,24 @@
 namespace rtpm::net {
 
 namespace {
+constexpr uint64_t kHeaderBytesForDeadline = proto::kHeaderBytes;
 constexpr size_t kReadChunk = 256 * 1024;
+/// Before authentication only a Hello and an Auth may arrive (< 1 KiB): a flood of pending
+/// connections must not cost kReadChunk each.
+constexpr size_t kPreAuthReadChunk = 4 * 1024;
 }
 
 Connection::Connection(asio::ip::tcp::socket socket, ConnectionHandler& handler, size_t maxQueuedBytes)
-    : socket_(std::move(socket)), handler_(handler), timer_(socket_.get_executor()), maxQueuedBytes_(maxQueuedBytes) {
+    : socket_(std::move(socket)),
+      handler_(handler),
+      timer_(socket_.get_executor()),
+      readTimer_(socket_.get_executor()),
+      maxQueuedBytes_(maxQueuedBytes) {
     asio::error_code ec;
     auto ep = socket_.remote_endpoint(ec);
     peer_ = ec ? std::string("?") : ep.address().to_string() + ":" + std::to_string(ep.port());
     socket_.set_option(asio::ip::tcp::no_delay(true), ec);
-    readBuf_.resize(kReadChunk);
+    readBuf_.resize(kPreAuthReadChunk);
 }
 
 void Connection::start(std::chrono::milliseconds handshakeTimeout) {
@@ -25,14 +33,57 @@ void Connection::start(std::chrono::milliseconds handshakeTimeout) {
     timer_.expires_after(handshakeTimeout);
     timer_.async_wait([self](const asio::error_code& ec) {
         if (ec || self->finished_) return;
-        self->close("no valid Hello within the handshake timeout");
+        self->handshakeTimedOut_ = true;
+        self->close("handshake not completed within the handshake timeout");
     });
     readMore();
 }
 
-void Connection::markAuthenticated() { timer_.cancel(); }
+void Connection::markAuthenticated() {
+    timer_.cancel();
+    splitter_.allowAll();
+    authenticated_ = true;
+}
+
+void Connection::setReadDeadline(std::chrono::milliseconds stall, uint64_t minBytesPerSecond) {
+    readStall_ = stall;
+    minBytesPerSecond_ = minBytesPerSecond;
+}
+
+void Connection::updateReadDeadline() {
+    if (readStall_.count() <= 0 || finished_ || closing_) return;
+    if (splitter_.buffered() == 0) {  // between messages: no deadline
+        if (partialSince_) {
+            partialSince_.reset();
+            ++readDeadlineGeneration_;
+            readTimer_.cancel();
+        }
+        return;
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (!partialSince_) partialSince_ = now;
+    // Progress re-arms the stall deadline; the whole message is bounded by its size at the minimum rate.
+    auto deadline = now + readStall_;
+    if (minBytesPerSecond_ > 0) {
+        const uint64_t bytes = kHeaderBytesForDeadline + splitter_.pendingPayloadBytes();
+        const auto allowance = std::chrono::milliseconds(bytes * 1000 / minBytesPerSecond_);
+        deadline = std::min(deadline, *partialSince_ + readStall_ + allowance);
+    }
+    const uint64_t generation = ++readDeadlineGeneration_;
+    readTimer_.expires_at(deadline);
+    auto self = shared_from_this();
+    readTimer_.async_wait([self, generation](const asio::error_code& ec) {
+        if (ec || self->finished_ || generation != self->readDeadlineGeneration_) return;
+        const auto waited = std::chrono::duration_cast<std::chrono::milliseconds>(
+            std::chrono::steady_clock::now() - *self->partialSince_);
+        self->close("stalled mid-message: " + std::to_string(self->splitter_.buffered()) + " of " +
+                    std::to_string(kHeaderBytesForDeadline + self->splitter_.pendingPayloadBytes()) +
+                    " bytes arrived in " + std::to_string(waited.count()) + " ms");
+    });
+}
 
 void Connection::readMore() {
+    if (authenticated_ && readBuf_.size() < kReadChunk) readBuf_.resize(kReadChunk);  // no read is in flight here
     auto self = shared_from_this();
     socket_.async_read_some(asio::buffer(readBuf_), [self](const asio::error_code& ec, size_t n) {
         if (self->finished_) return;
@@ -59,6 +110,7 @@ void Connection::readMore() {
             self->handler_.onMessage(*self, std::move(**r), wire);
             if (self->closing_ || self->finished_) break;
         }
+        self->updateReadDeadline();
         if (!self->finished_) self->readMore();
     });
 }
@@ -129,6 +181,7 @@ void Connection::finish(const std::string& why) {
     closing_ = true;
     asio::error_code ec;
     timer_.cancel();
+    readTimer_.cancel();
     socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ec);
     socket_.close(ec);
     queue_.clear();
