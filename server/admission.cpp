@@ -76,16 +76,27 @@ size_t Admission::pendingFrom(const std::string& key) const {
     return it == sources_.end() ? 0 : it->second.pending.size();
 }
 
+std::string Admission::rateLimitText(const std::string& key, const Source& s) const {
+    const double wait = limits_.failureRefillPerSecond > 0 ? (1.0 - s.allowance) / limits_.failureRefillPerSecond : 60.0;
+    return "too many failed authentications from " + key + "; retry in " +
+           std::to_string(std::max(1, static_cast<int>(std::ceil(wait)))) + " s";
+}
+
+std::optional<std::string> Admission::refuseAttempt(const std::string& key, TimePoint now) {
+    Source& s = source(key, now);
+    if (s.allowance >= 1.0) return std::nullopt;
+    count(&AdmissionCounts::refusedRateLimited);
+    return rateLimitText(key, s);
+}
+
 Admission::Verdict Admission::onConnect(uint64_t id, const std::string& key, TimePoint now) {
     if (!intervalStart_) intervalStart_ = now;
     count(&AdmissionCounts::connections);
     Verdict v;
     Source& s = source(key, now);
     if (s.allowance < 1.0) {
-        const double wait = limits_.failureRefillPerSecond > 0 ? (1.0 - s.allowance) / limits_.failureRefillPerSecond : 60.0;
         v.decision = AdmissionDecision::RefuseRateLimited;
-        v.text = "too many failed authentications from " + key + "; retry in " +
-                 std::to_string(static_cast<int>(std::ceil(wait))) + " s";
+        v.text = rateLimitText(key, s);
         count(&AdmissionCounts::refusedRateLimited);
         return v;
     }

@@ -80,6 +80,12 @@ public:
     /// Frees its slot and counts the outcome. Unknown ids are ignored.
     void onPendingEnded(uint64_t id, End how);
 
+    /// Before an Auth from `source` is checked: nullopt when the source may make an attempt,
+    /// otherwise the refusal text (RejectReason::RateLimited; counted). The guess is then never
+    /// evaluated, so evaluated guesses per source stay within the allowance even when many of
+    /// its connections passed onConnect together.
+    std::optional<std::string> refuseAttempt(const std::string& source, TimePoint now);
+
     /// A failed authentication from `source`: uses one of its allowance and returns how long to
     /// wait before answering (the connection keeps its pending slot meanwhile).
     std::chrono::milliseconds onAuthFailure(const std::string& source, TimePoint now);
@@ -92,6 +98,7 @@ public:
 
     size_t pending() const { return pendingById_.size(); }
     size_t pendingFrom(const std::string& source) const;
+    size_t sourcesKept() const { return sources_.size(); }
     const AdmissionCounts& totals() const { return totals_; }
 
 private:
@@ -108,6 +115,7 @@ private:
     void refill(Source& s, TimePoint now) const;
     void count(uint64_t AdmissionCounts::*field);
     void forgetIdleSources(TimePoint now);
+    std::string rateLimitText(const std::string& key, const Source& s) const;
 
     AdmissionLimits limits_;
     std::unordered_map<std::string, Source> sources_;

@@ -484,6 +484,13 @@ struct Master::Impl : net::ConnectionHandler {
             c.send(proto::Challenge{p.nonce});
             return;
         }
+        if (!opt.insecureNoToken)
+            if (auto limited = admission.refuseAttempt(p.source, Clock::now())) {
+                armAdmissionLog();
+                endPending(c, Admission::End::Closed);
+                reject(c, proto::RejectReason::RateLimited, *limited);
+                return;
+            }
         HandshakeResult h = checkAuth(m, *p.hello, p.nonce, opt.token, opt.insecureNoToken);
         if (!h.accepted && h.reason == proto::RejectReason::BadToken) {
             // The answer waits (the slot stays taken): guesses from one address are slowed and then

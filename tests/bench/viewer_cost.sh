@@ -12,7 +12,7 @@ frames=${1:-40}; width=${2:-640}; height=${3:-480}; shift $(($# < 3 ? $# : 3)) |
 work=$(mktemp -d)
 pids=()
 trap 'for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; rm -rf "$work"' EXIT
-export RTPM_TOKEN=cost-$$
+export RTPM_TOKEN=$(od -An -tx1 -N16 /dev/urandom | tr -d " \n")
 
 run() {  # $1 = with|without
     local tag=$1

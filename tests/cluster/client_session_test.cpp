@@ -7,6 +7,7 @@
 
 #include "client/frame_renderer.h"
 #include "client/worker.h"
+#include "proto/auth.h"
 #include "tests/support/cluster_util.h"
 #include "common/render/render_job.h"
 #include "common/scene/scene_loader.h"
@@ -98,13 +99,16 @@ struct FakeServer {
         return std::get<T>(std::move(m));
     }
 
-    /// Hello checked, Welcome sent.
+    /// Hello checked, Challenge sent, the Auth MAC checked against the token, Welcome sent.
     void handshake(std::vector<uint32_t> sets) {
         proto::Hello hello = expect<proto::Hello>();
         EXPECT_EQ(hello.protocolVersion, proto::kProtocolVersion);
-        EXPECT_EQ(hello.authToken, "s3cret");
         EXPECT_EQ(hello.cores, 2u);
         EXPECT_EQ(hello.clientName, "fake-test");
+        const proto::Nonce nonce = proto::makeNonce();
+        ASSERT_TRUE(peer.send(proto::Challenge{nonce}));
+        proto::Auth auth = expect<proto::Auth>();
+        EXPECT_TRUE(proto::macEquals(auth.mac, proto::authMac("s3cret", nonce, hello)));
         ASSERT_TRUE(peer.send(proto::Welcome{3, std::move(sets)}));
     }
 
