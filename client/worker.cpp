@@ -89,7 +89,16 @@ struct Worker::Impl : net::ConnectionHandler {
     };
     using Item = std::variant<proto::Settings, proto::Scene, proto::Edit, FrameItem>;
 
-    explicit Impl(WorkerOptions o) : opt(std::move(o)), renderer(threadCount()) {}
+    explicit Impl(WorkerOptions o) : opt(std::move(o)), renderer(threadCount()) {
+        if (opt.tls) {
+            tls = std::make_unique<asio::ssl::context>(asio::ssl::context::tls_client);
+            tls->set_options(asio::ssl::context::no_tlsv1 | asio::ssl::context::no_tlsv1_1);
+            asio::error_code ec;
+            if (opt.tlsCa.empty()) tls->set_default_verify_paths(ec);
+            else tls->load_verify_file(opt.tlsCa, ec);
+            if (ec) throw std::runtime_error("TLS trust store " + (opt.tlsCa.empty() ? "(system)" : opt.tlsCa) + ": " + ec.message());
+        }
+    }
 
     ~Impl() { stopRenderThread(); }
 
@@ -197,6 +206,7 @@ struct Worker::Impl : net::ConnectionHandler {
         state = State::AwaitWelcome;
         // The same connection class as the master's (framed reads, one write in flight).
         conn = std::make_shared<net::Connection>(std::move(socket), *this, kMaxQueuedBytes);
+        if (tls) conn->useTls(*tls, false, opt.host);
         hello = proto::Hello{};
         challenged = false;
         hello.cores = threadCount();
@@ -404,6 +414,7 @@ struct Worker::Impl : net::ConnectionHandler {
     uint16_t port = 0;
     std::string lastError = "no attempt made";
 
+    std::unique_ptr<asio::ssl::context> tls;  ///< --tls
     std::shared_ptr<net::Connection> conn;  ///< once connected
     proto::Hello hello;                     ///< what this connection said (the Auth MAC covers it)
     bool challenged = false;                ///< the Challenge of this connection was answered

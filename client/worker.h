@@ -24,6 +24,8 @@ struct WorkerOptions {
     int threads = 0;           ///< TBB worker threads; 0 = every core
     double connectTimeoutSeconds = 30.0;  ///< total time for connection attempts
     bool verbose = false;      ///< one line per rendered frame on stdout
+    bool tls = false;          ///< connect over TLS, verifying the server's certificate for `host`
+    std::string tlsCa;         ///< PEM file of the CA(s) to trust; empty = the system's store
 };
 
 /// Parses "host:port", "[v6addr]:port" into `host` and `port`. Returns false (and leaves the

@@ -47,6 +47,8 @@ int run(int argc, char** argv) {
     app.add_option("--read-timeout-ms", readMs,
                    "drop a client that stops sending in the middle of a message for this long (0 = never)")
         ->capture_default_str();
+    app.add_option("--tls-cert", o.tlsCert, "PEM certificate chain: clients connect over TLS (with --tls-key)");
+    app.add_option("--tls-key", o.tlsKey, "PEM private key of --tls-cert");
     app.add_option("--max-clients", o.maxPeers, "authenticated clients at once; more are refused (capacity)")
         ->capture_default_str();
     app.add_option("--max-pending", o.admission.maxPending, "connections in their handshake at once, all addresses")

@@ -5,6 +5,7 @@
 #include "common/core/printable_text.h"
 
 #include <asio.hpp>
+#include <asio/ssl.hpp>
 
 #include <algorithm>
 #include <csignal>
@@ -118,6 +119,7 @@ struct Master::Impl : net::ConnectionHandler {
     uint64_t nextPendingId = 1;
     asio::steady_timer admissionLogTimer{io};
     bool admissionLogArmed = false;
+    std::unique_ptr<asio::ssl::context> tls;  // --tls-cert/--tls-key: every connection runs over TLS
     FramePolicy policy;
     std::optional<proto::CameraState> previousCamera;  ///< of the last FrameBegin
     FrameAssembler assembler;
@@ -175,6 +177,19 @@ struct Master::Impl : net::ConnectionHandler {
         }
         settingsMsg = std::make_shared<const std::vector<uint8_t>>(
             proto::encode(bridge::toWire(opt.settings, opt.encoding)));
+        if (opt.tlsCert.empty() != opt.tlsKey.empty())
+            throw std::invalid_argument("--tls-cert and --tls-key go together");
+        if (!opt.tlsCert.empty()) {
+            tls = std::make_unique<asio::ssl::context>(asio::ssl::context::tls_server);
+            tls->set_options(asio::ssl::context::default_workarounds | asio::ssl::context::no_sslv2 |
+                             asio::ssl::context::no_sslv3 | asio::ssl::context::no_tlsv1 |
+                             asio::ssl::context::no_tlsv1_1);
+            asio::error_code ec;
+            tls->use_certificate_chain_file(opt.tlsCert, ec);
+            if (ec) throw std::invalid_argument("--tls-cert " + opt.tlsCert + ": " + ec.message());
+            tls->use_private_key_file(opt.tlsKey, asio::ssl::context::pem, ec);
+            if (ec) throw std::invalid_argument("--tls-key " + opt.tlsKey + ": " + ec.message());
+        }
         if (!opt.builtin) {
             glb = encodeGlb(live.loaded());
             auto probe = proto::tryEncode(sceneMessage());
@@ -327,6 +342,7 @@ struct Master::Impl : net::ConnectionHandler {
         armAdmissionLog();
         if (v.decision != AdmissionDecision::Admit) {
             ++summary.peersRejected;
+            if (tls) return;  // a plain Reject would be garbage to a TLS client; a TLS handshake per refusal is what a flood wants
             refuseNow(sock, v.decision == AdmissionDecision::RefuseCapacity ? proto::RejectReason::Capacity
                                                                             : proto::RejectReason::RateLimited,
                       v.text);
@@ -344,6 +360,7 @@ struct Master::Impl : net::ConnectionHandler {
                     break;
                 }
         auto c = std::make_shared<net::Connection>(std::move(sock), *this, opt.maxQueuedBytes);
+        if (tls) c->useTls(*tls, true);
         connections.insert(c);
         PendingPeer& p = pending[c.get()];
         p.id = id;

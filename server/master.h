@@ -43,6 +43,8 @@ struct MasterOptions {
     /// An authenticated peer that stops mid-message for this long is dropped (0 = never); a
     /// message must also arrive at kMinReadBytesPerSecond on average (proto/net/connection.h).
     std::chrono::milliseconds readTimeout{10000};
+    /// TLS on the cluster link: PEM certificate chain and private key (both or neither).
+    std::string tlsCert, tlsKey;
     size_t maxQueuedBytes = 256u << 20;  ///< per-peer unsent bytes before it is dropped
 
     std::string out;                   ///< final EXR (PNG beside it); empty = no output

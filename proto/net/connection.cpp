@@ -24,19 +24,49 @@ Connection::Connection(asio::ip::tcp::socket socket, ConnectionHandler& handler,
     readBuf_.resize(kPreAuthReadChunk);
 }
 
+void Connection::useTls(asio::ssl::context& context, bool server, const std::string& verifyHost) {
+    tls_ = std::make_unique<asio::ssl::stream<asio::ip::tcp::socket>>(std::move(socket_), context);
+    tlsServer_ = server;
+    ready_ = false;
+    if (!server && !verifyHost.empty()) {
+        tls_->set_verify_mode(asio::ssl::verify_peer);
+        tls_->set_verify_callback(asio::ssl::host_name_verification(verifyHost));
+        asio::error_code notAnAddress;
+        asio::ip::make_address(verifyHost, notAnAddress);
+        if (notAnAddress) SSL_set_tlsext_host_name(tls_->native_handle(), verifyHost.c_str());  // SNI names hosts only
+    }
+}
+
 void Connection::start(std::chrono::milliseconds handshakeTimeout) {
     auto self = shared_from_this();
-    if (handshakeTimeout.count() <= 0) {
+    if (handshakeTimeout.count() > 0) {
+        timer_.expires_after(handshakeTimeout);
+        timer_.async_wait([self](const asio::error_code& ec) {
+            if (ec || self->finished_) return;
+            self->handshakeTimedOut_ = true;
+            self->close("handshake not completed within the handshake timeout");
+        });
+    }
+    startReading();
+}
+
+void Connection::startReading() {
+    if (!tls_) {
         readMore();
         return;
     }
-    timer_.expires_after(handshakeTimeout);
-    timer_.async_wait([self](const asio::error_code& ec) {
-        if (ec || self->finished_) return;
-        self->handshakeTimedOut_ = true;
-        self->close("handshake not completed within the handshake timeout");
-    });
-    readMore();
+    auto self = shared_from_this();
+    tls_->async_handshake(tlsServer_ ? asio::ssl::stream_base::server : asio::ssl::stream_base::client,
+                          [self](const asio::error_code& ec) {
+                              if (self->finished_) return;
+                              if (ec) {
+                                  self->close("TLS handshake failed: " + ec.message());
+                                  return;
+                              }
+                              self->ready_ = true;
+                              if (!self->writing_) self->writeNext();
+                              self->readMore();
+                          });
 }
 
 void Connection::markAuthenticated() {
@@ -85,7 +115,7 @@ void Connection::updateReadDeadline() {
 void Connection::readMore() {
     if (authenticated_ && readBuf_.size() < kReadChunk) readBuf_.resize(kReadChunk);  // no read is in flight here
     auto self = shared_from_this();
-    socket_.async_read_some(asio::buffer(readBuf_), [self](const asio::error_code& ec, size_t n) {
+    withStream([&](auto& stream) { stream.async_read_some(asio::buffer(readBuf_), [self](const asio::error_code& ec, size_t n) {
         if (self->finished_) return;
         if (ec) {
             self->finish(ec == asio::error::eof ? "peer closed the connection" : "read error: " + ec.message());
@@ -112,7 +142,7 @@ void Connection::readMore() {
         }
         self->updateReadDeadline();
         if (!self->finished_) self->readMore();
-    });
+    }); });
 }
 
 void Connection::send(Buffer bytes) {
@@ -123,7 +153,7 @@ void Connection::send(Buffer bytes) {
         close("peer is not reading (" + std::to_string(queuedBytes_ >> 20) + " MiB queued)");
         return;
     }
-    if (!writing_) writeNext();
+    if (!writing_ && ready_) writeNext();
 }
 
 void Connection::writeNext() {
@@ -135,7 +165,7 @@ void Connection::writeNext() {
     }
     writing_ = true;
     auto self = shared_from_this();
-    asio::async_write(socket_, asio::buffer(*queue_.front()), [self](const asio::error_code& ec, size_t) {
+    withStream([&](auto& stream) { asio::async_write(stream, asio::buffer(*queue_.front()), [self](const asio::error_code& ec, size_t) {
         if (self->finished_) return;
         if (ec) {
             self->finish("write error: " + ec.message());
@@ -144,7 +174,7 @@ void Connection::writeNext() {
         self->queuedBytes_ -= self->queue_.front()->size();
         self->queue_.pop_front();
         self->writeNext();
-    });
+    }); });
 }
 
 void Connection::dropUnsent() {
@@ -182,13 +212,14 @@ void Connection::finish(const std::string& why) {
     asio::error_code ec;
     timer_.cancel();
     readTimer_.cancel();
-    socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ec);
-    socket_.close(ec);
+    // A TLS session ends without close_notify: the protocol's own Bye says the end was orderly.
+    lowest().shutdown(asio::ip::tcp::socket::shutdown_both, ec);
+    lowest().close(ec);
     queue_.clear();
     queuedBytes_ = 0;
     // Deliver onClosed from a fresh handler so callers of close() never see re-entrancy.
     auto self = shared_from_this();
-    asio::post(socket_.get_executor(), [self, why] { self->handler_.onClosed(*self, why); });
+    asio::post(timer_.get_executor(), [self, why] { self->handler_.onClosed(*self, why); });
 }
 
 }  // namespace rtpm::net

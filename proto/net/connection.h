@@ -2,6 +2,7 @@
 #pragma once
 
 #include <asio.hpp>
+#include <asio/ssl.hpp>
 
 #include <chrono>
 #include <cstdint>
@@ -43,6 +44,12 @@ public:
     /// reading; memory must not grow without bound).
     Connection(asio::ip::tcp::socket socket, ConnectionHandler& handler, size_t maxQueuedBytes);
 
+    /// Runs the connection over TLS with `context` (which outlives the connection): the TLS
+    /// handshake runs first, within start()'s handshake timeout; sends queue until it is done.
+    /// Call before start(). `server`: this side accepts; otherwise `verifyHost` is the name (or
+    /// address) the peer's certificate must carry, also sent as SNI.
+    void useTls(asio::ssl::context& context, bool server, const std::string& verifyHost = "");
+
     /// Starts reading. `handshakeTimeout`: the connection is closed unless markAuthenticated()
     /// is called within it (zero: no timeout). Until then reads go through a small buffer.
     void start(std::chrono::milliseconds handshakeTimeout);
@@ -83,8 +90,19 @@ private:
     void writeNext();
     void finish(const std::string& why);
     void updateReadDeadline();
+    void startReading();
+    asio::ip::tcp::socket& lowest() { return tls_ ? tls_->next_layer() : socket_; }
+    /// Calls f with the stream that carries the protocol (the TLS stream or the plain socket).
+    template <class F>
+    void withStream(F&& f) {
+        if (tls_) f(*tls_);
+        else f(socket_);
+    }
 
     asio::ip::tcp::socket socket_;
+    std::unique_ptr<asio::ssl::stream<asio::ip::tcp::socket>> tls_;  // owns the socket when set
+    bool tlsServer_ = true;
+    bool ready_ = true;  // false while the TLS handshake runs: writes wait
     ConnectionHandler& handler_;
     asio::steady_timer timer_;
     asio::steady_timer readTimer_;  // read deadline of a partial message

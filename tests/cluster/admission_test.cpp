@@ -1,6 +1,7 @@
 // Hostile peers against a real rtpm-server (issue 13): a flood of idle and reconnecting sockets
 // while real clients join, tokenless large announcements, the guess rate, a stalled
-// authenticated peer, and the challenge–response (wrong token, replayed Auth, no token on the wire).
+// authenticated peer, the challenge–response (wrong token, replayed Auth, no token on the wire)
+// and the optional TLS link (same image, nothing readable on the wire, certificates checked).
 // Loopback only; the flood uses other 127.0.0.0/8 addresses than the real clients (different
 // hosts, as on a real network: one address's budget is not another's).
 #include <gtest/gtest.h>
@@ -13,6 +14,7 @@
 #include <thread>
 
 #include "client/worker.h"
+#include "common/image/image_io.h"
 #include "proto/auth.h"
 #include "tests/support/cluster_util.h"
 
@@ -339,6 +341,67 @@ TEST(Admission, TheTokenNeverTravelsOnTheWire) {
     const std::string wire(proxy.recorded.begin(), proxy.recorded.end());
     EXPECT_EQ(wire.find(kToken), std::string::npos);
     EXPECT_EQ(wire.find(kToken.substr(0, 8)), std::string::npos);
+}
+
+/// A self-signed certificate for 127.0.0.1 made by the openssl command-line tool.
+bool makeCertificate(const TempDir& dir, const std::string& name) {
+    Child openssl({"/usr/bin/openssl", "req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1",
+                   "-nodes", "-days", "2", "-subj", "/CN=rtpm-test", "-addext", "subjectAltName=IP:127.0.0.1",
+                   "-keyout", dir.file(name + ".key"), "-out", dir.file(name + ".pem")},
+                  dir.file(name + "-openssl"));
+    auto st = openssl.wait(60s);
+    return st && st->exited && st->code == 0;
+}
+
+TEST(Tls, ClusterOverTlsGivesTheSameImageAndNothingReadableOnTheWire) {
+    Server srv;
+    ASSERT_TRUE(makeCertificate(srv.dir, "server"));
+    ASSERT_TRUE(makeCertificate(srv.dir, "other"));
+    srv.start(1, 3, {"--tls-cert", srv.dir.file("server.pem"), "--tls-key", srv.dir.file("server.key")});
+    // A client trusting another certificate refuses this server; a plain client cannot join.
+    Child distrustful({binaryPath("client/rtpm-client"), "--server", "127.0.0.1:" + std::to_string(srv.port), "--token",
+                       kToken, "--threads", "1", "--connect-timeout", "10", "--tls", "--tls-ca",
+                       srv.dir.file("other.pem")},
+                      srv.dir.file("distrustful"));
+    auto ds = distrustful.wait(60s);
+    ASSERT_TRUE(ds && ds->exited) << distrustful.logs();
+    EXPECT_NE(ds->code, 0);
+    EXPECT_NE(distrustful.err().find("TLS handshake failed"), std::string::npos) << distrustful.logs();
+    {
+        Socket plain = connectFrom("127.0.0.1", srv.port);
+        auto m = authenticate(plain, kToken, "plain");
+        EXPECT_FALSE(m && std::holds_alternative<proto::Welcome>(*m));
+    }
+    EXPECT_FALSE(srv.child->poll()) << srv.child->logs();  // nobody joined: the run has not started
+    // The real client, through a recording proxy.
+    RecordingProxy proxy;
+    proxy.start(srv.port);
+    Child client({binaryPath("client/rtpm-client"), "--server", "127.0.0.1:" + std::to_string(proxy.listener.port()),
+                  "--token", kToken, "--threads", "1", "--connect-timeout", "30", "--tls", "--tls-ca",
+                  srv.dir.file("server.pem"), "--name", "tls-client-name"},
+                 srv.dir.file("client"));
+    auto st = srv.child->wait(120s);
+    ASSERT_TRUE(st && st->exited && st->code == 0) << srv.child->logs() << client.logs();
+    auto cs = client.wait(30s);
+    ASSERT_TRUE(cs && cs->exited && cs->code == client::kExitOk) << client.logs();
+    proxy.thread.join();
+    ASSERT_GT(proxy.recorded.size(), 1000u);
+    const std::string wire(proxy.recorded.begin(), proxy.recorded.end());
+    EXPECT_EQ(wire.find("RTPM"), std::string::npos);  // no protocol header in clear
+    EXPECT_EQ(wire.find("tls-client-name"), std::string::npos);
+    EXPECT_EQ(wire.find(kToken), std::string::npos);
+    // The same image as the single-process renderer, bit for bit (float32 pixels).
+    Child render({binaryPath("common/cmd/rtpm-render"), "--scene", "RING", "--width", "48", "--height", "36", "-M",
+                  "3", "-P", "500", "--frames", "3", "--out", srv.dir.file("ref.exr")},
+                 srv.dir.file("render"));
+    auto rs = render.wait(120s);
+    ASSERT_TRUE(rs && rs->exited && rs->code == 0) << render.logs();
+    const ExrImage got = readExr(srv.dir.file("out.exr")), want = readExr(srv.dir.file("ref.exr"));
+    for (const char* layer : {"direct", "caustic", "caustic_filtered", ""}) {
+        const std::vector<float> a = got.layerRgb(layer), b = want.layerRgb(layer);
+        ASSERT_EQ(a.size(), b.size());
+        EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << "layer '" << layer << "'";
+    }
 }
 
 }  // namespace
