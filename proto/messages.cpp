@@ -556,11 +556,11 @@ Result<std::optional<Message>> FrameSplitter::next() {
             error_ = h.error();
             return *error_;
         }
-        if (only_ && (h->type != only_->type || h->payloadBytes > only_->maxPayloadBytes)) {
+        if ((onlyType_ && h->type != *onlyType_) || h->payloadBytes > maxPayload_) {
             error_ = Error{ErrorCode::NotAllowed,
                            std::string(messageTypeName(h->type)) + " of " + std::to_string(h->payloadBytes) +
-                               " bytes where only " + messageTypeName(only_->type) + " of at most " +
-                               std::to_string(only_->maxPayloadBytes) + " bytes is allowed"};
+                               " bytes where " + (onlyType_ ? std::string("only ") + messageTypeName(*onlyType_) : std::string("any message")) +
+                               " of at most " + std::to_string(maxPayload_) + " bytes is allowed"};
             return *error_;
         }
         header_ = *h;

@@ -291,18 +291,27 @@ public:
     /// From the next header on, accepts only messages of `type` with at most `maxPayloadBytes`
     /// (below the type's own limit); anything else fails with NotAllowed before its payload is
     /// buffered. For peers that have not authenticated yet.
-    void allowOnly(MessageType type, uint32_t maxPayloadBytes) { only_ = Only{type, maxPayloadBytes}; }
-    /// Lifts allowOnly(): every type up to its own limit.
-    void allowAll() { only_.reset(); }
+    void allowOnly(MessageType type, uint32_t maxPayloadBytes) {
+        onlyType_ = type;
+        maxPayload_ = maxPayloadBytes;
+    }
+    /// From the next header on, accepts every type but at most `maxPayloadBytes` (below each
+    /// type's own limit), e.g. a bound derived from what the peer was asked to send.
+    void capPayload(uint32_t maxPayloadBytes) {
+        onlyType_.reset();
+        maxPayload_ = maxPayloadBytes;
+    }
+    /// Lifts allowOnly() and capPayload(): every type up to its own limit.
+    void allowAll() {
+        onlyType_.reset();
+        maxPayload_ = UINT32_MAX;
+    }
     /// payloadBytes of the message being received (its header is in), 0 otherwise.
     uint32_t pendingPayloadBytes() const { return header_ ? header_->payloadBytes : 0; }
 
 private:
-    struct Only {
-        MessageType type;
-        uint32_t maxPayloadBytes;
-    };
-    std::optional<Only> only_;
+    std::optional<MessageType> onlyType_;
+    uint32_t maxPayload_ = UINT32_MAX;
     std::vector<uint8_t> buf_;
     size_t pos_ = 0;  ///< start of the first unconsumed byte in buf_
     std::optional<Header> header_;  ///< decoded header of the message being received

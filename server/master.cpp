@@ -120,6 +120,7 @@ struct Master::Impl : net::ConnectionHandler {
     asio::steady_timer admissionLogTimer{io};
     bool admissionLogArmed = false;
     std::unique_ptr<asio::ssl::context> tls;  // --tls-cert/--tls-key: every connection runs over TLS
+    uint32_t clientPayloadCap = 0;            // largest message a client may announce (raiseClientPayloadCap)
     FramePolicy policy;
     std::optional<proto::CameraState> previousCamera;  ///< of the last FrameBegin
     FrameAssembler assembler;
@@ -539,9 +540,25 @@ struct Master::Impl : net::ConnectionHandler {
         endPending(c, Admission::End::Authenticated);
         c.markAuthenticated();
         c.setReadDeadline(opt.readTimeout, kMinReadBytesPerSecond);
+        raiseClientPayloadCap();
+        c.capPayload(clientPayloadCap);
         HandshakeResult joined;
         joined.clientName = name;
         onAuthenticated(c, joined, cores);
+    }
+
+    // A client sends at most one FrameData of its largest set in float32 (24 B/px, the largest
+    // encoding) plus a few fields; Stats and Bye are far smaller. So a header announcing more is
+    // refused before its payload is buffered (before: 64 MiB per set were taken in). The bound only
+    // grows during a run, so data of a frame rendered before a resize to fewer pixels still fits.
+    void raiseClientPayloadCap() {
+        const uint64_t m = uint64_t(opt.settings.interleave);
+        const uint64_t setPixels = ((uint64_t(opt.settings.width) + m - 1) / m) * ((uint64_t(opt.settings.height) + m - 1) / m);
+        const uint64_t cap = std::min<uint64_t>(std::max<uint64_t>(4096, 64 + 24 * setPixels),
+                                                proto::payloadLimit(proto::MessageType::FrameData));
+        if (cap <= clientPayloadCap) return;
+        clientPayloadCap = uint32_t(cap);
+        for (const auto& [id, info] : registry.clients()) info.connection->capPayload(clientPayloadCap);
     }
 
     std::shared_ptr<net::Connection> ownerOf(const net::Connection& c) const {
@@ -631,6 +648,7 @@ struct Master::Impl : net::ConnectionHandler {
         }
         const bool idle = assembler.inFlight() == 0 && outputsQueued == 0;
         if (pendingResize && idle) resize();
+        raiseClientPayloadCap();  // before any FrameBegin under new settings
         const bool unlimited = opt.frames == 0;
         while (started && (unlimited || nextFrame < static_cast<uint64_t>(opt.frames)) && !paused && !stopRequested &&
                !pendingResize && assembler.inFlight() < kPipeline && outputsQueued < kPipeline && !registry.empty())

@@ -59,6 +59,10 @@ public:
     /// `maxPayloadBytes`; a header announcing anything else is a decode error (onBadBytes)
     /// before any of its payload is buffered. Call from onMessage to change what comes next.
     void expectOnly(proto::MessageType type, uint32_t maxPayloadBytes) { splitter_.allowOnly(type, maxPayloadBytes); }
+    /// After markAuthenticated(): no message of more than `maxPayloadBytes` (a bound derived
+    /// from what the peer is asked to send) is buffered; a header announcing more is a decode
+    /// error (onBadBytes) from its 16 bytes alone.
+    void capPayload(uint32_t maxPayloadBytes) { splitter_.capPayload(maxPayloadBytes); }
     /// A message that has begun to arrive must keep arriving: the connection is closed when no
     /// byte of it comes for `stall`, or when it is not complete within `stall` plus its size at
     /// `minBytesPerSecond` (so neither a silent nor a trickling peer holds a half message, and

@@ -149,8 +149,11 @@ TEST(Admission, FloodOfIdleAndReconnectingSocketsDoesNotKeepRealClientsOut) {
     // The refusals are summed up, not logged one by one.
     EXPECT_LT(countLines(err), 60u) << err;
     EXPECT_NE(err.find("admission"), std::string::npos) << err;
-    std::printf("flood: %llu connections from 10 addresses; %d of %d real clients joined; server stderr %zu lines\n",
-                (unsigned long long)floodConnections.load(), joined, kClients, countLines(err));
+    const size_t totals = err.find("admission over the run");
+    ASSERT_NE(totals, std::string::npos) << err;
+    std::printf("flood: %llu connections from 10 addresses; %d of %d real clients joined; server stderr %zu lines; %s",
+                (unsigned long long)floodConnections.load(), joined, kClients, countLines(err),
+                err.substr(totals, err.find('\n', totals) - totals + 1).c_str());
 }
 
 // Before: eight peers with no token, each announcing a 256 MiB FrameData and sending it, took the
@@ -237,8 +240,9 @@ TEST(Admission, AuthenticatedPeerStallingOrTricklingMidMessageIsDropped) {
         auto m = authenticate(s, kToken, trickle ? "trickler" : "staller");
         ASSERT_TRUE(m && std::holds_alternative<proto::Welcome>(*m)) << srv.child->logs();
         proto::Writer w;
+        // 4000 bytes: below the master's bound for this run's sets (48x36, M=3: 4672 bytes).
         proto::encodeHeader(proto::Header{proto::kMagic, proto::kProtocolVersion, proto::MessageType::FrameData, 0,
-                                          100000},
+                                          4000},
                             w);
         std::vector<uint8_t> start = w.take();
         start.resize(start.size() + 100, 0);
@@ -260,6 +264,42 @@ TEST(Admission, AuthenticatedPeerStallingOrTricklingMidMessageIsDropped) {
                           10s))
         << srv.child->logs();
     EXPECT_NE(srv.child->err().find("(staller) left: stalled mid-message"), std::string::npos) << srv.child->logs();
+}
+
+// Before: an authenticated client could announce up to 256 MiB per FrameData whatever its set's
+// size (a padded zstd frame of 64 MiB per set took +513 MiB). Now the announced size is checked
+// against the largest set's float32 size from the header alone.
+TEST(Admission, AuthenticatedOversizeFrameDataIsRefusedFromItsHeader) {
+    Server srv;
+    srv.start(5, 1000);
+    const Memory before = memoryOf(srv.child->pid());
+    Socket s = connectFrom("127.0.0.1", srv.port);
+    auto m = authenticate(s, kToken, "oversize");
+    ASSERT_TRUE(m && std::holds_alternative<proto::Welcome>(*m)) << srv.child->logs();
+    proto::Writer w;
+    proto::encodeHeader(proto::Header{proto::kMagic, proto::kProtocolVersion, proto::MessageType::FrameData, 0,
+                                      64u << 20},
+                        w);
+    ASSERT_TRUE(s.sendAll(w.data()));
+    std::vector<uint8_t> chunk(1 << 20, 0);
+    for (int i = 0; i < 64 && s.sendAll(chunk); ++i) {
+    }
+    // Welcome is followed by Settings and Scene; then the Bye (or the close).
+    proto::Message bye;
+    Socket::Got g = Socket::Got::Timeout;
+    for (int i = 0; i < 10; ++i) {
+        g = s.receive(bye, 10s);
+        if (g != Socket::Got::Message || std::holds_alternative<proto::Bye>(bye)) break;
+    }
+    if (g == Socket::Got::Message) {
+        ASSERT_TRUE(std::holds_alternative<proto::Bye>(bye));
+        EXPECT_EQ(std::get<proto::Bye>(bye).reason, proto::ByeReason::ProtocolError);
+        EXPECT_NE(std::get<proto::Bye>(bye).text.find("at most"), std::string::npos) << std::get<proto::Bye>(bye).text;
+    }
+    EXPECT_TRUE(g == Socket::Got::Closed || s.waitClosed(10s)) << srv.child->logs();
+    const Memory after = memoryOf(srv.child->pid());
+    EXPECT_LT(after.peakKiB - before.peakKiB, 16 * 1024) << before.peakKiB << " -> " << after.peakKiB << " KiB";
+    EXPECT_NE(srv.child->err().find("(oversize) left: protocol error"), std::string::npos) << srv.child->logs();
 }
 
 TEST(Admission, ReplayedAuthIsRefused) {

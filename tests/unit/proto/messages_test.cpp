@@ -94,6 +94,16 @@ TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
     small.feed(big.data());
     EXPECT_EQ(small.next().error().code, ErrorCode::NotAllowed);
 
+    FrameSplitter capped;  // after authentication: any type, but not above the connection's bound
+    capped.capPayload(1000);
+    auto okStats = encode(Stats{});
+    capped.feed(okStats);
+    ASSERT_TRUE(capped.next().ok());
+    Writer bigData;
+    encodeHeader(Header{kMagic, kProtocolVersion, MessageType::FrameData, 0, 1001}, bigData);
+    capped.feed(bigData.data());
+    EXPECT_EQ(capped.next().error().code, ErrorCode::NotAllowed);
+
     FrameSplitter lifted;
     lifted.allowOnly(MessageType::Hello, 4096);
     auto hello = encode(Hello{});
