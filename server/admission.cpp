@@ -66,6 +66,11 @@ void Admission::forgetIdleSources(TimePoint now) {
         it = it->second.pending.empty() ? sources_.erase(it) : std::next(it);
 }
 
+double Admission::decayed(const Source& s, TimePoint now) {
+    const double seconds = std::chrono::duration<double>(now - s.counted).count();
+    return seconds > 0 ? s.recentConnections * std::exp(-seconds / 10.0) : s.recentConnections;
+}
+
 void Admission::count(uint64_t AdmissionCounts::*field) {
     ++(interval_.*field);
     ++(totals_.*field);
@@ -94,6 +99,8 @@ Admission::Verdict Admission::onConnect(uint64_t id, const std::string& key, Tim
     count(&AdmissionCounts::connections);
     Verdict v;
     Source& s = source(key, now);
+    s.recentConnections = decayed(s, now) + 1.0;
+    s.counted = now;
     if (s.allowance < 1.0) {
         v.decision = AdmissionDecision::RefuseRateLimited;
         v.text = rateLimitText(key, s);
@@ -108,11 +115,19 @@ Admission::Verdict Admission::onConnect(uint64_t id, const std::string& key, Tim
         return v;
     }
     if (pendingById_.size() >= limits_.maxPending) {
-        // Fair share: take the oldest slot of the source that holds the most.
+        // Fair share: the oldest slot of a source holding at least two more than the newcomer's,
+        // the one connecting most often (the flooder) among them.
         Source* biggest = nullptr;
-        for (auto& [k, other] : sources_)
-            if (!biggest || other.pending.size() > biggest->pending.size()) biggest = &other;
-        if (!biggest || biggest->pending.size() < s.pending.size() + 2) {
+        double biggestRate = -1.0;
+        for (auto& [k, other] : sources_) {
+            if (other.pending.size() < s.pending.size() + 2) continue;
+            const double rate = decayed(other, now);
+            if (rate > biggestRate) {
+                biggest = &other;
+                biggestRate = rate;
+            }
+        }
+        if (!biggest) {
             v.decision = AdmissionDecision::RefuseCapacity;
             v.text = "the server has " + std::to_string(pendingById_.size()) + " handshakes in progress; retry later";
             count(&AdmissionCounts::refusedCapacity);

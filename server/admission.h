@@ -17,8 +17,8 @@ namespace rtpm::server {
 /// Authenticated clients are counted elsewhere (MasterOptions::maxPeers): they never compete
 /// with pending sockets for a slot.
 struct AdmissionLimits {
-    size_t maxPending = 64;          ///< connections still in their handshake, all sources together
-    size_t maxPendingPerSource = 8;  ///< of which from one source address (IPv6: one /64)
+    size_t maxPending = 128;          ///< connections still in their handshake, all sources together
+    size_t maxPendingPerSource = 16;  ///< of which from one source address (IPv6: one /64)
     /// Failed authentications a source may make in a burst, and how fast that allowance refills.
     /// Each failure is also answered only after failureDelay, holding the source's pending slot,
     /// so one source guesses at most maxPendingPerSource / failureDelay per second even in a burst.
@@ -71,8 +71,9 @@ public:
     };
     /// A new connection from `source`. Admitted connections count as pending until
     /// onPendingEnded(). When every pending slot is taken, the newcomer takes the oldest slot of
-    /// the source holding the most, if that source holds at least two more than the
-    /// newcomer's — so one flooding source cannot keep another source out.
+    /// a source holding at least two more than the newcomer's — of those, the one that connected
+    /// most often lately (a flooder, not a host starting several clients at once) — so one
+    /// flooding source cannot keep another source out.
     Verdict onConnect(uint64_t id, const std::string& source, TimePoint now);
 
     /// Why a pending connection stopped being pending.
@@ -106,6 +107,8 @@ private:
         std::deque<uint64_t> pending;  ///< ids, oldest first
         double allowance = 0.0;        ///< failed authentications left (refills over time)
         TimePoint refilled{};
+        double recentConnections = 0.0;  ///< connections, decayed with a 10 s time constant
+        TimePoint counted{};
         uint64_t failuresInInterval = 0;
     };
     struct Pending {
@@ -116,6 +119,7 @@ private:
     void count(uint64_t AdmissionCounts::*field);
     void forgetIdleSources(TimePoint now);
     std::string rateLimitText(const std::string& key, const Source& s) const;
+    static double decayed(const Source& s, TimePoint now);
 
     AdmissionLimits limits_;
     std::unordered_map<std::string, Source> sources_;

@@ -119,7 +119,7 @@ TEST(Admission, FloodOfIdleAndReconnectingSocketsDoesNotKeepRealClientsOut) {
                 Socket s = connectFrom(from, srv.port);
                 if (!s.valid()) continue;
                 ++floodConnections;
-                if (idle.size() >= 16) idle.pop_front();  // reconnecting: the oldest goes
+                if (idle.size() >= 24) idle.pop_front();  // reconnecting: the oldest goes
                 idle.push_back(std::move(s));
             }
         });
@@ -154,6 +154,29 @@ TEST(Admission, FloodOfIdleAndReconnectingSocketsDoesNotKeepRealClientsOut) {
     std::printf("flood: %llu connections from 10 addresses; %d of %d real clients joined; server stderr %zu lines; %s",
                 (unsigned long long)floodConnections.load(), joined, kClients, countLines(err),
                 err.substr(totals, err.find('\n', totals) - totals + 1).c_str());
+}
+
+// A peer turned away for capacity is told so (the client retries on Capacity, not on BadToken).
+TEST(Admission, RefusalForCapacityIsToldAsCapacity) {
+    Server srv;
+    srv.start(1, 1000, {"--max-pending-per-source", "1", "--handshake-timeout-ms", "30000"});
+    Socket holder = connectFrom("127.0.0.3", srv.port);  // an idle handshake holds the address's budget
+    ASSERT_TRUE(holder.valid());
+    bool told = false;
+    for (int i = 0; i < 50 && !told; ++i) {  // until the master has accepted the holder
+        Socket s = connectFrom("127.0.0.3", srv.port);
+        proto::Message m;
+        if (s.receive(m, 10s) == Socket::Got::Message && std::holds_alternative<proto::Reject>(m)) {
+            EXPECT_EQ(std::get<proto::Reject>(m).reason, proto::RejectReason::Capacity);
+            EXPECT_TRUE(proto::rejectIsTransient(std::get<proto::Reject>(m).reason));
+            told = true;
+        }
+    }
+    EXPECT_TRUE(told) << srv.child->logs();
+    // Another address is not affected.
+    Socket other = connectFrom("127.0.0.1", srv.port);
+    auto m = authenticate(other, kToken, "other");
+    EXPECT_TRUE(m && std::holds_alternative<proto::Welcome>(*m)) << srv.child->logs();
 }
 
 // Before: eight peers with no token, each announcing a 256 MiB FrameData and sending it, took the

@@ -53,6 +53,25 @@ TEST(Admission, ANewSourceTakesTheOldestSlotOfTheBiggestWhenAllAreTaken) {
     EXPECT_EQ(a.totals().evicted, 2u);
 }
 
+TEST(Admission, TheFloodingSourceLosesItsSlotsNotAHostStartingSeveralClients) {
+    AdmissionLimits l = small();
+    l.maxPending = 6;
+    l.maxPendingPerSource = 4;
+    Admission a(l);
+    TP t{};
+    // A flooder connects many times (refused at its budget), holding 3 slots; a host starting
+    // three clients at once holds 3 too.
+    uint64_t id = 1;
+    for (int i = 0; i < 50; ++i) a.onConnect(id++, "10.0.0.9", t);  // 4 admitted, 46 refused
+    a.onPendingEnded(1, Admission::End::TimedOut);                   // the flooder holds 2, 3, 4
+    for (uint64_t c = 100; c < 103; ++c) ASSERT_EQ(a.onConnect(c, "10.0.0.5", t).decision, AdmissionDecision::Admit);
+    ASSERT_EQ(a.pending(), 6u);
+    const auto v = a.onConnect(200, "10.0.0.1", t);
+    ASSERT_EQ(v.decision, AdmissionDecision::Admit);
+    ASSERT_TRUE(v.evict.has_value());
+    EXPECT_EQ(*v.evict, 2u);  // the flooder's oldest, not 100
+}
+
 TEST(Admission, EvenlySpreadSlotsAreNotTakenFromOthers) {
     AdmissionLimits l = small();
     l.maxPendingPerSource = 1;
