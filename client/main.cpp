@@ -46,6 +46,8 @@ int main(int argc, char** argv) {
         ->capture_default_str()
         ->check(CLI::NonNegativeNumber);
     app.add_flag("--verbose,-v", o.verbose, "print one line per rendered frame");
+    app.add_flag("--tls", o.tls, "connect over TLS and verify the server's certificate for the host name");
+    app.add_option("--tls-ca", o.tlsCa, "PEM file of the CA to trust with --tls (default: the system's)");
     serverOpt->excludes(portFileOpt);
     try {
         app.parse(argc, argv);

@@ -23,6 +23,7 @@
 
 #include "client/frame_renderer.h"
 #include "common/core/printable_text.h"
+#include "proto/auth.h"
 #include "proto/messages.h"
 #include "proto/net/connection.h"
 
@@ -103,7 +104,16 @@ struct Worker::Impl : net::ConnectionHandler {
         FrameRenderer renderer;
     };
 
-    explicit Impl(WorkerOptions o) : opt(std::move(o)) {}
+    explicit Impl(WorkerOptions o) : opt(std::move(o)) {
+        if (opt.tls) {
+            tls = std::make_unique<asio::ssl::context>(asio::ssl::context::tls_client);
+            tls->set_options(asio::ssl::context::no_tlsv1 | asio::ssl::context::no_tlsv1_1);
+            asio::error_code ec;
+            if (opt.tlsCa.empty()) tls->set_default_verify_paths(ec);
+            else tls->load_verify_file(opt.tlsCa, ec);
+            if (ec) throw std::runtime_error("TLS trust store " + (opt.tlsCa.empty() ? "(system)" : opt.tlsCa) + ": " + ec.message());
+        }
+    }
 
     ~Impl() { joinSessions(); }
 
@@ -213,11 +223,12 @@ struct Worker::Impl : net::ConnectionHandler {
         state = State::AwaitWelcome;
         // The same connection class as the master's (framed reads, one write in flight).
         conn = std::make_shared<net::Connection>(std::move(socket), *this, kMaxQueuedBytes);
-        proto::Hello hello;
-        hello.authToken = opt.token;
+        if (tls) conn->useTls(*tls, false, opt.host);
+        hello = proto::Hello{};
+        challenged = false;
         hello.cores = threadCount();
         hello.clientName = opt.name;
-        conn->send(hello);
+        conn->send(hello);  // the token never travels: the server's Challenge is answered with a MAC
         conn->start(std::chrono::milliseconds(0));
         watchIdle();
     }
@@ -300,7 +311,14 @@ struct Worker::Impl : net::ConnectionHandler {
         if (auto* bye = std::get_if<proto::Bye>(&msg)) return handleBye(*bye);
         if (type == proto::MessageType::Heartbeat) return;  // its bytes already reset the idle timer
         if (state == State::AwaitWelcome) {
+            if (auto* ch = std::get_if<proto::Challenge>(&msg)) {
+                if (challenged) return protocolError("a second Challenge");
+                challenged = true;
+                conn->send(proto::Auth{proto::authMac(opt.token, ch->nonce, hello)});
+                return;
+            }
             if (auto* w = std::get_if<proto::Welcome>(&msg)) {
+                if (!challenged) return protocolError("Welcome without a Challenge");
                 std::fprintf(stderr, "rtpm-client: %s %s as client %u (sets %s, %u threads)\n",
                              lossCode ? "rejoined" : "connected to", addrText().c_str(), w->clientId,
                              setList(w->sets).c_str(), threadCount());
@@ -567,6 +585,10 @@ struct Worker::Impl : net::ConnectionHandler {
 
     uint64_t lastBytes = 0;
     Clock::time_point lastProgress, lastTick;
+
+    std::unique_ptr<asio::ssl::context> tls;  ///< --tls
+    proto::Hello hello;                     ///< what this connection said (the Auth MAC covers it)
+    bool challenged = false;                ///< the Challenge of this connection was answered
 
     std::shared_ptr<net::Connection> conn;  ///< the current session's, once connected
     std::shared_ptr<Session> session;       ///< the current session's render side, after Welcome

@@ -24,7 +24,7 @@ struct WorkerOptions {
     std::string host = "127.0.0.1";
     uint16_t port = 0;         ///< 0: read it from portFile
     std::string portFile;      ///< file holding the port as decimal text (rtpm-server --port-file)
-    std::string token;         ///< shared secret sent in Hello
+    std::string token;         ///< shared secret: keys the Auth MAC, never sent
     std::string name;          ///< client name for the server's logs
     int threads = 0;           ///< TBB worker threads; 0 = every core
     double connectTimeoutSeconds = 30.0;  ///< total time for the first connection attempts
@@ -35,6 +35,8 @@ struct WorkerOptions {
     /// Heartbeat every second): the client says Bye{Timeout} and tries to rejoin.
     double idleTimeoutSeconds = 10.0;
     bool verbose = false;      ///< one line per rendered frame on stdout
+    bool tls = false;          ///< connect over TLS, verifying the server's certificate for `host`
+    std::string tlsCa;         ///< PEM file of the CA(s) to trust; empty = the system's store
 };
 
 /// Parses "host:port", "[v6addr]:port" into `host` and `port`. Returns false (and leaves the

@@ -19,10 +19,11 @@ build=(
     libtinygltf-dev nlohmann-json3-dev libtinyobjloader-dev
     libcli11-dev libspdlog-dev libfmt-dev
     libzstd-dev
+    libssl-dev  # libcrypto: HMAC-SHA256 and nonces of the cluster handshake (proto/auth.h)
 )
 runtime=(
     libembree3-3 libtbb12 libopenexr-3-1-30 libstb0 libtinyobjloader2rc10 libzstd1
-    libspdlog1.10 libfmt9 libturbojpeg0
+    libspdlog1.10 libfmt9 libturbojpeg0 libssl3
 )
 dev=(
     "${build[@]}" git
@@ -32,6 +33,7 @@ dev=(
     python3 python3-matplotlib python3-numpy
     povray  # tests/bench/pov_compare.py: the offline photon-mapping peer (issue 9)
     iproute2 procps
+    openssl  # tests make throwaway TLS certificates; docs generate tokens with `openssl rand`
 )
 docker=(
     docker.io docker-compose debootstrap python3-jsonschema

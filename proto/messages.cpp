@@ -1,6 +1,7 @@
 // Message encoding, field-by-field validated decoding and the stream splitter (PROTOCOL.md §5).
 #include "proto/messages.h"
 
+#include <algorithm>
 #include <bitset>
 #include <cmath>
 #include <cstdio>
@@ -62,10 +63,11 @@ void putEdit(Writer& w, const SceneEdit& e) {
 
 void putPayload(Writer& w, const Hello& m) {
     w.u16(m.protocolVersion);
-    w.str(m.authToken);
     w.u32(m.cores);
     w.str(m.clientName);
 }
+void putPayload(Writer& w, const Challenge& m) { w.raw(m.nonce); }
+void putPayload(Writer& w, const Auth& m) { w.raw(m.mac); }
 void putPayload(Writer& w, const Welcome& m) {
     w.u32(m.clientId);
     putSets(w, m.sets);
@@ -271,11 +273,17 @@ bool getEdit(Reader& r, SceneEdit& out) {
 
 void get(Reader& r, Hello& m) {
     r.u16(m.protocolVersion);
-    r.str(m.authToken, kMaxTokenBytes, "hello.authToken");
     r.u32(m.cores);
     r.str(m.clientName, kMaxNameBytes, "hello.clientName");
     inRange(r, m.cores, 1, kMaxCores, "hello.cores");
 }
+template <size_t N>
+void getFixed(Reader& r, std::array<uint8_t, N>& out, const char* field) {
+    std::span<const uint8_t> v;
+    if (r.view(v, N, field)) std::copy(v.begin(), v.end(), out.begin());
+}
+void get(Reader& r, Challenge& m) { getFixed(r, m.nonce, "challenge.nonce"); }
+void get(Reader& r, Auth& m) { getFixed(r, m.mac, "auth.mac"); }
 void get(Reader& r, Welcome& m) {
     r.u32(m.clientId);
     getSets(r, m.sets, "welcome.sets");
@@ -418,6 +426,8 @@ const char* messageTypeName(MessageType type) {
         case MessageType::Edit: return "Edit";
         case MessageType::Stats: return "Stats";
         case MessageType::Bye: return "Bye";
+        case MessageType::Challenge: return "Challenge";
+        case MessageType::Auth: return "Auth";
         case MessageType::Heartbeat: return "Heartbeat";
     }
     return "unknown";
@@ -504,6 +514,8 @@ Result<Message> decodePayload(MessageType type, std::span<const uint8_t> payload
         case MessageType::Edit: return decodeAs<Edit>(payload, "edit");
         case MessageType::Stats: return decodeAs<Stats>(payload, "stats");
         case MessageType::Bye: return decodeAs<Bye>(payload, "bye");
+        case MessageType::Challenge: return decodeAs<Challenge>(payload, "challenge");
+        case MessageType::Auth: return decodeAs<Auth>(payload, "auth");
         case MessageType::Heartbeat: return decodeAs<Heartbeat>(payload, "heartbeat");
     }
     return Error{ErrorCode::UnknownType,
@@ -546,6 +558,13 @@ Result<std::optional<Message>> FrameSplitter::next() {
         Result<Header> h = decodeHeader(avail);
         if (!h) {
             error_ = h.error();
+            return *error_;
+        }
+        if ((onlyType_ && h->type != *onlyType_) || h->payloadBytes > maxPayload_) {
+            error_ = Error{ErrorCode::NotAllowed,
+                           std::string(messageTypeName(h->type)) + " of " + std::to_string(h->payloadBytes) +
+                               " bytes where " + (onlyType_ ? std::string("only ") + messageTypeName(*onlyType_) : std::string("any message")) +
+                               " of at most " + std::to_string(maxPayload_) + " bytes is allowed"};
             return *error_;
         }
         header_ = *h;

@@ -16,7 +16,9 @@
 namespace rtpm::proto {
 
 // Field limits (PROTOCOL.md §4). Decoders reject anything above them.
-inline constexpr size_t kMaxTokenBytes = 256;        ///< Hello.authToken
+inline constexpr size_t kMaxTokenBytes = 256;        ///< the shared secret (never on the wire; proto/auth.h)
+inline constexpr size_t kNonceBytes = 32;            ///< Challenge.nonce
+inline constexpr size_t kMacBytes = 32;              ///< Auth.mac (HMAC-SHA256)
 inline constexpr size_t kMaxNameBytes = 256;         ///< Hello.clientName, Scene.builtinName
 inline constexpr size_t kMaxTextBytes = 1024;        ///< Reject.text, Bye.text
 inline constexpr uint32_t kMaxInterleave = 64;       ///< Settings.m: at most 64×64 sets
@@ -44,13 +46,27 @@ struct CameraState {
     bool operator==(const CameraState&) const = default;
 };
 
-/// Client → server, first message on a connection.
+/// Client → server, first message on a connection. Carries no secret (version 3): the server
+/// answers with a Challenge and the client proves it holds the token with an Auth.
 struct Hello {
     uint16_t protocolVersion = kProtocolVersion;
-    std::string authToken;   ///< shared secret; ≤ kMaxTokenBytes
     uint32_t cores = 1;      ///< hardware threads the client will use, ≥ 1
     std::string clientName;  ///< for logs; ≤ kMaxNameBytes
     bool operator==(const Hello&) const = default;
+};
+
+/// Server → client, the answer to a Hello: a fresh random nonce (never reused), so a recorded
+/// Auth is worth nothing on another connection.
+struct Challenge {
+    std::array<uint8_t, kNonceBytes> nonce{};
+    bool operator==(const Challenge&) const = default;
+};
+
+/// Client → server, the answer to a Challenge: HMAC-SHA256 keyed with the token over the nonce
+/// and the Hello's session parameters (proto/auth.h, PROTOCOL.md §7).
+struct Auth {
+    std::array<uint8_t, kMacBytes> mac{};
+    bool operator==(const Auth&) const = default;
 };
 
 /// Server → client: accepted. `sets` are the interleaving sets this client renders (distinct,
@@ -246,7 +262,7 @@ inline constexpr auto kHeartbeatInterval = std::chrono::milliseconds(1000);
 
 /// Any message. The alternative order matches nothing on the wire; use typeOf().
 using Message = std::variant<Hello, Welcome, Reject, Scene, Settings, FrameBegin, FrameData, Edit,
-                             Stats, Bye, Heartbeat>;
+                             Stats, Bye, Challenge, Auth, Heartbeat>;
 
 /// The header type of a message.
 MessageType typeOf(const Message& m);
@@ -287,8 +303,30 @@ public:
     /// A header already decoded while its payload is awaited still counts.
     size_t buffered() const { return buf_.size() - pos_ + (header_ ? kHeaderBytes : 0); }
     bool failed() const { return error_.has_value(); }
+    /// From the next header on, accepts only messages of `type` with at most `maxPayloadBytes`
+    /// (below the type's own limit); anything else fails with NotAllowed before its payload is
+    /// buffered. For peers that have not authenticated yet.
+    void allowOnly(MessageType type, uint32_t maxPayloadBytes) {
+        onlyType_ = type;
+        maxPayload_ = maxPayloadBytes;
+    }
+    /// From the next header on, accepts every type but at most `maxPayloadBytes` (below each
+    /// type's own limit), e.g. a bound derived from what the peer was asked to send.
+    void capPayload(uint32_t maxPayloadBytes) {
+        onlyType_.reset();
+        maxPayload_ = maxPayloadBytes;
+    }
+    /// Lifts allowOnly() and capPayload(): every type up to its own limit.
+    void allowAll() {
+        onlyType_.reset();
+        maxPayload_ = UINT32_MAX;
+    }
+    /// payloadBytes of the message being received (its header is in), 0 otherwise.
+    uint32_t pendingPayloadBytes() const { return header_ ? header_->payloadBytes : 0; }
 
 private:
+    std::optional<MessageType> onlyType_;
+    uint32_t maxPayload_ = UINT32_MAX;
     std::vector<uint8_t> buf_;
     size_t pos_ = 0;  ///< start of the first unconsumed byte in buf_
     std::optional<Header> header_;  ///< decoded header of the message being received

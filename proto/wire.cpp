@@ -24,6 +24,7 @@ const char* errorCodeName(ErrorCode code) {
         case ErrorCode::BadValue: return "bad-value";
         case ErrorCode::TrailingBytes: return "trailing-bytes";
         case ErrorCode::Corrupt: return "corrupt";
+        case ErrorCode::NotAllowed: return "not-allowed";
     }
     return "unknown-error";
 }
@@ -227,6 +228,8 @@ uint32_t payloadLimit(MessageType type) {
         case MessageType::Edit: return 1 * kKiB;
         case MessageType::Stats: return 1 * kKiB;
         case MessageType::Bye: return 4 * kKiB;
+        case MessageType::Challenge: return 64;
+        case MessageType::Auth: return 64;
         case MessageType::Heartbeat: return 0;
     }
     return 0;

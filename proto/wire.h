@@ -31,10 +31,12 @@ enum class MessageType : uint16_t {
     Edit = 8,        ///< server → client, one scene edit
     Stats = 9,       ///< client → server, timings and counters
     Bye = 10,        ///< either way, orderly close
-    Heartbeat = 11,  ///< server → client, "still here" while no other message is due
+    Challenge = 11,  ///< server → client, answer to Hello: the nonce to authenticate with (version 3)
+    Auth = 12,       ///< client → server, HMAC of the nonce and the Hello (version 3)
+    Heartbeat = 13,  ///< server → client, "still here" while no other message is due (version 3)
 };
 /// Highest id this build knows; ids 1..kMaxMessageType are all assigned.
-inline constexpr uint16_t kMaxMessageType = 11;
+inline constexpr uint16_t kMaxMessageType = 13;
 
 /// What went wrong while decoding bytes from a peer. Every code is fatal for the connection.
 enum class ErrorCode : uint8_t {
@@ -42,7 +44,7 @@ enum class ErrorCode : uint8_t {
     BadMagic,         ///< header does not start with 'RTPM'
     BadVersion,       ///< header version differs from kProtocolVersion
     UnknownType,      ///< header type is not a known MessageType
-    BadFlags,         ///< header flags not zero (no flag is defined in version 2)
+    BadFlags,         ///< header flags not zero (no flag is defined in version 3)
     PayloadTooLarge,  ///< header payloadBytes above the per-type limit
     LengthTooLarge,   ///< a string, byte array or count above its field limit or the bytes left
     BadEnum,          ///< an enumerated field out of range
@@ -50,6 +52,7 @@ enum class ErrorCode : uint8_t {
     BadValue,         ///< a value out of its documented range or inconsistent with another field
     TrailingBytes,    ///< payload longer than the message it holds
     Corrupt,          ///< compressed data that does not decompress to the announced size
+    NotAllowed,       ///< a type or size the peer may not send in its state (e.g. before authenticating)
 };
 
 /// Short stable name of a code, e.g. "bad-magic" (for logs and tests).

@@ -1,8 +1,9 @@
-// The master's side of the handshake: what a new peer's first message must be to join.
+// The master's side of the handshake: Hello → Challenge → Auth → Welcome (PROTOCOL.md §7).
 #pragma once
 
 #include <string>
 
+#include "proto/auth.h"
 #include "proto/messages.h"
 
 namespace rtpm::server {
@@ -10,19 +11,20 @@ namespace rtpm::server {
 /// Bytes of a client name kept for logs (after escaping; see printableText).
 constexpr size_t kMaxLoggedNameBytes = 64;
 
-/// Outcome of a peer's first message.
+/// Outcome of a handshake step.
 struct HandshakeResult {
     bool accepted = false;
     proto::RejectReason reason = proto::RejectReason::ProtocolError;  ///< when refused
     std::string text;        ///< when refused: what to tell the peer and the log
-    std::string clientName;  ///< when accepted: the name to log ("unnamed" if empty)
+    std::string clientName;  ///< checkHello accepted: the name to log ("unnamed" if empty), escaped
 };
 
-/// Decides whether `first` admits its peer: it must be a Hello of this protocol version whose
-/// token matches `token` (compared in constant time), unless `insecureNoToken`. Pure.
-HandshakeResult checkHello(const proto::Message& first, const std::string& token, bool insecureNoToken);
+/// Step 1: `first` must be a Hello of this protocol version. Pure.
+HandshakeResult checkHello(const proto::Message& first);
 
-/// Constant-time equality of a secret and a candidate: the time depends only on their lengths.
-bool tokenMatches(const std::string& expected, const std::string& given);
+/// Step 2: `second` must be an Auth whose MAC is authMac(token, nonce, hello), compared in
+/// constant time; with `insecureNoToken` any Auth is accepted. Pure.
+HandshakeResult checkAuth(const proto::Message& second, const proto::Hello& hello, const proto::Nonce& nonce,
+                          const std::string& token, bool insecureNoToken);
 
 }  // namespace rtpm::server

@@ -41,6 +41,21 @@ int run(int argc, char** argv) {
     app.add_option("--port-file", o.portFile, "write the bound port here (atomically) once listening");
     app.add_option("--token", o.token, "shared secret clients must present (default: $RTPM_TOKEN)");
     app.add_flag("--insecure-no-token", o.insecureNoToken, "accept clients without a token (trusted networks only)");
+    int handshakeMs = int(o.handshakeTimeout.count()), readMs = int(o.readTimeout.count());
+    app.add_option("--handshake-timeout-ms", handshakeMs, "a new connection must authenticate within this")
+        ->capture_default_str();
+    app.add_option("--read-timeout-ms", readMs,
+                   "drop a client that stops sending in the middle of a message for this long (0 = never)")
+        ->capture_default_str();
+    app.add_option("--tls-cert", o.tlsCert, "PEM certificate chain: clients connect over TLS (with --tls-key)");
+    app.add_option("--tls-key", o.tlsKey, "PEM private key of --tls-cert");
+    app.add_option("--max-clients", o.maxPeers, "authenticated clients at once; more are refused (capacity)")
+        ->capture_default_str();
+    app.add_option("--max-pending", o.admission.maxPending, "connections in their handshake at once, all addresses")
+        ->capture_default_str();
+    app.add_option("--max-pending-per-source", o.admission.maxPendingPerSource,
+                   "connections in their handshake at once from one address (IPv6: one /64)")
+        ->capture_default_str();
     app.add_option("--min-clients", o.minClients, "start frames once this many clients joined")->capture_default_str();
     app.add_option("--deadline-ms", deadline,
                    "a frame still missing data this long after it became the oldest is shown with the sets' "
@@ -90,6 +105,12 @@ int run(int argc, char** argv) {
                                         deadline + "'");
         o.deadline.fixed = std::chrono::milliseconds(std::stol(deadline));
     }
+    if (handshakeMs < 1) throw std::invalid_argument("--handshake-timeout-ms must be >= 1");
+    if (readMs < 0) throw std::invalid_argument("--read-timeout-ms must be >= 0");
+    if (o.maxPeers < 1 || o.admission.maxPending < 1 || o.admission.maxPendingPerSource < 1)
+        throw std::invalid_argument("--max-clients, --max-pending and --max-pending-per-source must be >= 1");
+    o.handshakeTimeout = std::chrono::milliseconds(handshakeMs);
+    o.readTimeout = std::chrono::milliseconds(readMs);
     if (o.token.empty())
         if (const char* env = std::getenv("RTPM_TOKEN")) o.token = env;
     if (o.token.empty() && !o.insecureNoToken)

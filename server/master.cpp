@@ -5,6 +5,7 @@
 #include "common/core/printable_text.h"
 
 #include <asio.hpp>
+#include <asio/ssl.hpp>
 
 #include <algorithm>
 #include <csignal>
@@ -26,6 +27,7 @@
 #include "common/image/image_io.h"
 #include "server/frame_policy.h"
 #include "server/handshake.h"
+#include "proto/auth.h"
 #include "server/image_output.h"
 #include "server/viewer/viewer_server.h"
 
@@ -40,6 +42,9 @@ namespace {
 constexpr size_t kPipeline = 2;
 /// Frames over which the per-frame fps figure is averaged.
 constexpr size_t kFpsWindow = 8;
+/// An authenticated peer's message must arrive at least this fast on average (after the read
+/// timeout's allowance): a 24 MiB float32 frame may take ≈ 100 s, a trickle is still bounded.
+constexpr uint64_t kMinReadBytesPerSecond = 256 * 1024;
 
 
 std::pair<std::string, uint16_t> parseHostPort(const std::string& s) {
@@ -100,6 +105,23 @@ struct Master::Impl : net::ConnectionHandler {
 
     std::set<std::shared_ptr<net::Connection>> connections;  // every peer, authenticated or not
     ClientRegistry registry;
+    /// A connection in its handshake (server/admission.h holds its budgets).
+    struct PendingPeer {
+        uint64_t id = 0;
+        std::string source;                 // Admission::sourceKey of its address
+        std::optional<proto::Hello> hello;  // after step 1
+        proto::Nonce nonce{};               // sent in the Challenge
+        std::string name;                   // escaped, for logs
+        bool failed = false;                // its answer is being delayed
+        std::shared_ptr<asio::steady_timer> delay;
+    };
+    std::map<const net::Connection*, PendingPeer> pending;
+    Admission admission{opt.admission};
+    uint64_t nextPendingId = 1;
+    asio::steady_timer admissionLogTimer{io};
+    bool admissionLogArmed = false;
+    std::unique_ptr<asio::ssl::context> tls;  // --tls-cert/--tls-key: every connection runs over TLS
+    uint32_t clientPayloadCap = 0;            // largest message a client may announce (raiseClientPayloadCap)
     FramePolicy policy;
     FrameDeadline deadlines;
     std::optional<proto::CameraState> previousCamera;  ///< of the last FrameBegin
@@ -145,8 +167,8 @@ struct Master::Impl : net::ConnectionHandler {
         if (opt.evictAfter < 1) throw std::invalid_argument("--evict-after must be >= 1");
         if (opt.token.empty() && !opt.insecureNoToken)
             throw std::invalid_argument("no token: pass --token or set RTPM_TOKEN (or --insecure-no-token)");
-        if (opt.token.size() > proto::kMaxTokenBytes)
-            throw std::invalid_argument("token longer than " + std::to_string(proto::kMaxTokenBytes) + " bytes");
+        if (!opt.insecureNoToken)
+            if (auto weak = proto::tokenWeakness(opt.token)) throw std::invalid_argument("refusing the token: " + *weak);
         checkAnimation(opt.animation, live.scene());
         // Dry-run the script on a copy so a bad line fails at start, not at frame n.
         {
@@ -160,6 +182,19 @@ struct Master::Impl : net::ConnectionHandler {
         }
         settingsMsg = std::make_shared<const std::vector<uint8_t>>(
             proto::encode(bridge::toWire(opt.settings, opt.encoding)));
+        if (opt.tlsCert.empty() != opt.tlsKey.empty())
+            throw std::invalid_argument("--tls-cert and --tls-key go together");
+        if (!opt.tlsCert.empty()) {
+            tls = std::make_unique<asio::ssl::context>(asio::ssl::context::tls_server);
+            tls->set_options(asio::ssl::context::default_workarounds | asio::ssl::context::no_sslv2 |
+                             asio::ssl::context::no_sslv3 | asio::ssl::context::no_tlsv1 |
+                             asio::ssl::context::no_tlsv1_1);
+            asio::error_code ec;
+            tls->use_certificate_chain_file(opt.tlsCert, ec);
+            if (ec) throw std::invalid_argument("--tls-cert " + opt.tlsCert + ": " + ec.message());
+            tls->use_private_key_file(opt.tlsKey, asio::ssl::context::pem, ec);
+            if (ec) throw std::invalid_argument("--tls-key " + opt.tlsKey + ": " + ec.message());
+        }
         if (!opt.builtin) {
             glb = encodeGlb(live.loaded());
             auto probe = proto::tryEncode(sceneMessage());
@@ -332,24 +367,83 @@ struct Master::Impl : net::ConnectionHandler {
                 return;
             }
             if (finishing) return;
-            if (connections.size() >= static_cast<size_t>(opt.maxPeers)) {
-                std::fprintf(stderr, "rtpm-server: refusing a connection: %zu peers already connected\n",
-                             connections.size());
-                asio::error_code ignored;
-                sock.close(ignored);
-            } else {
-                auto c = std::make_shared<net::Connection>(std::move(sock), *this, opt.maxQueuedBytes);
-                connections.insert(c);
-                c->start(opt.handshakeTimeout);
-            }
+            admit(std::move(sock));
             accept();
+        });
+    }
+
+    // A new socket: budgets first (server/admission.h), then the handshake with only a Hello allowed.
+    // Refusals and failures are counted into one summary line per interval, never one line each.
+    void admit(asio::ip::tcp::socket sock) {
+        asio::error_code ec;
+        const auto ep = sock.remote_endpoint(ec);
+        if (ec) return;  // already gone
+        const std::string source = Admission::sourceKey(ep.address().to_string());
+        const uint64_t id = nextPendingId++;
+        const Admission::Verdict v = admission.onConnect(id, source, Clock::now());
+        armAdmissionLog();
+        if (v.decision != AdmissionDecision::Admit) {
+            ++summary.peersRejected;
+            if (tls) return;  // a plain Reject would be garbage to a TLS client; a TLS handshake per refusal is what a flood wants
+            refuseNow(sock, v.decision == AdmissionDecision::RefuseCapacity ? proto::RejectReason::Capacity
+                                                                            : proto::RejectReason::RateLimited,
+                      v.text);
+            return;
+        }
+        if (v.evict)
+            for (auto& [conn, p] : pending)
+                if (p.id == *v.evict) {
+                    for (const auto& owned : connections)
+                        if (owned.get() == conn) {
+                            owned->send(proto::Reject{proto::RejectReason::Capacity,
+                                                      "handshake slot given to another address; retry later"});
+                            owned->closeAfterFlush(std::chrono::milliseconds(200));
+                        }
+                    break;
+                }
+        auto c = std::make_shared<net::Connection>(std::move(sock), *this, opt.maxQueuedBytes);
+        if (tls) c->useTls(*tls, true);
+        connections.insert(c);
+        PendingPeer& p = pending[c.get()];
+        p.id = id;
+        p.source = source;
+        c->expectOnly(proto::MessageType::Hello, proto::payloadLimit(proto::MessageType::Hello));
+        c->start(opt.handshakeTimeout);
+    }
+
+    // Tells a peer it is refused without making a Connection of it (a flood costs one small write).
+    static void refuseNow(asio::ip::tcp::socket& sock, proto::RejectReason reason, const std::string& text) {
+        asio::error_code ec;
+        sock.non_blocking(true, ec);
+        const auto bytes = proto::encode(proto::Reject{reason, text.substr(0, proto::kMaxTextBytes)});
+        sock.write_some(asio::buffer(bytes), ec);  // a fresh socket's send buffer takes it whole
+        sock.shutdown(asio::ip::tcp::socket::shutdown_send, ec);
+        // Read what the peer already sent (its Hello) so the close ends with FIN, not a reset that
+        // could destroy the Reject before the peer reads it.
+        uint8_t drain[4096];
+        sock.read_some(asio::buffer(drain), ec);
+        sock.close(ec);
+    }
+
+    void armAdmissionLog() {
+        if (admissionLogArmed || finishing) return;
+        const auto next = admission.nextSummary();
+        if (!next) return;
+        admissionLogArmed = true;
+        admissionLogTimer.expires_at(*next);
+        admissionLogTimer.async_wait([this](const asio::error_code& ec) {
+            admissionLogArmed = false;
+            if (ec) return;
+            if (auto line = admission.summaryLine(Clock::now())) std::fprintf(stderr, "rtpm-server: %s\n", line->c_str());
+            armAdmissionLog();
         });
     }
 
     // ---- connections ---------------------------------------------------------------------
 
+    // Refuses a peer in its handshake. Not logged one by one (a flood would fill the disk): the
+    // admission summary line counts it.
     void reject(net::Connection& c, proto::RejectReason reason, const std::string& text) {
-        std::fprintf(stderr, "rtpm-server: rejecting %s: %s\n", registry.describe(c).c_str(), text.c_str());
         ++summary.peersRejected;
         c.send(proto::Reject{reason, text.substr(0, proto::kMaxTextBytes)});
         c.closeAfterFlush();
@@ -381,6 +475,7 @@ struct Master::Impl : net::ConnectionHandler {
     void onBadBytes(net::Connection& c, const proto::Error& e) override {
         std::string why = std::string(proto::errorCodeName(e.code)) + ": " + e.message;
         if (!registry.find(c)) {
+            endPending(c, Admission::End::ProtocolError);
             reject(c, e.code == proto::ErrorCode::BadVersion ? proto::RejectReason::VersionMismatch
                                                               : proto::RejectReason::ProtocolError,
                    why);
@@ -389,7 +484,16 @@ struct Master::Impl : net::ConnectionHandler {
         protocolError(c, why);
     }
 
+    void endPending(const net::Connection& c, Admission::End how) {
+        auto it = pending.find(&c);
+        if (it == pending.end()) return;
+        admission.onPendingEnded(it->second.id, how);
+        if (it->second.delay) it->second.delay->cancel();
+        pending.erase(it);
+    }
+
     void onClosed(net::Connection& c, const std::string& why) override {
+        endPending(c, c.handshakeTimedOut() ? Admission::End::TimedOut : Admission::End::Closed);
         dropClientOf(c, why);
         for (auto it = connections.begin(); it != connections.end(); ++it)
             if (it->get() == &c) {
@@ -419,17 +523,93 @@ struct Master::Impl : net::ConnectionHandler {
         }
     }
 
+    // Hello → Challenge{nonce} → Auth{HMAC} → Welcome (PROTOCOL.md §7). The token never travels.
     void handshake(net::Connection& c, const proto::Message& m) {
-        HandshakeResult h = checkHello(m, opt.token, opt.insecureNoToken);
+        auto it = pending.find(&c);
+        if (it == pending.end()) return;  // closing
+        PendingPeer& p = it->second;
+        if (p.failed) return;             // its refusal is on the way
+        if (!p.hello) {
+            HandshakeResult h = checkHello(m);
+            if (!h.accepted) {
+                endPending(c, Admission::End::ProtocolError);
+                reject(c, h.reason, h.text);
+                return;
+            }
+            p.hello = std::get<proto::Hello>(m);
+            p.name = h.clientName;
+            p.nonce = proto::makeNonce();
+            c.expectOnly(proto::MessageType::Auth, proto::payloadLimit(proto::MessageType::Auth));
+            c.send(proto::Challenge{p.nonce});
+            return;
+        }
+        if (!opt.insecureNoToken)
+            if (auto limited = admission.refuseAttempt(p.source, Clock::now())) {
+                armAdmissionLog();
+                endPending(c, Admission::End::Closed);
+                reject(c, proto::RejectReason::RateLimited, *limited);
+                return;
+            }
+        HandshakeResult h = checkAuth(m, *p.hello, p.nonce, opt.token, opt.insecureNoToken);
+        if (!h.accepted && h.reason == proto::RejectReason::BadToken) {
+            // The answer waits (the slot stays taken): guesses from one address are slowed and then
+            // refused at connect (server/admission.h) instead of answered in a fraction of a millisecond.
+            p.failed = true;
+            p.delay = std::make_shared<asio::steady_timer>(io, admission.onAuthFailure(p.source, Clock::now()));
+            armAdmissionLog();
+            std::shared_ptr<net::Connection> owned = ownerOf(c);
+            p.delay->async_wait([this, owned, text = h.text](const asio::error_code& ec) {
+                if (ec || !owned) return;
+                endPending(*owned, Admission::End::FailedAuth);
+                reject(*owned, proto::RejectReason::BadToken, text);
+            });
+            return;
+        }
         if (!h.accepted) {
+            endPending(c, Admission::End::ProtocolError);
             reject(c, h.reason, h.text);
             return;
         }
+        if (registry.size() >= static_cast<size_t>(opt.maxPeers)) {
+            endPending(c, Admission::End::Closed);
+            reject(c, proto::RejectReason::Capacity,
+                   "the server has its maximum of " + std::to_string(opt.maxPeers) + " clients; retry later");
+            return;
+        }
+        const std::string name = p.name;
+        const unsigned cores = p.hello->cores;
+        endPending(c, Admission::End::Authenticated);
         c.markAuthenticated();
-        std::shared_ptr<net::Connection> owned;
+        c.setReadDeadline(opt.readTimeout, kMinReadBytesPerSecond);
+        raiseClientPayloadCap();
+        c.capPayload(clientPayloadCap);
+        HandshakeResult joined;
+        joined.clientName = name;
+        onAuthenticated(c, joined, cores);
+    }
+
+    // A client sends at most one FrameData of its largest set in float32 (24 B/px, the largest
+    // encoding) plus a few fields; Stats and Bye are far smaller. So a header announcing more is
+    // refused before its payload is buffered (before: 64 MiB per set were taken in). The bound only
+    // grows during a run, so data of a frame rendered before a resize to fewer pixels still fits.
+    void raiseClientPayloadCap() {
+        const uint64_t m = uint64_t(opt.settings.interleave);
+        const uint64_t setPixels = ((uint64_t(opt.settings.width) + m - 1) / m) * ((uint64_t(opt.settings.height) + m - 1) / m);
+        const uint64_t cap = std::min<uint64_t>(std::max<uint64_t>(4096, 64 + 24 * setPixels),
+                                                proto::payloadLimit(proto::MessageType::FrameData));
+        if (cap <= clientPayloadCap) return;
+        clientPayloadCap = uint32_t(cap);
+        for (const auto& [id, info] : registry.clients()) info.connection->capPayload(clientPayloadCap);
+    }
+
+    std::shared_ptr<net::Connection> ownerOf(const net::Connection& c) const {
         for (const auto& p : connections)
-            if (p.get() == &c) owned = p;
-        const unsigned cores = std::get<proto::Hello>(m).cores;
+            if (p.get() == &c) return p;
+        return nullptr;
+    }
+
+    void onAuthenticated(net::Connection& c, const HandshakeResult& h, unsigned cores) {
+        std::shared_ptr<net::Connection> owned = ownerOf(c);
         const ClientId id = registry.add(std::move(owned), h.clientName, cores);
         policy.clientsChanged();
         ++summary.clientsJoined;
@@ -509,6 +689,7 @@ struct Master::Impl : net::ConnectionHandler {
         }
         const bool idle = assembler.inFlight() == 0 && outputsQueued == 0;
         if (pendingResize && idle) resize();
+        raiseClientPayloadCap();  // before any FrameBegin under new settings
         const bool unlimited = opt.frames == 0;
         while (started && (unlimited || nextFrame < static_cast<uint64_t>(opt.frames)) && !paused && !stopRequested &&
                !pendingResize && assembler.inFlight() < kPipeline && outputsQueued < kPipeline && !registry.empty())
@@ -840,6 +1021,19 @@ struct Master::Impl : net::ConnectionHandler {
         acceptor.close(ec);
         deadlineTimer.cancel();
         heartbeatTimer.cancel();
+        admissionLogTimer.cancel();
+        for (auto& [conn, p] : pending)
+            if (p.delay) p.delay->cancel();
+        if (admission.totals().any()) {
+            const AdmissionCounts& t = admission.totals();
+            std::fprintf(stderr, "rtpm-server: admission over the run: %llu connections, %llu authenticated, %llu refused "
+                         "(capacity), %llu refused (rate limit), %llu evicted, %llu timed out, %llu protocol errors, "
+                         "%llu failed authentications\n",
+                         (unsigned long long)t.connections, (unsigned long long)t.admitted,
+                         (unsigned long long)t.refusedCapacity, (unsigned long long)t.refusedRateLimited,
+                         (unsigned long long)t.evicted, (unsigned long long)t.timedOut,
+                         (unsigned long long)t.protocolErrors, (unsigned long long)t.failedAuth);
+        }
         signals.cancel();
         for (const auto& c : connections) {
             if (registry.find(*c)) c->send(proto::Bye{reason, text});

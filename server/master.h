@@ -11,6 +11,7 @@
 #include "common/scene/scene.h"
 #include "proto/messages.h"
 #include "server/deadline.h"
+#include "server/admission.h"
 #include "server/edit_script.h"
 
 namespace rtpm::server {
@@ -39,8 +40,15 @@ struct MasterOptions {
     int minClients = 1;                ///< frames start once this many clients joined
     DeadlinePolicy deadline;           ///< how long the oldest frame waits for data (adaptive by default)
     int evictAfter = 3;                ///< consecutive late or skipped frames before a client is evicted
-    std::chrono::milliseconds handshakeTimeout{5000};
-    int maxPeers = 256;                ///< connections (any state) beyond this are closed at once
+    /// Pre-authentication: a connection must finish Hello → Challenge → Auth within this.
+    std::chrono::milliseconds handshakeTimeout{3000};
+    int maxPeers = 256;                ///< authenticated clients; more are refused with Reject{Capacity}
+    AdmissionLimits admission;         ///< pending-handshake budgets, failed-authentication limits
+    /// An authenticated peer that stops mid-message for this long is dropped (0 = never); a
+    /// message must also arrive at kMinReadBytesPerSecond on average (proto/net/connection.h).
+    std::chrono::milliseconds readTimeout{10000};
+    /// TLS on the cluster link: PEM certificate chain and private key (both or neither).
+    std::string tlsCert, tlsKey;
     size_t maxQueuedBytes = 256u << 20;  ///< per-peer unsent bytes before it is dropped
 
     std::string out;                   ///< final EXR (PNG beside it); empty = no output

@@ -4,37 +4,118 @@
 namespace rtpm::net {
 
 namespace {
+constexpr uint64_t kHeaderBytesForDeadline = proto::kHeaderBytes;
 constexpr size_t kReadChunk = 256 * 1024;
+/// Before authentication only a Hello and an Auth may arrive (< 1 KiB): a flood of pending
+/// connections must not cost kReadChunk each.
+constexpr size_t kPreAuthReadChunk = 4 * 1024;
 }
 
 Connection::Connection(asio::ip::tcp::socket socket, ConnectionHandler& handler, size_t maxQueuedBytes)
-    : socket_(std::move(socket)), handler_(handler), timer_(socket_.get_executor()), maxQueuedBytes_(maxQueuedBytes) {
+    : socket_(std::move(socket)),
+      handler_(handler),
+      timer_(socket_.get_executor()),
+      readTimer_(socket_.get_executor()),
+      maxQueuedBytes_(maxQueuedBytes) {
     asio::error_code ec;
     auto ep = socket_.remote_endpoint(ec);
     peer_ = ec ? std::string("?") : ep.address().to_string() + ":" + std::to_string(ep.port());
     socket_.set_option(asio::ip::tcp::no_delay(true), ec);
-    readBuf_.resize(kReadChunk);
+    readBuf_.resize(kPreAuthReadChunk);
+}
+
+void Connection::useTls(asio::ssl::context& context, bool server, const std::string& verifyHost) {
+    tls_ = std::make_unique<asio::ssl::stream<asio::ip::tcp::socket>>(std::move(socket_), context);
+    tlsServer_ = server;
+    ready_ = false;
+    if (!server && !verifyHost.empty()) {
+        tls_->set_verify_mode(asio::ssl::verify_peer);
+        tls_->set_verify_callback(asio::ssl::host_name_verification(verifyHost));
+        asio::error_code notAnAddress;
+        asio::ip::make_address(verifyHost, notAnAddress);
+        if (notAnAddress) SSL_set_tlsext_host_name(tls_->native_handle(), verifyHost.c_str());  // SNI names hosts only
+    }
 }
 
 void Connection::start(std::chrono::milliseconds handshakeTimeout) {
     auto self = shared_from_this();
-    if (handshakeTimeout.count() <= 0) {
+    if (handshakeTimeout.count() > 0) {
+        timer_.expires_after(handshakeTimeout);
+        timer_.async_wait([self](const asio::error_code& ec) {
+            if (ec || self->finished_) return;
+            self->handshakeTimedOut_ = true;
+            self->close("handshake not completed within the handshake timeout");
+        });
+    }
+    startReading();
+}
+
+void Connection::startReading() {
+    if (!tls_) {
         readMore();
         return;
     }
-    timer_.expires_after(handshakeTimeout);
-    timer_.async_wait([self](const asio::error_code& ec) {
-        if (ec || self->finished_) return;
-        self->close("no valid Hello within the handshake timeout");
-    });
-    readMore();
+    auto self = shared_from_this();
+    tls_->async_handshake(tlsServer_ ? asio::ssl::stream_base::server : asio::ssl::stream_base::client,
+                          [self](const asio::error_code& ec) {
+                              if (self->finished_) return;
+                              if (ec) {
+                                  self->close("TLS handshake failed: " + ec.message());
+                                  return;
+                              }
+                              self->ready_ = true;
+                              if (!self->writing_) self->writeNext();
+                              self->readMore();
+                          });
 }
 
-void Connection::markAuthenticated() { timer_.cancel(); }
+void Connection::markAuthenticated() {
+    timer_.cancel();
+    splitter_.allowAll();
+    authenticated_ = true;
+}
+
+void Connection::setReadDeadline(std::chrono::milliseconds stall, uint64_t minBytesPerSecond) {
+    readStall_ = stall;
+    minBytesPerSecond_ = minBytesPerSecond;
+}
+
+void Connection::updateReadDeadline() {
+    if (readStall_.count() <= 0 || finished_ || closing_) return;
+    if (splitter_.buffered() == 0) {  // between messages: no deadline
+        if (partialSince_) {
+            partialSince_.reset();
+            ++readDeadlineGeneration_;
+            readTimer_.cancel();
+        }
+        return;
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (!partialSince_) partialSince_ = now;
+    // Progress re-arms the stall deadline; the whole message is bounded by its size at the minimum rate.
+    auto deadline = now + readStall_;
+    if (minBytesPerSecond_ > 0) {
+        const uint64_t bytes = kHeaderBytesForDeadline + splitter_.pendingPayloadBytes();
+        const auto allowance = std::chrono::milliseconds(bytes * 1000 / minBytesPerSecond_);
+        deadline = std::min(deadline, *partialSince_ + readStall_ + allowance);
+    }
+    const uint64_t generation = ++readDeadlineGeneration_;
+    readTimer_.expires_at(deadline);
+    auto self = shared_from_this();
+    readTimer_.async_wait([self, generation](const asio::error_code& ec) {
+        if (ec || self->finished_ || generation != self->readDeadlineGeneration_) return;
+        const auto waited = std::chrono::duration_cast<std::chrono::milliseconds>(
+            std::chrono::steady_clock::now() - *self->partialSince_);
+        self->close("stalled mid-message: " + std::to_string(self->splitter_.buffered()) + " of " +
+                    std::to_string(kHeaderBytesForDeadline + self->splitter_.pendingPayloadBytes()) +
+                    " bytes arrived in " + std::to_string(waited.count()) + " ms");
+    });
+}
 
 void Connection::readMore() {
+    if (authenticated_ && readBuf_.size() < kReadChunk) readBuf_.resize(kReadChunk);  // no read is in flight here
     auto self = shared_from_this();
-    socket_.async_read_some(asio::buffer(readBuf_), [self](const asio::error_code& ec, size_t n) {
+    withStream([&](auto& stream) { stream.async_read_some(asio::buffer(readBuf_), [self](const asio::error_code& ec, size_t n) {
         if (self->finished_) return;
         if (ec) {
             self->finish(ec == asio::error::eof ? "peer closed the connection" : "read error: " + ec.message());
@@ -59,8 +140,9 @@ void Connection::readMore() {
             self->handler_.onMessage(*self, std::move(**r), wire);
             if (self->closing_ || self->finished_) break;
         }
+        self->updateReadDeadline();
         if (!self->finished_) self->readMore();
-    });
+    }); });
 }
 
 void Connection::send(Buffer bytes) {
@@ -71,7 +153,7 @@ void Connection::send(Buffer bytes) {
         close("peer is not reading (" + std::to_string(queuedBytes_ >> 20) + " MiB queued)");
         return;
     }
-    if (!writing_) writeNext();
+    if (!writing_ && ready_) writeNext();
 }
 
 void Connection::writeNext() {
@@ -83,7 +165,7 @@ void Connection::writeNext() {
     }
     writing_ = true;
     auto self = shared_from_this();
-    asio::async_write(socket_, asio::buffer(*queue_.front()), [self](const asio::error_code& ec, size_t) {
+    withStream([&](auto& stream) { asio::async_write(stream, asio::buffer(*queue_.front()), [self](const asio::error_code& ec, size_t) {
         if (self->finished_) return;
         if (ec) {
             self->finish("write error: " + ec.message());
@@ -92,7 +174,7 @@ void Connection::writeNext() {
         self->queuedBytes_ -= self->queue_.front()->size();
         self->queue_.pop_front();
         self->writeNext();
-    });
+    }); });
 }
 
 void Connection::dropUnsent() {
@@ -129,13 +211,15 @@ void Connection::finish(const std::string& why) {
     closing_ = true;
     asio::error_code ec;
     timer_.cancel();
-    socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ec);
-    socket_.close(ec);
+    readTimer_.cancel();
+    // A TLS session ends without close_notify: the protocol's own Bye says the end was orderly.
+    lowest().shutdown(asio::ip::tcp::socket::shutdown_both, ec);
+    lowest().close(ec);
     queue_.clear();
     queuedBytes_ = 0;
     // Deliver onClosed from a fresh handler so callers of close() never see re-entrancy.
     auto self = shared_from_this();
-    asio::post(socket_.get_executor(), [self, why] { self->handler_.onClosed(*self, why); });
+    asio::post(timer_.get_executor(), [self, why] { self->handler_.onClosed(*self, why); });
 }
 
 }  // namespace rtpm::net

@@ -2,11 +2,13 @@
 #pragma once
 
 #include <asio.hpp>
+#include <asio/ssl.hpp>
 
 #include <chrono>
 #include <cstdint>
 #include <deque>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -42,10 +44,31 @@ public:
     /// reading; memory must not grow without bound).
     Connection(asio::ip::tcp::socket socket, ConnectionHandler& handler, size_t maxQueuedBytes);
 
+    /// Runs the connection over TLS with `context` (which outlives the connection): the TLS
+    /// handshake runs first, within start()'s handshake timeout; sends queue until it is done.
+    /// Call before start(). `server`: this side accepts; otherwise `verifyHost` is the name (or
+    /// address) the peer's certificate must carry, also sent as SNI.
+    void useTls(asio::ssl::context& context, bool server, const std::string& verifyHost = "");
+
     /// Starts reading. `handshakeTimeout`: the connection is closed unless markAuthenticated()
-    /// is called within it (zero: no timeout).
+    /// is called within it (zero: no timeout). Until then reads go through a small buffer.
     void start(std::chrono::milliseconds handshakeTimeout);
+    /// The handshake is over: cancels its timeout, lifts expectOnly(), reads in large chunks.
     void markAuthenticated();
+    /// Until markAuthenticated(): the next messages must be of `type` with at most
+    /// `maxPayloadBytes`; a header announcing anything else is a decode error (onBadBytes)
+    /// before any of its payload is buffered. Call from onMessage to change what comes next.
+    void expectOnly(proto::MessageType type, uint32_t maxPayloadBytes) { splitter_.allowOnly(type, maxPayloadBytes); }
+    /// After markAuthenticated(): no message of more than `maxPayloadBytes` (a bound derived
+    /// from what the peer is asked to send) is buffered; a header announcing more is a decode
+    /// error (onBadBytes) from its 16 bytes alone.
+    void capPayload(uint32_t maxPayloadBytes) { splitter_.capPayload(maxPayloadBytes); }
+    /// A message that has begun to arrive must keep arriving: the connection is closed when no
+    /// byte of it comes for `stall`, or when it is not complete within `stall` plus its size at
+    /// `minBytesPerSecond` (so neither a silent nor a trickling peer holds a half message, and
+    /// its buffer, forever). Zero: no read deadline (the default). Idle time between messages
+    /// is not limited here.
+    void setReadDeadline(std::chrono::milliseconds stall, uint64_t minBytesPerSecond);
 
     /// Queues bytes (a whole encoded message) for sending.
     void send(Buffer bytes);
@@ -61,6 +84,8 @@ public:
     /// "address:port" of the peer (fixed at construction, valid after the socket closes).
     const std::string& peer() const { return peer_; }
     bool closing() const { return closing_; }
+    /// The handshake timeout closed it (start()'s timeout passed before markAuthenticated()).
+    bool handshakeTimedOut() const { return handshakeTimedOut_; }
     size_t queuedBytes() const { return queuedBytes_; }
     uint64_t bytesReceived() const { return bytesReceived_; }
 
@@ -68,10 +93,23 @@ private:
     void readMore();
     void writeNext();
     void finish(const std::string& why);
+    void updateReadDeadline();
+    void startReading();
+    asio::ip::tcp::socket& lowest() { return tls_ ? tls_->next_layer() : socket_; }
+    /// Calls f with the stream that carries the protocol (the TLS stream or the plain socket).
+    template <class F>
+    void withStream(F&& f) {
+        if (tls_) f(*tls_);
+        else f(socket_);
+    }
 
     asio::ip::tcp::socket socket_;
+    std::unique_ptr<asio::ssl::stream<asio::ip::tcp::socket>> tls_;  // owns the socket when set
+    bool tlsServer_ = true;
+    bool ready_ = true;  // false while the TLS handshake runs: writes wait
     ConnectionHandler& handler_;
     asio::steady_timer timer_;
+    asio::steady_timer readTimer_;  // read deadline of a partial message
     std::string peer_;
     proto::FrameSplitter splitter_;
     std::vector<uint8_t> readBuf_;
@@ -83,6 +121,12 @@ private:
     bool closing_ = false;   // no more messages are delivered
     bool flushing_ = false;  // close once the queue is empty
     bool finished_ = false;  // onClosed delivered
+    bool authenticated_ = false;
+    bool handshakeTimedOut_ = false;
+    std::chrono::milliseconds readStall_{0};
+    uint64_t minBytesPerSecond_ = 0;
+    std::optional<std::chrono::steady_clock::time_point> partialSince_;  // a message began, not yet complete
+    uint64_t readDeadlineGeneration_ = 0;
 };
 
 }  // namespace rtpm::net

@@ -12,6 +12,7 @@
 
 #include "common/core/interleave.h"
 #include "common/scene/scene_loader.h"
+#include "proto/auth.h"
 #include "proto/messages.h"
 #include "proto/pixel_codec.h"
 #include "server/master.h"
@@ -50,7 +51,8 @@ void syntheticClient(uint16_t port, const std::string& token, proto::PixelEncodi
         asio::ip::tcp::socket sock(io);
         sock.connect({asio::ip::make_address("127.0.0.1"), port});
         sock.set_option(asio::ip::tcp::no_delay(true));
-        asio::write(sock, asio::buffer(proto::encode(proto::Hello{proto::kProtocolVersion, token, 1, "synthetic"})));
+        const proto::Hello hello{proto::kProtocolVersion, 1, "synthetic"};
+        asio::write(sock, asio::buffer(proto::encode(hello)));
         Interleave pattern{kWidth, kHeight, kM};
         std::vector<std::vector<uint8_t>> encoded(kM * kM);
         std::vector<proto::PixelEncoding> used(kM * kM);
@@ -70,6 +72,10 @@ void syntheticClient(uint16_t port, const std::string& token, proto::PixelEncodi
                 if (!r->has_value()) break;
                 proto::Message& m = **r;
                 if (std::holds_alternative<proto::Bye>(m) || std::holds_alternative<proto::Reject>(m)) return;
+                if (auto* ch = std::get_if<proto::Challenge>(&m)) {
+                    asio::write(sock, asio::buffer(proto::encode(proto::Auth{proto::authMac(token, ch->nonce, hello)})));
+                    continue;
+                }
                 auto* fb = std::get_if<proto::FrameBegin>(&m);
                 if (!fb) continue;
                 for (uint32_t s : fb->sets) {
@@ -98,7 +104,7 @@ void BM_MasterCapacity(benchmark::State& state) {
     for (auto _ : state) {
         server::MasterOptions o;
         o.port = 0;
-        o.token = "bench";
+        o.token = "5f2c8d0a9b7e4c1f3a6d8e2b0c9f7a14";  // any strong token
         o.sceneName = "RING";
         o.settings.width = kWidth;
         o.settings.height = kHeight;

@@ -29,7 +29,7 @@ cleanup() {
 }
 trap cleanup EXIT
 trap 'exit 130' INT TERM  # runs the EXIT trap
-export RTPM_TOKEN=cost-$$
+export RTPM_TOKEN=$(od -An -tx1 -N16 /dev/urandom | tr -d " \n")
 
 exr=$build/viewer_cost_ring_${width}x${height}.exr
 if [[ ! -s $exr ]]; then

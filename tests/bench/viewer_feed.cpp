@@ -21,6 +21,7 @@
 
 #include "common/core/interleave.h"
 #include "common/image/image_io.h"
+#include "proto/auth.h"
 #include "proto/messages.h"
 #include "proto/pixel_codec.h"
 
@@ -69,7 +70,9 @@ int run(const Args& a) {
     asio::ip::tcp::socket sock(io);
     sock.connect({asio::ip::make_address("127.0.0.1"), readPort(a.portFile)});
     sock.set_option(asio::ip::tcp::no_delay(true));
-    asio::write(sock, asio::buffer(proto::encode(proto::Hello{proto::kProtocolVersion, tokenEnv ? tokenEnv : "", 1, a.name})));
+    const std::string token = tokenEnv ? tokenEnv : "";
+    const proto::Hello hello{proto::kProtocolVersion, 1, a.name};
+    asio::write(sock, asio::buffer(proto::encode(hello)));  // the Challenge is answered below
 
     std::vector<std::vector<uint8_t>> encoded;  // per set, once Settings arrived
     std::vector<proto::PixelEncoding> used;
@@ -89,6 +92,10 @@ int run(const Args& a) {
             if (!r->has_value()) break;
             proto::Message& m = **r;
             if (auto* rej = std::get_if<proto::Reject>(&m)) throw std::runtime_error("refused: " + rej->text);
+            if (auto* ch = std::get_if<proto::Challenge>(&m)) {
+                asio::write(sock, asio::buffer(proto::encode(proto::Auth{proto::authMac(token, ch->nonce, hello)})));
+                continue;
+            }
             if (std::holds_alternative<proto::Bye>(m)) return 0;
             if (auto* s = std::get_if<proto::Settings>(&m)) {
                 if (int(s->width) != img.width || int(s->height) != img.height)

@@ -8,6 +8,7 @@
 
 #include "client/frame_renderer.h"
 #include "client/worker.h"
+#include "proto/auth.h"
 #include "tests/support/cluster_util.h"
 #include "common/render/render_job.h"
 #include "common/scene/scene_loader.h"
@@ -113,9 +114,13 @@ struct FakeServer {
         ASSERT_TRUE(std::holds_alternative<proto::Hello>(m)) << client->logs();
         const proto::Hello hello = std::get<proto::Hello>(m);
         EXPECT_EQ(hello.protocolVersion, proto::kProtocolVersion);
-        EXPECT_EQ(hello.authToken, "s3cret");
         EXPECT_EQ(hello.cores, 2u);
         EXPECT_EQ(hello.clientName, "fake-test");
+        const proto::Nonce nonce = proto::makeNonce();
+        ASSERT_TRUE(s.send(proto::Challenge{nonce}));
+        ASSERT_EQ(s.receive(m, 30s), Socket::Got::Message) << client->logs();
+        ASSERT_TRUE(std::holds_alternative<proto::Auth>(m)) << client->logs();
+        EXPECT_TRUE(proto::macEquals(std::get<proto::Auth>(m).mac, proto::authMac("s3cret", nonce, hello)));
         ASSERT_TRUE(s.send(proto::Welcome{3, std::move(sets)}));
     }
 

@@ -21,7 +21,7 @@ namespace {
 
 using namespace std::chrono_literals;
 
-const std::string kToken = "faults-test-token";
+const std::string kToken = "9c41e07b2d5a8f36c1b4e9d07a52f8c3";  // `openssl rand -hex 16`
 
 /// Flags shared by rtpm-server and rtpm-render: a small RING so a frame takes tens of ms.
 std::vector<std::string> sceneFlags(int frames, std::vector<std::string> extra = {}, int photons = 2000) {

@@ -16,7 +16,14 @@ namespace rtpm::proto::testing {
 /// One valid message of every type, several for types with alternatives (edits, sources).
 inline std::vector<Message> sampleMessages() {
     std::vector<Message> out;
-    out.push_back(Hello{kProtocolVersion, "secret-token", 8, "node-07"});
+    out.push_back(Hello{kProtocolVersion, 8, "node-07"});
+    Challenge challenge;
+    for (size_t i = 0; i < challenge.nonce.size(); ++i) challenge.nonce[i] = uint8_t(7 * i + 1);
+    out.push_back(challenge);
+    Auth auth;
+    for (size_t i = 0; i < auth.mac.size(); ++i) auth.mac[i] = uint8_t(255 - 3 * i);
+    out.push_back(auth);
+    out.push_back(Reject{RejectReason::Capacity, "retry later"});
     out.push_back(Welcome{3, {0, 5, 10, 15}});
     out.push_back(Welcome{4, {}});
     out.push_back(Reject{RejectReason::BadToken, "token does not match"});

@@ -28,7 +28,7 @@ namespace {
 
 using namespace std::chrono_literals;
 
-const std::string kToken = "soak-test-token-0123456789abcdef";
+const std::string kToken = "3e8a1f5c90d27b64e1c8a3f05d9b27e6";  // `openssl rand -hex 16`
 
 int soakSeconds() {
     const char* env = std::getenv("RTPM_SOAK_SECONDS");

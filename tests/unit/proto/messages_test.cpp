@@ -52,21 +52,20 @@ TEST(Messages, TruncationAtEveryByteIsAnErrorNotACrash) {
 }
 
 TEST(Messages, HelloGoldenBytes) {
-    auto bytes = encode(Hello{2, "tok", 8, "c1"});
+    auto bytes = encode(Hello{3, 8, "c1"});
     EXPECT_EQ(hex(bytes),
               "5254504d"   // magic 'RTPM'
               "0300"       // version 3
               "0100"       // type Hello
               "00000000"   // flags
-              "13000000"   // payload 19 bytes
-              "0200"       // protocolVersion 2
-              "03000000746f6b"  // "tok"
+              "0c000000"   // payload 12 bytes
+              "0300"       // protocolVersion 3
               "08000000"   // cores 8
               "020000006331");  // "c1"
 }
 
 TEST(Messages, HeartbeatIsABareHeaderAndRefusesAnyPayload) {
-    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0300" "0b00" "00000000" "00000000");
+    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0300" "0d00" "00000000" "00000000");
     EXPECT_FALSE(decodePayload(MessageType::Heartbeat, std::vector<uint8_t>{0}).ok());
 }
 
@@ -77,6 +76,59 @@ TEST(Messages, OnlyBusyRefusalsAreTransient) {
     EXPECT_FALSE(rejectIsTransient(RejectReason::BadToken));
     EXPECT_FALSE(rejectIsTransient(RejectReason::VersionMismatch));
     EXPECT_FALSE(rejectIsTransient(RejectReason::ProtocolError));
+}
+
+TEST(Messages, ChallengeAndAuthGoldenBytes) {
+    Challenge c;
+    for (size_t i = 0; i < c.nonce.size(); ++i) c.nonce[i] = uint8_t(i);
+    EXPECT_EQ(hex(encode(c)), "5254504d03000b0000000000" "20000000"  // type 11, payload 32
+                              "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f");
+    Auth a;
+    a.mac.fill(0xab);
+    EXPECT_EQ(hex(encode(a)).substr(0, 32), "5254504d03000c000000000020000000");  // type 12, payload 32
+}
+
+TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
+    // Before authentication a peer may send only a small Hello: a FrameData announcing 256 MiB
+    // fails on its 16 header bytes, before any payload is buffered.
+    Writer w;
+    encodeHeader(Header{kMagic, kProtocolVersion, MessageType::FrameData, 0, 256u << 20}, w);
+    FrameSplitter splitter;
+    splitter.allowOnly(MessageType::Hello, 4096);
+    splitter.feed(w.data());
+    auto r = splitter.next();
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::NotAllowed);
+    EXPECT_EQ(splitter.buffered(), kHeaderBytes);  // the header itself, nothing of the payload
+
+    FrameSplitter small;
+    small.allowOnly(MessageType::Auth, 32);
+    Writer big;
+    encodeHeader(Header{kMagic, kProtocolVersion, MessageType::Auth, 0, 33}, big);
+    small.feed(big.data());
+    EXPECT_EQ(small.next().error().code, ErrorCode::NotAllowed);
+
+    FrameSplitter capped;  // after authentication: any type, but not above the connection's bound
+    capped.capPayload(1000);
+    auto okStats = encode(Stats{});
+    capped.feed(okStats);
+    ASSERT_TRUE(capped.next().ok());
+    Writer bigData;
+    encodeHeader(Header{kMagic, kProtocolVersion, MessageType::FrameData, 0, 1001}, bigData);
+    capped.feed(bigData.data());
+    EXPECT_EQ(capped.next().error().code, ErrorCode::NotAllowed);
+
+    FrameSplitter lifted;
+    lifted.allowOnly(MessageType::Hello, 4096);
+    auto hello = encode(Hello{});
+    lifted.feed(hello);
+    ASSERT_TRUE(lifted.next().ok());
+    lifted.allowAll();
+    auto stats = encode(Stats{});
+    lifted.feed(stats);
+    auto s2 = lifted.next();
+    ASSERT_TRUE(s2.ok());
+    ASSERT_TRUE(s2->has_value());
 }
 
 TEST(Messages, FrameBeginGoldenBytes) {
@@ -145,8 +197,8 @@ TEST(Messages, FieldValidationRejectsBadValues) {
     reject(FrameBegin{1, 0, 0, {}, static_cast<FrameMode>(kMaxFrameMode + 1), {}}, ErrorCode::BadEnum);
     reject(Welcome{1, {4, 4}}, ErrorCode::BadValue);
     reject(Welcome{1, {kMaxSets}}, ErrorCode::BadValue);
-    reject(Hello{1, std::string(kMaxTokenBytes + 1, 'x'), 1, ""}, ErrorCode::LengthTooLarge);
-    reject(Hello{1, "t", 0, ""}, ErrorCode::BadValue);
+    reject(Hello{1, 1, std::string(kMaxNameBytes + 1, 'x')}, ErrorCode::LengthTooLarge);
+    reject(Hello{1, 0, ""}, ErrorCode::BadValue);
     reject(Reject{static_cast<RejectReason>(0), ""}, ErrorCode::BadEnum);
     reject(Bye{static_cast<ByeReason>(99), ""}, ErrorCode::BadEnum);
     Settings s;
@@ -194,8 +246,8 @@ TEST(Messages, TrailingPayloadBytesAreRejected) {
 }
 
 TEST(Messages, TryEncodeRefusesOversizePayloads) {
-    // A 5000-byte token is over Hello's 4 KiB payload limit (and its own 256-byte field limit).
-    auto r = tryEncode(Hello{1, std::string(5000, 't'), 1, "c"});
+    // A 5000-byte name is over Hello's 4 KiB payload limit (and its own 256-byte field limit).
+    auto r = tryEncode(Hello{1, 1, std::string(5000, 'n')});
     ASSERT_FALSE(r.ok());
     EXPECT_EQ(r.error().code, ErrorCode::PayloadTooLarge);
 }

@@ -1,4 +1,4 @@
-// Hello validation: type, version, token; constant-time token comparison.
+// Handshake steps: Hello (type, version, name escaping), Auth (HMAC over nonce and Hello).
 #include "server/handshake.h"
 
 #include <gtest/gtest.h>
@@ -6,57 +6,111 @@
 namespace rtpm::server {
 namespace {
 
-proto::Hello hello(std::string token) {
+const std::string kToken = "5f2c8d0a9b7e4c1f3a6d8e2b0c9f7a14";
+
+proto::Hello hello() {
     proto::Hello h;
     h.protocolVersion = proto::kProtocolVersion;
-    h.authToken = std::move(token);
     h.clientName = "w1";
     h.cores = 2;
     return h;
 }
 
-TEST(Handshake, HelloWithTheTokenIsAccepted) {
-    HandshakeResult r = checkHello(hello("s3cret-token"), "s3cret-token", false);
+TEST(Handshake, HelloOfThisVersionIsAccepted) {
+    HandshakeResult r = checkHello(hello());
     EXPECT_TRUE(r.accepted);
     EXPECT_EQ(r.clientName, "w1");
 }
 
-TEST(Handshake, WrongTokenVersionOrTypeIsRefusedWithItsReason) {
-    EXPECT_EQ(checkHello(hello("s3cret-tokex"), "s3cret-token", false).reason, proto::RejectReason::BadToken);
-    EXPECT_FALSE(checkHello(hello("s3cret"), "s3cret-token", false).accepted);
-    proto::Hello old = hello("s3cret-token");
+TEST(Handshake, WrongVersionOrTypeIsRefusedWithItsReason) {
+    proto::Hello old = hello();
     old.protocolVersion = proto::kProtocolVersion + 1;
-    EXPECT_EQ(checkHello(old, "s3cret-token", false).reason, proto::RejectReason::VersionMismatch);
-    HandshakeResult notHello = checkHello(proto::Stats{}, "s3cret-token", false);
+    EXPECT_EQ(checkHello(old).reason, proto::RejectReason::VersionMismatch);
+    HandshakeResult notHello = checkHello(proto::Stats{});
     EXPECT_FALSE(notHello.accepted);
     EXPECT_EQ(notHello.reason, proto::RejectReason::ProtocolError);
+    proto::Hello unnamed = hello();
+    unnamed.clientName.clear();
+    EXPECT_EQ(checkHello(unnamed).clientName, "unnamed");
 }
 
-TEST(Handshake, InsecureModeAcceptsAnyTokenAndNamesUnnamedClients) {
-    proto::Hello h = hello("anything");
-    h.clientName.clear();
-    HandshakeResult r = checkHello(h, "", true);
-    EXPECT_TRUE(r.accepted);
-    EXPECT_EQ(r.clientName, "unnamed");
+TEST(Handshake, AuthWithTheTokensMacIsAccepted) {
+    const proto::Nonce n = proto::makeNonce();
+    const proto::Hello h = hello();
+    EXPECT_TRUE(checkAuth(proto::Auth{proto::authMac(kToken, n, h)}, h, n, kToken, false).accepted);
 }
 
-TEST(Handshake, TokenMatchesOnlyEqualStrings) {
-    EXPECT_TRUE(tokenMatches("abc", "abc"));
-    EXPECT_FALSE(tokenMatches("abc", "abd"));
-    EXPECT_FALSE(tokenMatches("abc", "abcd"));
-    EXPECT_FALSE(tokenMatches("abc", ""));
-    EXPECT_TRUE(tokenMatches("", ""));
+TEST(Handshake, WrongTokenIsRefusedAsAuthenticationFailure) {
+    const proto::Nonce n = proto::makeNonce();
+    const proto::Hello h = hello();
+    std::string wrong = kToken;
+    wrong.back() = wrong.back() == '4' ? '5' : '4';
+    HandshakeResult r = checkAuth(proto::Auth{proto::authMac(wrong, n, h)}, h, n, kToken, false);
+    EXPECT_FALSE(r.accepted);
+    EXPECT_EQ(r.reason, proto::RejectReason::BadToken);
+    EXPECT_EQ(checkAuth(proto::Auth{}, h, n, kToken, false).reason, proto::RejectReason::BadToken);
+    EXPECT_EQ(checkAuth(proto::Hello{}, h, n, kToken, false).reason, proto::RejectReason::ProtocolError);
+}
+
+TEST(Handshake, MacIsBoundToTheNonceAndEveryHelloField) {
+    // A recorded Auth is worth nothing on a connection with another nonce, or for another Hello.
+    const proto::Nonce n1 = proto::makeNonce(), n2 = proto::makeNonce();
+    ASSERT_NE(n1, n2);
+    const proto::Hello h = hello();
+    const proto::Auth recorded{proto::authMac(kToken, n1, h)};
+    EXPECT_FALSE(checkAuth(recorded, h, n2, kToken, false).accepted);
+    proto::Hello moreCores = h;
+    moreCores.cores = 64;
+    EXPECT_FALSE(checkAuth(recorded, moreCores, n1, kToken, false).accepted);
+    proto::Hello otherName = h;
+    otherName.clientName = "w2";
+    EXPECT_FALSE(checkAuth(recorded, otherName, n1, kToken, false).accepted);
+}
+
+TEST(Handshake, MacIsHmacSha256OfTheDocumentedBytes) {
+    // PROTOCOL.md §7: HMAC-SHA256(token, str("rtpm client auth v3") ‖ nonce ‖ u16 version ‖
+    // u32 cores ‖ str(name)). Reference computed with `openssl dgst -sha256 -mac HMAC` over the
+    // same bytes (the nonce is 32 × 0x01, version 3, cores 2, name "w1", token "key").
+    proto::Nonce n;
+    n.fill(0x01);
+    proto::Hello h = hello();
+    h.protocolVersion = 3;
+    const proto::Mac mac = proto::authMac("key", n, h);
+    std::string hex;
+    for (uint8_t b : mac) {
+        char buf[3];
+        std::snprintf(buf, sizeof buf, "%02x", b);
+        hex += buf;
+    }
+    EXPECT_EQ(hex, "0366658fdb69ed67c3f23f8031d97c78fe92636fa992b5832bf1d0f63cdba581");
+}
+
+TEST(Handshake, InsecureModeAcceptsAnyAuth) {
+    const proto::Nonce n = proto::makeNonce();
+    EXPECT_TRUE(checkAuth(proto::Auth{}, hello(), n, "", true).accepted);
 }
 
 TEST(Handshake, ClientNamesCannotForgeOrFloodLogLines) {
     // Before: a name with newlines wrote whole fake lines into the master's log.
-    proto::Hello h = hello("s3cret-token");
+    proto::Hello h = hello();
     h.clientName = "w1\nrtpm-server: client 7 (admin, 10.0.0.1, 64 cores) joined\r\x1b[2J" + std::string(200, 'x');
-    HandshakeResult r = checkHello(h, "s3cret-token", false);
+    HandshakeResult r = checkHello(h);
     ASSERT_TRUE(r.accepted);
     for (unsigned char c : r.clientName) EXPECT_FALSE(c < 0x20 || c == 0x7F) << r.clientName;
     EXPECT_NE(r.clientName.find("w1\\nrtpm-server"), std::string::npos) << r.clientName;
     EXPECT_LE(r.clientName.size(), kMaxLoggedNameBytes + 32);
+}
+
+TEST(TokenStrength, ShortOrRepetitiveTokensAreRefusedRandomOnesAccepted) {
+    EXPECT_TRUE(proto::tokenWeakness("s3cret").has_value());                 // 6 characters
+    EXPECT_TRUE(proto::tokenWeakness("ab").has_value());
+    EXPECT_TRUE(proto::tokenWeakness(std::string(40, 'a')).has_value());     // 0 bits
+    EXPECT_TRUE(proto::tokenWeakness("cluster-test-token").has_value());     // ≈ 58 bits
+    EXPECT_TRUE(proto::tokenWeakness(std::string(300, 'x') + "0123456789abcdef").has_value());  // too long
+    EXPECT_FALSE(proto::tokenWeakness(kToken).has_value());                  // `openssl rand -hex 16`
+    EXPECT_NE(proto::tokenWeakness("ab")->find("openssl rand"), std::string::npos);
+    EXPECT_NEAR(proto::tokenEntropyBits("0123456789abcdef"), 64.0, 1e-9);
+    EXPECT_EQ(proto::tokenEntropyBits("aaaa"), 0.0);
 }
 
 }  // namespace

@@ -1,0 +1,471 @@
+// Hostile peers against a real rtpm-server (issue 13): a flood of idle and reconnecting sockets
+// while real clients join, tokenless large announcements, the guess rate, a stalled
+// authenticated peer, the challenge–response (wrong token, replayed Auth, no token on the wire)
+// and the optional TLS link (same image, nothing readable on the wire, certificates checked).
+// Loopback only; the flood uses other 127.0.0.0/8 addresses than the real clients (different
+// hosts, as on a real network: one address's budget is not another's).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <deque>
+#include <cstring>
+#include <mutex>
+#include <thread>
+
+#include "client/worker.h"
+#include "common/image/image_io.h"
+#include "proto/auth.h"
+#include "tests/support/cluster_util.h"
+
+namespace rtpm::test {
+namespace {
+
+using namespace std::chrono_literals;
+
+const std::string kToken = "9c4e1b7a3f2d8e6c0a5b9d1f7e3c2a48";  // `openssl rand -hex 16`
+
+/// A TCP connection to 127.0.0.1:port from the local address `from` (any 127.x.y.z works on
+/// Linux loopback); an invalid socket if it fails.
+Socket connectFrom(const std::string& from, uint16_t port) {
+    int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    if (fd < 0) return Socket();
+    sockaddr_in local{};
+    local.sin_family = AF_INET;
+    inet_pton(AF_INET, from.c_str(), &local.sin_addr);
+    sockaddr_in remote{};
+    remote.sin_family = AF_INET;
+    remote.sin_port = htons(port);
+    remote.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (::bind(fd, reinterpret_cast<sockaddr*>(&local), sizeof local) != 0 ||
+        ::connect(fd, reinterpret_cast<sockaddr*>(&remote), sizeof remote) != 0) {
+        ::close(fd);
+        return Socket();
+    }
+    return Socket(fd);
+}
+
+/// Resident and peak resident memory of a process, in KiB (/proc/<pid>/status).
+struct Memory {
+    long rssKiB = -1, peakKiB = -1;
+};
+Memory memoryOf(pid_t pid) {
+    std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+    Memory m;
+    std::string key;
+    while (in >> key) {
+        if (key == "VmRSS:") in >> m.rssKiB;
+        else if (key == "VmHWM:") in >> m.peakKiB;
+        else in.ignore(1 << 20, '\n');
+    }
+    return m;
+}
+
+size_t countLines(const std::string& s) { return size_t(std::count(s.begin(), s.end(), '\n')); }
+
+/// A server waiting for `minClients` (small frames), with extra flags; killed by ~Child.
+struct Server {
+    TempDir dir;
+    std::unique_ptr<Child> child;
+    uint16_t port = 0;
+
+    void start(int minClients, int frames, std::vector<std::string> extra = {}) {
+        std::vector<std::string> argv{binaryPath("server/rtpm-server"), "--port", "0", "--port-file",
+                                      dir.file("port"), "--min-clients", std::to_string(minClients), "--scene",
+                                      "RING", "--width", "48", "--height", "36", "-M", "3", "-P", "500",
+                                      "--frames", std::to_string(frames), "--encoding", "float32", "--out",
+                                      dir.file("out.exr"), "--quiet"};
+        argv.insert(argv.end(), extra.begin(), extra.end());
+        child = std::make_unique<Child>(argv, dir.file("server"), std::vector<std::string>{"RTPM_TOKEN=" + kToken});
+        port = waitForPortFile(dir.file("port"), *child, 60s);
+        ASSERT_NE(port, 0) << child->logs();
+    }
+};
+
+/// Hello → Challenge → Auth made with `token`; returns the server's answer (Welcome or Reject)
+/// and, through `authOut`, the Auth bytes sent.
+std::optional<proto::Message> authenticate(Socket& s, const std::string& token, const std::string& name,
+                                           std::vector<uint8_t>* authOut = nullptr) {
+    proto::Hello hello;
+    hello.clientName = name;
+    if (!s.send(hello)) return std::nullopt;
+    proto::Message m;
+    if (s.receive(m, 10s) != Socket::Got::Message) return std::nullopt;
+    if (!std::holds_alternative<proto::Challenge>(m)) return m;  // refused before the challenge
+    const auto bytes = proto::encode(proto::Auth{proto::authMac(token, std::get<proto::Challenge>(m).nonce, hello)});
+    if (authOut) *authOut = bytes;
+    if (!s.sendAll(bytes)) return std::nullopt;
+    if (s.receive(m, 10s) != Socket::Got::Message) return std::nullopt;
+    return m;
+}
+
+// Before (issue 13): a peer reconnecting idle sockets at ≈ 13 000/s kept every real client out
+// (0 of 7 joined) and the master wrote one log line per refusal (20 MB in 25 s).
+TEST(Admission, FloodOfIdleAndReconnectingSocketsDoesNotKeepRealClientsOut) {
+    constexpr int kClients = 7;
+    Server srv;
+    srv.start(kClients, 3);
+    // Ten flooding addresses × their budget fill every pending slot of the master: the real
+    // clients must get in by fair share, not by luck.
+    std::atomic<bool> stop{false};
+    std::atomic<uint64_t> floodConnections{0};
+    std::vector<std::thread> flood;
+    for (int a = 0; a < 10; ++a) {
+        flood.emplace_back([&, a] {
+            const std::string from = "127.0.0." + std::to_string(2 + a);
+            std::deque<Socket> idle;
+            const auto end = Clock::now() + 120s;  // bound, whatever happens to the test
+            while (!stop && Clock::now() < end) {
+                Socket s = connectFrom(from, srv.port);
+                if (!s.valid()) continue;
+                ++floodConnections;
+                if (idle.size() >= 24) idle.pop_front();  // reconnecting: the oldest goes
+                idle.push_back(std::move(s));
+            }
+        });
+    }
+    // Let the flood fill the master first.
+    ASSERT_TRUE(waitUntil([&] { return floodConnections > 2000 || srv.child->poll(); }, 60s)) << srv.child->logs();
+    std::vector<std::unique_ptr<Child>> clients;
+    for (int i = 0; i < kClients; ++i)
+        clients.push_back(std::make_unique<Child>(
+            std::vector<std::string>{binaryPath("client/rtpm-client"), "--server",
+                                     "127.0.0.1:" + std::to_string(srv.port), "--token", kToken, "--threads", "1",
+                                     "--connect-timeout", "60", "--name", "real" + std::to_string(i)},
+            srv.dir.file("client" + std::to_string(i))));
+    auto st = srv.child->wait(180s);
+    stop = true;
+    for (auto& t : flood) t.join();
+    ASSERT_TRUE(st) << "server did not finish under the flood\n" << srv.child->logs();
+    EXPECT_TRUE(st->exited && st->code == 0) << srv.child->logs();
+    int joined = 0;
+    for (auto& c : clients) {
+        auto cs = c->wait(30s);
+        if (cs && cs->exited && cs->code == client::kExitOk) ++joined;
+    }
+    const std::string err = srv.child->err();
+    EXPECT_EQ(joined, kClients) << srv.child->logs();
+    EXPECT_NE(srv.child->out().find("7 clients joined"), std::string::npos) << srv.child->logs();
+    // The refusals are summed up, not logged one by one.
+    EXPECT_LT(countLines(err), 60u) << err;
+    EXPECT_NE(err.find("admission"), std::string::npos) << err;
+    const size_t totals = err.find("admission over the run");
+    ASSERT_NE(totals, std::string::npos) << err;
+    std::printf("flood: %llu connections from 10 addresses; %d of %d real clients joined; server stderr %zu lines; %s",
+                (unsigned long long)floodConnections.load(), joined, kClients, countLines(err),
+                err.substr(totals, err.find('\n', totals) - totals + 1).c_str());
+}
+
+// A peer turned away for capacity is told so (the client retries on Capacity, not on BadToken).
+TEST(Admission, RefusalForCapacityIsToldAsCapacity) {
+    Server srv;
+    srv.start(1, 1000, {"--max-pending-per-source", "1", "--handshake-timeout-ms", "30000"});
+    Socket holder = connectFrom("127.0.0.3", srv.port);  // an idle handshake holds the address's budget
+    ASSERT_TRUE(holder.valid());
+    bool told = false;
+    for (int i = 0; i < 50 && !told; ++i) {  // until the master has accepted the holder
+        Socket s = connectFrom("127.0.0.3", srv.port);
+        proto::Message m;
+        if (s.receive(m, 10s) == Socket::Got::Message && std::holds_alternative<proto::Reject>(m)) {
+            EXPECT_EQ(std::get<proto::Reject>(m).reason, proto::RejectReason::Capacity);
+            EXPECT_TRUE(proto::rejectIsTransient(std::get<proto::Reject>(m).reason));
+            told = true;
+        }
+    }
+    EXPECT_TRUE(told) << srv.child->logs();
+    // Another address is not affected.
+    Socket other = connectFrom("127.0.0.1", srv.port);
+    auto m = authenticate(other, kToken, "other");
+    EXPECT_TRUE(m && std::holds_alternative<proto::Welcome>(*m)) << srv.child->logs();
+}
+
+// Before: eight peers with no token, each announcing a 256 MiB FrameData and sending it, took the
+// master from 130 MB to 1.77 GB. Before authentication only a Hello of ≤ 4 KiB may be announced.
+TEST(Admission, TokenlessLargeAnnouncementsKeepTheMasterSmall) {
+    Server srv;
+    srv.start(1, 1000);
+    const Memory before = memoryOf(srv.child->pid());
+    ASSERT_GT(before.peakKiB, 0);
+    std::vector<std::thread> peers;
+    std::atomic<uint64_t> accepted{0};
+    std::atomic<int> refused{0};
+    for (int i = 0; i < 8; ++i) {
+        peers.emplace_back([&, i] {
+            Socket s = connectFrom("127.0.0." + std::to_string(20 + i), srv.port);
+            if (!s.valid()) return;
+            proto::Writer w;
+            proto::encodeHeader(proto::Header{proto::kMagic, proto::kProtocolVersion, proto::MessageType::FrameData, 0,
+                                              256u << 20},
+                                w);
+            std::vector<uint8_t> chunk(1 << 20, 0x5a);
+            if (!s.sendAll(w.data())) return;
+            for (int mib = 0; mib < 256; ++mib) {  // bounded: the announced size at most
+                if (!s.sendAll(chunk)) break;
+                accepted += chunk.size();
+            }
+            if (s.waitClosed(10s)) ++refused;
+        });
+    }
+    for (auto& t : peers) t.join();
+    const Memory after = memoryOf(srv.child->pid());
+    EXPECT_EQ(refused.load(), 8);
+    // The socket buffers take a few MiB of each stream before the master closes it; nothing
+    // near the announced 8 × 256 MiB may reach the master's memory.
+    EXPECT_LT(after.peakKiB - before.peakKiB, 32 * 1024) << "peak RSS grew from " << before.peakKiB << " to "
+                                                         << after.peakKiB << " KiB\n"
+                                                         << srv.child->logs();
+    std::printf("8 tokenless 256 MiB announcements: %.1f MiB sent before the master closed them; master peak RSS "
+                "%.1f -> %.1f MiB\n",
+                double(accepted.load()) / (1 << 20), before.peakKiB / 1024.0, after.peakKiB / 1024.0);
+}
+
+// Before: ≈ 7 800 wrong guesses per second, each answered in 0.18 ms. Now each failure is answered
+// after 0.5 s and an address gets 10 failures, then one per second.
+TEST(Admission, WrongTokenGuessesAreRateLimitedPerAddress) {
+    Server srv;
+    srv.start(1, 1000);
+    std::atomic<int> badToken{0}, rateLimited{0}, other{0};
+    const auto t0 = Clock::now();
+    std::vector<std::thread> guessers;
+    for (int g = 0; g < 8; ++g) {
+        guessers.emplace_back([&, g] {
+            for (int attempt = 0; attempt < 40; ++attempt) {  // bounded
+                Socket s = connectFrom("127.0.0.40", srv.port);
+                if (!s.valid()) continue;
+                auto m = authenticate(s, "wrong-guess-" + std::to_string(g) + "-" + std::to_string(attempt), "guesser");
+                const auto* r = m ? std::get_if<proto::Reject>(&*m) : nullptr;
+                if (r && r->reason == proto::RejectReason::BadToken) ++badToken;
+                else if (r && r->reason == proto::RejectReason::RateLimited) ++rateLimited;
+                else ++other;  // capacity (the address's pending budget) or a closed socket
+            }
+        });
+    }
+    for (auto& t : guessers) t.join();
+    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    // The allowance: a burst of 10, then one per second (AdmissionLimits defaults).
+    EXPECT_LE(badToken.load(), 10 + int(seconds * 1.0) + 1) << seconds << " s\n" << srv.child->logs();
+    EXPECT_GT(rateLimited.load(), 0);
+    // A real client from another address is not affected.
+    Socket real = connectFrom("127.0.0.1", srv.port);
+    auto m = authenticate(real, kToken, "real");
+    ASSERT_TRUE(m && std::holds_alternative<proto::Welcome>(*m)) << srv.child->logs();
+    std::printf("guessing from one address with 8 threads: %d answered guesses in %.2f s = %.1f guesses/s "
+                "(%d refused as rate limited, %d other)\n",
+                badToken.load(), seconds, badToken / seconds, rateLimited.load(), other.load());
+}
+
+// Before: an authenticated peer that stalled mid-message had no read timeout.
+TEST(Admission, AuthenticatedPeerStallingOrTricklingMidMessageIsDropped) {
+    Server srv;
+    srv.start(5, 1000, {"--read-timeout-ms", "1000"});
+    for (bool trickle : {false, true}) {
+        Socket s = connectFrom("127.0.0.1", srv.port);
+        auto m = authenticate(s, kToken, trickle ? "trickler" : "staller");
+        ASSERT_TRUE(m && std::holds_alternative<proto::Welcome>(*m)) << srv.child->logs();
+        proto::Writer w;
+        // 4000 bytes: below the master's bound for this run's sets (48x36, M=3: 4672 bytes).
+        proto::encodeHeader(proto::Header{proto::kMagic, proto::kProtocolVersion, proto::MessageType::FrameData, 0,
+                                          4000},
+                            w);
+        std::vector<uint8_t> start = w.take();
+        start.resize(start.size() + 100, 0);
+        ASSERT_TRUE(s.sendAll(start));
+        bool closed = false;
+        if (!trickle) {
+            closed = s.waitClosed(30s);
+        } else {
+            // One byte every 200 ms: always progress, never a whole message.
+            for (int i = 0; i < 150 && !closed; ++i) {
+                if (!s.sendAll({0})) closed = true;
+                else closed = s.waitClosed(200ms);
+            }
+        }
+        EXPECT_TRUE(closed) << (trickle ? "trickling" : "stalled") << " peer not dropped\n" << srv.child->logs();
+    }
+    ASSERT_TRUE(waitUntil([&] { return countLines(srv.child->err()) > 0 &&
+                                       srv.child->err().find("(trickler) left: stalled mid-message") != std::string::npos; },
+                          10s))
+        << srv.child->logs();
+    EXPECT_NE(srv.child->err().find("(staller) left: stalled mid-message"), std::string::npos) << srv.child->logs();
+}
+
+// Before: an authenticated client could announce up to 256 MiB per FrameData whatever its set's
+// size (a padded zstd frame of 64 MiB per set took +513 MiB). Now the announced size is checked
+// against the largest set's float32 size from the header alone.
+TEST(Admission, AuthenticatedOversizeFrameDataIsRefusedFromItsHeader) {
+    Server srv;
+    srv.start(5, 1000);
+    const Memory before = memoryOf(srv.child->pid());
+    Socket s = connectFrom("127.0.0.1", srv.port);
+    auto m = authenticate(s, kToken, "oversize");
+    ASSERT_TRUE(m && std::holds_alternative<proto::Welcome>(*m)) << srv.child->logs();
+    proto::Writer w;
+    proto::encodeHeader(proto::Header{proto::kMagic, proto::kProtocolVersion, proto::MessageType::FrameData, 0,
+                                      64u << 20},
+                        w);
+    ASSERT_TRUE(s.sendAll(w.data()));
+    std::vector<uint8_t> chunk(1 << 20, 0);
+    for (int i = 0; i < 64 && s.sendAll(chunk); ++i) {
+    }
+    // Welcome is followed by Settings and Scene; then the Bye (or the close).
+    proto::Message bye;
+    Socket::Got g = Socket::Got::Timeout;
+    for (int i = 0; i < 10; ++i) {
+        g = s.receive(bye, 10s);
+        if (g != Socket::Got::Message || std::holds_alternative<proto::Bye>(bye)) break;
+    }
+    if (g == Socket::Got::Message) {
+        ASSERT_TRUE(std::holds_alternative<proto::Bye>(bye));
+        EXPECT_EQ(std::get<proto::Bye>(bye).reason, proto::ByeReason::ProtocolError);
+        EXPECT_NE(std::get<proto::Bye>(bye).text.find("at most"), std::string::npos) << std::get<proto::Bye>(bye).text;
+    }
+    EXPECT_TRUE(g == Socket::Got::Closed || s.waitClosed(10s)) << srv.child->logs();
+    const Memory after = memoryOf(srv.child->pid());
+    EXPECT_LT(after.peakKiB - before.peakKiB, 16 * 1024) << before.peakKiB << " -> " << after.peakKiB << " KiB";
+    EXPECT_NE(srv.child->err().find("(oversize) left: protocol error"), std::string::npos) << srv.child->logs();
+}
+
+TEST(Admission, ReplayedAuthIsRefused) {
+    Server srv;
+    srv.start(5, 1000);
+    Socket first = connectFrom("127.0.0.1", srv.port);
+    std::vector<uint8_t> recorded;
+    auto m = authenticate(first, kToken, "replayed", &recorded);
+    ASSERT_TRUE(m && std::holds_alternative<proto::Welcome>(*m)) << srv.child->logs();
+    // Another connection gets another nonce: the recorded Auth does not answer it.
+    Socket second = connectFrom("127.0.0.1", srv.port);
+    proto::Hello hello;
+    hello.clientName = "replayed";  // the same Hello as the recorded session
+    ASSERT_TRUE(second.send(hello));
+    proto::Message challenge;
+    ASSERT_EQ(second.receive(challenge, 10s), Socket::Got::Message);
+    ASSERT_TRUE(std::holds_alternative<proto::Challenge>(challenge));
+    ASSERT_TRUE(second.sendAll(recorded));
+    proto::Message answer;
+    ASSERT_EQ(second.receive(answer, 10s), Socket::Got::Message) << srv.child->logs();
+    ASSERT_TRUE(std::holds_alternative<proto::Reject>(answer));
+    EXPECT_EQ(std::get<proto::Reject>(answer).reason, proto::RejectReason::BadToken);
+    // And a wrong token is refused the same way.
+    Socket third = connectFrom("127.0.0.1", srv.port);
+    auto wrong = authenticate(third, "0000000000000000000000000000dead", "wrong");
+    ASSERT_TRUE(wrong && std::holds_alternative<proto::Reject>(*wrong));
+    EXPECT_EQ(std::get<proto::Reject>(*wrong).reason, proto::RejectReason::BadToken);
+}
+
+/// Forwards one connection between a client and the server and records every byte both ways.
+struct RecordingProxy {
+    Listener listener;
+    std::vector<uint8_t> recorded;
+    std::thread thread;
+
+    void start(uint16_t serverPort) {
+        thread = std::thread([this, serverPort] {
+            Socket a = listener.accept(60s);
+            if (!a.valid()) return;
+            Socket b = Socket::connectLocal(serverPort);
+            if (!b.valid()) return;
+            const auto end = Clock::now() + 120s;
+            bool aOpen = true, bOpen = true;
+            while ((aOpen || bOpen) && Clock::now() < end) {
+                pollfd p[2] = {{a.fd(), short(aOpen ? POLLIN : 0), 0}, {b.fd(), short(bOpen ? POLLIN : 0), 0}};
+                if (::poll(p, 2, 200) <= 0) continue;
+                for (int i = 0; i < 2; ++i) {
+                    if (!(p[i].revents & (POLLIN | POLLHUP | POLLERR))) continue;
+                    uint8_t buf[65536];
+                    const ssize_t n = ::recv(p[i].fd, buf, sizeof buf, 0);
+                    Socket& to = i == 0 ? b : a;
+                    if (n <= 0) {
+                        (i == 0 ? aOpen : bOpen) = false;
+                        ::shutdown(to.fd(), SHUT_WR);
+                        continue;
+                    }
+                    recorded.insert(recorded.end(), buf, buf + n);
+                    to.sendAll(std::vector<uint8_t>(buf, buf + n));
+                }
+            }
+        });
+    }
+};
+
+TEST(Admission, TheTokenNeverTravelsOnTheWire) {
+    Server srv;
+    srv.start(1, 2);
+    RecordingProxy proxy;
+    proxy.start(srv.port);
+    Child client({binaryPath("client/rtpm-client"), "--server", "127.0.0.1:" + std::to_string(proxy.listener.port()),
+                  "--token", kToken, "--threads", "1", "--connect-timeout", "30"},
+                 srv.dir.file("client"));
+    auto st = srv.child->wait(120s);
+    ASSERT_TRUE(st && st->exited && st->code == 0) << srv.child->logs() << client.logs();
+    auto cs = client.wait(30s);
+    ASSERT_TRUE(cs && cs->exited && cs->code == client::kExitOk) << client.logs();
+    proxy.thread.join();
+    ASSERT_GT(proxy.recorded.size(), 1000u);  // the whole session went through the proxy
+    const std::string wire(proxy.recorded.begin(), proxy.recorded.end());
+    EXPECT_EQ(wire.find(kToken), std::string::npos);
+    EXPECT_EQ(wire.find(kToken.substr(0, 8)), std::string::npos);
+}
+
+/// A self-signed certificate for 127.0.0.1 made by the openssl command-line tool.
+bool makeCertificate(const TempDir& dir, const std::string& name) {
+    Child openssl({"/usr/bin/openssl", "req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1",
+                   "-nodes", "-days", "2", "-subj", "/CN=rtpm-test", "-addext", "subjectAltName=IP:127.0.0.1",
+                   "-keyout", dir.file(name + ".key"), "-out", dir.file(name + ".pem")},
+                  dir.file(name + "-openssl"));
+    auto st = openssl.wait(60s);
+    return st && st->exited && st->code == 0;
+}
+
+TEST(Tls, ClusterOverTlsGivesTheSameImageAndNothingReadableOnTheWire) {
+    Server srv;
+    ASSERT_TRUE(makeCertificate(srv.dir, "server"));
+    ASSERT_TRUE(makeCertificate(srv.dir, "other"));
+    srv.start(1, 3, {"--tls-cert", srv.dir.file("server.pem"), "--tls-key", srv.dir.file("server.key")});
+    // A client trusting another certificate refuses this server; a plain client cannot join.
+    Child distrustful({binaryPath("client/rtpm-client"), "--server", "127.0.0.1:" + std::to_string(srv.port), "--token",
+                       kToken, "--threads", "1", "--connect-timeout", "10", "--tls", "--tls-ca",
+                       srv.dir.file("other.pem")},
+                      srv.dir.file("distrustful"));
+    auto ds = distrustful.wait(60s);
+    ASSERT_TRUE(ds && ds->exited) << distrustful.logs();
+    EXPECT_NE(ds->code, 0);
+    EXPECT_NE(distrustful.err().find("TLS handshake failed"), std::string::npos) << distrustful.logs();
+    {
+        Socket plain = connectFrom("127.0.0.1", srv.port);
+        auto m = authenticate(plain, kToken, "plain");
+        EXPECT_FALSE(m && std::holds_alternative<proto::Welcome>(*m));
+    }
+    EXPECT_FALSE(srv.child->poll()) << srv.child->logs();  // nobody joined: the run has not started
+    // The real client, through a recording proxy.
+    RecordingProxy proxy;
+    proxy.start(srv.port);
+    Child client({binaryPath("client/rtpm-client"), "--server", "127.0.0.1:" + std::to_string(proxy.listener.port()),
+                  "--token", kToken, "--threads", "1", "--connect-timeout", "30", "--tls", "--tls-ca",
+                  srv.dir.file("server.pem"), "--name", "tls-client-name"},
+                 srv.dir.file("client"));
+    auto st = srv.child->wait(120s);
+    ASSERT_TRUE(st && st->exited && st->code == 0) << srv.child->logs() << client.logs();
+    auto cs = client.wait(30s);
+    ASSERT_TRUE(cs && cs->exited && cs->code == client::kExitOk) << client.logs();
+    proxy.thread.join();
+    ASSERT_GT(proxy.recorded.size(), 1000u);
+    const std::string wire(proxy.recorded.begin(), proxy.recorded.end());
+    EXPECT_EQ(wire.find("RTPM"), std::string::npos);  // no protocol header in clear
+    EXPECT_EQ(wire.find("tls-client-name"), std::string::npos);
+    EXPECT_EQ(wire.find(kToken), std::string::npos);
+    // The same image as the single-process renderer, bit for bit (float32 pixels).
+    Child render({binaryPath("common/cmd/rtpm-render"), "--scene", "RING", "--width", "48", "--height", "36", "-M",
+                  "3", "-P", "500", "--frames", "3", "--out", srv.dir.file("ref.exr")},
+                 srv.dir.file("render"));
+    auto rs = render.wait(120s);
+    ASSERT_TRUE(rs && rs->exited && rs->code == 0) << render.logs();
+    const ExrImage got = readExr(srv.dir.file("out.exr")), want = readExr(srv.dir.file("ref.exr"));
+    for (const char* layer : {"direct", "caustic", "caustic_filtered", ""}) {
+        const std::vector<float> a = got.layerRgb(layer), b = want.layerRgb(layer);
+        ASSERT_EQ(a.size(), b.size());
+        EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << "layer '" << layer << "'";
+    }
+}
+
+}  // namespace
+}  // namespace rtpm::test
