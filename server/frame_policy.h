@@ -86,9 +86,9 @@ private:
     };
     uint32_t setCount_;
     bool walkthrough_;
-    bool progressive_ = false;
     size_t pipeline_;
     uint32_t evictAfter_;
+    bool progressive_ = false;
     Assignment assignment_;
     bool clientsChanged_ = false;
     bool started_ = false;
