@@ -19,6 +19,22 @@ namespace {
 
 using testscenes::RingMirror;
 
+/// Flux (W) the mirror patch at `p` (inward normal `nrm`, area `dA`) reflects from the point
+/// light into the floor square [x0, x0 + side) × [z0, z0 + side): the forward mirror mapping.
+double mappedFlux(const RingMirror& rm, glm::dvec3 p, glm::dvec3 nrm, double dA, double x0, double z0,
+                  double side) {
+    const glm::dvec3 toP = p - glm::dvec3(rm.light);
+    const double dist2 = glm::dot(toP, toP);
+    const glm::dvec3 dir = toP / std::sqrt(dist2);
+    const double cosP = -glm::dot(dir, nrm);
+    if (cosP <= 0.0) return 0.0;
+    const glm::dvec3 r = dir - 2.0 * glm::dot(dir, nrm) * nrm;
+    if (!(r.y < 0.0)) return 0.0;
+    const glm::dvec3 hit = p + r * (-p.y / r.y);
+    if (hit.x < x0 || hit.x >= x0 + side || hit.z < z0 || hit.z >= z0 + side) return 0.0;
+    return rm.reflectance * rm.intensity * cosP * dA / dist2;
+}
+
 // The closed form itself: a facet-by-facet sum of mirrored point lights. Check it against a
 // direct numerical integration of the mirror mapping (rays from the light through a fine grid of
 // points on each facet, reflected and binned on the floor): the flux that lands in a 0.1 m
@@ -39,7 +55,6 @@ TEST(RingMirror, ClosedFormMatchesTheIntegratedMirrorMapping) {
     // Flux through the mirror mapping: the solid angle of each facet, sampled by a 1200 × 1200
     // grid of points on it; each point p carries I · dΩ = I · cos_p dA / |p − L|².
     double mapped = 0.0;
-    const Vec3 L = rm.light;
     const int m = 1200;
     for (int f = 0; f < rm.facets; ++f) {
         const Vec3 v0 = rm.edge(f), v1 = rm.edge(f + 1);
@@ -50,16 +65,7 @@ TEST(RingMirror, ClosedFormMatchesTheIntegratedMirrorMapping) {
         for (int a = 0; a < m; ++a)
             for (int b = 0; b < m; ++b) {
                 const glm::dvec3 p = glm::dvec3(v0) + e * ((a + 0.5) / m) + glm::dvec3(0.0, rm.height * (b + 0.5) / m, 0.0);
-                const glm::dvec3 toP = p - glm::dvec3(L);
-                const double dist2 = glm::dot(toP, toP);
-                const glm::dvec3 dir = toP / std::sqrt(dist2);
-                const double cosP = -glm::dot(dir, nrm);
-                if (cosP <= 0.0) continue;
-                const glm::dvec3 r = dir - 2.0 * glm::dot(dir, nrm) * nrm;
-                if (!(r.y < 0.0)) continue;
-                const glm::dvec3 hit = p + r * (-p.y / r.y);
-                if (hit.x < x0 || hit.x >= x0 + side || hit.z < z0 || hit.z >= z0 + side) continue;
-                mapped += rm.reflectance * rm.intensity * cosP * dA / dist2;
+                mapped += mappedFlux(rm, p, nrm, dA, x0, z0, side);
             }
     }
     ASSERT_GT(closed, 0.0) << "pick a square the caustic reaches";
@@ -81,7 +87,6 @@ TEST(RingMirror, SmoothReferenceMatchesTheIntegratedMirrorMapping) {
                 closed += rm.smoothIrradiance(x0 + (a + 0.5) * side / n, z0 + (b + 0.5) * side / n);
         closed *= (side / n) * (side / n);
         double mapped = 0.0;
-        const glm::dvec3 L(rm.light);
         const int nPhi = 80000, nY = 800;
         const double dPhi = 2.0 * std::numbers::pi / nPhi, dY = rm.height / nY;
         for (int a = 0; a < nPhi; ++a) {
@@ -89,16 +94,7 @@ TEST(RingMirror, SmoothReferenceMatchesTheIntegratedMirrorMapping) {
             const glm::dvec3 nrm(-std::cos(phi), 0.0, -std::sin(phi));
             for (int b = 0; b < nY; ++b) {
                 const glm::dvec3 p(rm.radius * std::cos(phi), (b + 0.5) * dY, rm.radius * std::sin(phi));
-                const glm::dvec3 toP = p - L;
-                const double dist2 = glm::dot(toP, toP);
-                const glm::dvec3 dir = toP / std::sqrt(dist2);
-                const double cosP = -glm::dot(dir, nrm);
-                if (cosP <= 0.0) continue;
-                const glm::dvec3 r = dir - 2.0 * glm::dot(dir, nrm) * nrm;
-                if (!(r.y < 0.0)) continue;
-                const glm::dvec3 hit = p + r * (-p.y / r.y);
-                if (hit.x < x0 || hit.x >= x0 + side || hit.z < z0 || hit.z >= z0 + side) continue;
-                mapped += rm.reflectance * rm.intensity * cosP * rm.radius * dPhi * dY / dist2;
+                mapped += mappedFlux(rm, p, nrm, rm.radius * dPhi * dY, x0, z0, side);
             }
         }
         ASSERT_GT(closed, 0.0) << "pick a square the caustic reaches";
