@@ -69,4 +69,33 @@ inline void addPointLight(Scene& s, Vec3 position, Vec3 intensity) {
     s.lights.push_back(l);
 }
 
+/// One diffuse floor quad (material "floor"), a glass quad 0.5 m above it (material "glass",
+/// instances "floor" and "glass"), a point light at (0, 2, 0) with intensity 5 W/sr and a camera:
+/// the smallest scene every edit kind (camera, light, material, transform) applies to.
+inline Scene floorAndGlassBox() {
+    Scene s;
+    s.name = "small";
+    Material floor;
+    floor.name = "floor";
+    Material glass;
+    glass.name = "glass";
+    glass.type = MaterialType::Dielectric;
+    s.materials = {floor, glass};
+    Mesh quad;
+    quad.positions = {{-1, 0, -1}, {1, 0, -1}, {1, 0, 1}, {-1, 0, 1}};
+    quad.indices = {0, 1, 2, 0, 2, 3};
+    Mesh box = quad;
+    box.material = 1;
+    for (Vec3& p : box.positions) p.y = 0.5f;
+    s.meshes = {quad, box};
+    s.instances = {Instance{"floor", 0, Mat4(1.0f)}, Instance{"glass", 1, Mat4(1.0f)}};
+    Light l;
+    l.position = Vec3(0, 2, 0);
+    l.intensity = Vec3(5.0f);
+    s.lights = {l};
+    s.camera = Camera::lookAt(Vec3(0, 1, 3), Vec3(0), Vec3(0, 1, 0), 0.8f);
+    s.validate("small");
+    return s;
+}
+
 }  // namespace rtpm::testscenes

@@ -1,5 +1,6 @@
 // Edit scripts: grammar, errors naming the line, application to the live scene, animate presets.
 #include "server/edit_script.h"
+#include "tests/support/test_scenes.h"
 
 #include <gtest/gtest.h>
 
@@ -8,30 +9,6 @@
 namespace rtpm::server {
 namespace {
 
-// A tiny scene: one diffuse floor, one glass box, one point light.
-Scene tinyScene() {
-    Scene s;
-    s.name = "tiny";
-    Material floor;
-    floor.name = "floor";
-    Material glass;
-    glass.name = "glass";
-    glass.type = MaterialType::Dielectric;
-    s.materials = {floor, glass};
-    Mesh quad;
-    quad.positions = {{-1, 0, -1}, {1, 0, -1}, {1, 0, 1}, {-1, 0, 1}};
-    quad.indices = {0, 1, 2, 0, 2, 3};
-    Mesh box = quad;
-    box.material = 1;
-    for (Vec3& p : box.positions) p.y = 0.5f;
-    s.meshes = {quad, box};
-    s.instances = {Instance{"floor", 0, Mat4(1.0f)}, Instance{"glass", 1, Mat4(1.0f)}};
-    Light l;
-    l.position = Vec3(0, 2, 0);
-    s.lights = {l};
-    s.camera = Camera::lookAt(Vec3(0, 1, 3), Vec3(0), Vec3(0, 1, 0), 0.8f);
-    return s;
-}
 
 std::string errorOf(const std::string& text) {
     try {
@@ -123,7 +100,7 @@ TEST(EditScript, MalformedLinesNameTheLine) {
 }
 
 TEST(EditScript, AppliedEditsChangeOnlyWhatTheyMentionAndEmitProtocolEdits) {
-    LiveScene live(tinyScene());
+    LiveScene live(testscenes::floorAndGlassBox());
     std::vector<proto::SceneEdit> out;
     for (const ScriptEdit& e : parseEditScript("frame 1 light 0 intensity 2 3 4\n"
                                                "frame 1 material 1 ior 1.33\n"
@@ -146,7 +123,7 @@ TEST(EditScript, AppliedEditsChangeOnlyWhatTheyMentionAndEmitProtocolEdits) {
 }
 
 TEST(EditScript, EditsThatDoNotFitTheSceneNameTheLineAndChangeNothing) {
-    LiveScene live(tinyScene());
+    LiveScene live(testscenes::floorAndGlassBox());
     std::vector<proto::SceneEdit> out;
     auto bad = [&](const std::string& text, const std::string& needle) {
         try {
@@ -165,11 +142,11 @@ TEST(EditScript, EditsThatDoNotFitTheSceneNameTheLineAndChangeNothing) {
     bad("frame 1 light 0 direction 0 0 0", "direction is zero");
     bad("frame 1 light 0 intensity -1 0 0", ">= 0");
     EXPECT_TRUE(out.empty());
-    EXPECT_EQ(live.scene().materials[0].baseColor, tinyScene().materials[0].baseColor);
+    EXPECT_EQ(live.scene().materials[0].baseColor, testscenes::floorAndGlassBox().materials[0].baseColor);
 }
 
 TEST(EditScript, CameraEditsNeverProduceSceneEdits) {
-    LiveScene live(tinyScene());
+    LiveScene live(testscenes::floorAndGlassBox());
     std::vector<proto::SceneEdit> out;
     live.apply(parseEditScript("frame 1 camera eye 0 2 4 target 0 0 0", "s")[0], "s", out);
     EXPECT_TRUE(out.empty());
@@ -178,7 +155,7 @@ TEST(EditScript, CameraEditsNeverProduceSceneEdits) {
 }
 
 TEST(EditScript, CompactedEditsKeepTheLatestPerTarget) {
-    LiveScene live(tinyScene());
+    LiveScene live(testscenes::floorAndGlassBox());
     std::vector<proto::SceneEdit> out;
     for (const char* line : {"frame 1 light 0 position 1 1 1", "frame 2 material 1 ior 1.2",
                              "frame 3 light 0 position 2 2 2"})
@@ -189,7 +166,7 @@ TEST(EditScript, CompactedEditsKeepTheLatestPerTarget) {
 }
 
 TEST(Animate, PresetsEditWhatTheyPromise) {
-    Scene s = tinyScene();
+    Scene s = testscenes::floorAndGlassBox();
     for (Animation a : {Animation::Orbit, Animation::Light, Animation::Ior, Animation::Object})
         EXPECT_NO_THROW(checkAnimation(a, s));
     LiveScene live(s);
@@ -211,7 +188,7 @@ TEST(Animate, PresetsEditWhatTheyPromise) {
 }
 
 TEST(Animate, ScenesWithoutTheAnimatedThingAreRefusedClearly) {
-    Scene s = tinyScene();
+    Scene s = testscenes::floorAndGlassBox();
     s.materials[1].type = MaterialType::Diffuse;
     s.lights.clear();
     EXPECT_THROW(checkAnimation(Animation::Ior, s), std::invalid_argument);

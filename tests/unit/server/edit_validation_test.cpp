@@ -16,42 +16,17 @@
 #include "common/render/render_job.h"
 #include "proto/bridge/bridge.h"
 #include "server/edit_script.h"
+#include "tests/support/test_scenes.h"
 
 namespace rtpm::server {
 namespace {
 
 namespace fs = std::filesystem;
 
-// One floor quad, one glass box above it, one point light, a camera.
-Scene smallScene() {
-    Scene s;
-    s.name = "small";
-    Material floor;
-    floor.name = "floor";
-    Material glass;
-    glass.name = "glass";
-    glass.type = MaterialType::Dielectric;
-    s.materials = {floor, glass};
-    Mesh quad;
-    quad.positions = {{-1, 0, -1}, {1, 0, -1}, {1, 0, 1}, {-1, 0, 1}};
-    quad.indices = {0, 1, 2, 0, 2, 3};
-    Mesh box = quad;
-    box.material = 1;
-    for (Vec3& p : box.positions) p.y = 0.5f;
-    s.meshes = {quad, box};
-    s.instances = {Instance{"floor", 0, Mat4(1.0f)}, Instance{"glass", 1, Mat4(1.0f)}};
-    Light l;
-    l.position = Vec3(0, 2, 0);
-    l.intensity = Vec3(5.0f);
-    s.lights = {l};
-    s.camera = Camera::lookAt(Vec3(0, 1, 3), Vec3(0), Vec3(0, 1, 0), 0.8f);
-    s.validate("small");
-    return s;
-}
 
-// The server-side error for a one-line script applied to smallScene(), or "" if accepted.
+// The server-side error for a one-line script applied to floorAndGlassBox(), or "" if accepted.
 std::string serverError(const std::string& line) {
-    LiveScene live(smallScene());
+    LiveScene live(testscenes::floorAndGlassBox());
     std::vector<proto::SceneEdit> out;
     try {
         for (const ScriptEdit& e : parseEditScript(line, "edits.txt")) live.apply(e, "edits.txt", out);
@@ -117,8 +92,8 @@ TEST(EditValidation, WhatTheServerAcceptsEveryClientAccepts) {
                 break;
             }
         }
-        Scene clientScene = smallScene();
-        LiveScene live(smallScene());
+        Scene clientScene = testscenes::floorAndGlassBox();
+        LiveScene live(testscenes::floorAndGlassBox());
         std::vector<proto::SceneEdit> out;
         try {
             for (const ScriptEdit& e : parseEditScript(line, "x")) live.apply(e, "x", out);
@@ -140,7 +115,7 @@ TEST(EditValidation, RenderJobRefusesWhatEmbreeMustNotSee) {
     rs.width = 8;
     rs.height = 8;
     rs.interleave = 1;
-    RenderJob job(smallScene(), rs, {0});
+    RenderJob job(testscenes::floorAndGlassBox(), rs, {0});
     SceneEdit zero;
     zero.kind = SceneEdit::Kind::Transform;
     zero.index = 1;
@@ -156,14 +131,14 @@ TEST(EditValidation, RenderJobRefusesWhatEmbreeMustNotSee) {
     EXPECT_THROW(job.applyEdit(light), SceneError);
     EXPECT_EQ(job.scene().instances[1].transform, Mat4(1.0f));  // nothing changed
     // And the client's camera conversion refuses the eye that aborted Embree.
-    proto::CameraState far = bridge::toWire(*smallScene().camera);
+    proto::CameraState far = bridge::toWire(*testscenes::floorAndGlassBox().camera);
     far.position = {1e38f, 0.0f, 0.0f};
     EXPECT_THROW(client::toCamera(far), client::ProtocolViolation);
 }
 
 TEST(EditValidation, AnimationStatesBeyondTheRulesAreRefusedAtStartUp) {
     // A light near the edge of the world: --animate light circles it out of bounds.
-    Scene s = smallScene();
+    Scene s = testscenes::floorAndGlassBox();
     for (Mesh& m : s.meshes)
         for (Vec3& p : m.positions) p *= Vec3(9e8f, 1.0f, 9e8f);
     s.lights[0].position = Vec3(0.0f, 2.0f, 9.9e8f);
@@ -172,7 +147,7 @@ TEST(EditValidation, AnimationStatesBeyondTheRulesAreRefusedAtStartUp) {
     EXPECT_THROW(checkAnimation(Animation::Light, s), SceneError);
     // An ordinary scene animates through every state of every preset.
     for (Animation a : {Animation::Orbit, Animation::Light, Animation::Ior, Animation::Object})
-        EXPECT_NO_THROW(checkAnimation(a, smallScene()));
+        EXPECT_NO_THROW(checkAnimation(a, testscenes::floorAndGlassBox()));
 }
 
 long maxRssKb() {
