@@ -26,6 +26,7 @@ public:
 private:
     void* handle_ = nullptr;
     int quality_;
+    std::string scratch_;  ///< TurboJPEG's output, kept at its worst-case size (see encodeInto)
 };
 
 }  // namespace rtpm::server
