@@ -179,6 +179,7 @@ struct PhotonMaps::LightPlan {
 struct PhotonMaps::SetState {
     uint32_t set = 0;
     std::optional<PhotonIndex> index;  // created at the first batch after a reset
+    PhotonOccupancy occupancy{0.0f};   // of `index`'s photons, radius rMax (with `index`)
     std::optional<KdTree> pass;        // the last progressive pass's photons alone
     std::vector<Photon> pending;       // passes' photons not yet in `index` (flushPasses)
     PhotonSetStats stats;
@@ -387,6 +388,7 @@ std::vector<Photon> PhotonMaps::traceBatch(const EmbreeScene& scene, SetState& s
     prepare(scene);
     if (!st->index) {
         st->index.emplace(settings_.tree, scene.bounds());
+        st->occupancy = PhotonOccupancy(rMax_);
         const std::vector<uint32_t> budget = splitBudget(emitters_, settings_.photonsPerBatch);
         st->lights.clear();
         for (size_t l = 0; l < emitters_.size(); ++l)
@@ -460,6 +462,7 @@ void PhotonMaps::insertBatch(SetState& state, std::vector<Photon> batch) {
     PhotonSetStats& stats = st->stats;
     const Clock::time_point t0 = Clock::now();
     st->index->insert(batch, settings_.k, rMax_);
+    st->occupancy.insert(batch);
     stats.photonsStored = st->index->size();
     stats.insertSeconds += std::chrono::duration<double>(Clock::now() - t0).count();
     stats.batches += 1;
@@ -470,21 +473,32 @@ void PhotonMaps::insertBatch(SetState& state, std::vector<Photon> batch) {
 }
 
 Vec3 PhotonMaps::radiance(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
-                          Vec3 normal, Vec3 albedo) const {
+                          Vec3 normal, Vec3 albedo, GatherHint* hint) const {
     const SetState* st = find(set);
     if (!st || st->stats.batches == 0 || !st->index) return Vec3(0.0f);
+    // No photon within rMax: the gather would find nothing (radiance 0), so skip its descent.
+    if (!st->occupancy.mayHaveWithin(hit.position)) {
+        if (hint) hint->radius2 = 0.0f;
+        return Vec3(0.0f);
+    }
     thread_local KnnHeap heap;
     const float scale = powerUnit_ / static_cast<float>(st->stats.batches);
     const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
-    return st->index->visit([&](const auto& index) {
-        return causticRadianceIf(index, hit.position, normal, albedo, settings_.k, rMax_, scale, heap, visible);
+    // A guess 1.25 × the neighbour's r² (1.12 × r): measured on RING, 1.1–1.5 all gave the same
+    // saving; too tight a guess costs a second search.
+    const float guess2 = hint ? 1.25f * hint->radius2 : 0.0f;
+    const DensityGather g = st->index->visit([&](const auto& index) {
+        return gatherKnn(index, hit.position, normal, settings_.k, rMax_, heap, visible, guess2);
     });
+    if (hint) hint->radius2 = g.radius2;
+    return causticRadianceFrom(g, albedo, scale);
 }
 
 DensityGather PhotonMaps::gatherMap(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
                                     Vec3 normal) const {
     const SetState* st = find(set);
     if (!st || st->stats.batches == 0 || !st->index) return {};
+    if (!st->occupancy.mayHaveWithin(hit.position)) return {};  // nothing within rMax
     thread_local KnnHeap heap;
     const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
     DensityGather g = st->index->visit([&](const auto& index) {

@@ -11,6 +11,7 @@
 #include "common/trace/caustic_estimator.h"
 #include "common/photon/density.h"
 #include "common/photon/photon_index.h"
+#include "common/photon/photon_occupancy.h"
 #include "common/photon/photon_tracer.h"
 
 namespace rtpm {
@@ -102,8 +103,11 @@ public:
     /// `normal` are ignored). `scene` is the one the photons were shot in; it is read only with
     /// settings().gatherVisibility (one shadow ray per gathered photon). Zero for a set that is
     /// not owned or has no batch yet. Thread-safe; a thread_local heap avoids allocation.
+    /// With a `hint`, the k-NN search first tries a bound of 1.25 × the hint's r² (density.h
+    /// gatherKnn's guess: same result, found sooner when neighbouring pixels see similar
+    /// densities) and leaves this estimate's r² in it.
     Vec3 radiance(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
-                  Vec3 albedo) const override;
+                  Vec3 albedo, GatherHint* hint = nullptr) const override;
 
     /// The k-NN gather `radiance` makes, unconverted: power in W per batch (Σ stored power ×
     /// powerUnit() / batches), r_k² and the photon count. Empty (radius2 = 0) when nothing can

@@ -8,16 +8,25 @@
 
 namespace rtpm {
 
+/// What one caustic query leaves for the next one nearby: the squared radius of its estimate
+/// (0 = none). The eye pass keeps one per image row and resets it at the row's start, so the
+/// hints a query sees do not depend on the thread count or the set split.
+struct GatherHint {
+    float radius2 = 0.0f;
+};
+
 /// Caustic radiance at a diffuse hit of `scene` from the photon map of interleaving set `set`.
 /// `normal` is the shading normal facing the viewer; `albedo` the diffuse reflectance there.
 /// `scene` is passed on every call (an estimator keeps no scene of its own) for estimators that
 /// cast rays, e.g. a visibility test per gathered photon.
+/// `hint` (optional) carries a neighbouring query's radius in and this one's out; an estimator may
+/// use it to search faster but must return what it returns without it.
 /// Must be thread-safe (called from many TBB threads at once).
 class CausticEstimator {
 public:
     virtual ~CausticEstimator() = default;
     virtual Vec3 radiance(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
-                         Vec3 albedo) const = 0;
+                         Vec3 albedo, GatherHint* hint = nullptr) const = 0;
 };
 
 }  // namespace rtpm

@@ -12,9 +12,16 @@
 //   media are modelled as separate closed surfaces (liquid inside glass), each handled this way.
 // * Shadow rays are blocked by every surface, dielectrics included: light focused or refracted by
 //   glass is caustic light and comes from the photon map, never from the direct term.
-// * Area lights (emissive triangles): with at most kMaxTrianglesSampledEach triangles, each gets
-//   `areaLightSamples` stratified samples (a Cranley–Patterson rotated Hammersley set). With more,
-//   a fixed total of kMaxTrianglesSampledEach·areaLightSamples samples picks triangles in
+// * Area lights (emissive triangles): the sample budget is N_max = areaLightSamples per triangle
+//   with at most kMaxTrianglesSampledEach triangles, else kMaxTrianglesSampledEach·areaLightSamples
+//   in total. A shading point takes N = clamp(⌈Ω / kSolidAnglePerSample⌉, 1, N_max) samples,
+//   where Ω = π R² / max(d², R²) bounds the solid angle of the emitters' bounding sphere (centre
+//   c, radius R; d = |x − c|): a small or far light is nearly a point and one shadow ray resolves
+//   it (RING's 10 cm lamp at 2 m: Ω ≈ 0.003 sr, N = 1 instead of 8; HEADLIGHT's filament: 1
+//   instead of up to 48), a near, large one keeps the full budget (the Cornell box lamp from its
+//   floor: Ω ≈ 0.1 sr, N = 8). Still views refine the estimate over passes (AreaLightSampler).
+//   With N = N_max and few triangles, each triangle gets `areaLightSamples` stratified samples (a
+//   Cranley–Patterson rotated Hammersley set); otherwise the N samples pick triangles in
 //   proportion to their power (area × radiance sum) through a stratified CDF inversion, so the
 //   cost per pixel stays bounded for finely tessellated emitters.
 // * Sample rotations are hashed from the pixel's image coordinates and the path vertex number,
@@ -49,6 +56,8 @@ namespace {
 
 constexpr float kMinThroughput = 1e-3f;
 constexpr int kMaxTrianglesSampledEach = 16;
+/// Solid angle (sr) of emitter one shadow sample stands for (a cone of half-angle ≈ 3.2°).
+constexpr float kSolidAnglePerSample = 0.01f;
 constexpr int kStackSize = 64;
 
 
@@ -65,9 +74,11 @@ struct Context {
     const CausticEstimator* caustics;
     int set;
     int areaSamples;
-    bool sampleEach;          // every emissive triangle gets areaSamples samples
-    int totalAreaSamples;     // power-proportional mode
-    std::vector<float> cdf;   // power-proportional mode: cumulative, last = 1
+    bool sampleEach;          // few triangles: at the full budget each gets areaSamples samples
+    int maxAreaSamples;       // N_max, the budget at the full solid angle
+    std::vector<float> cdf;   // power-proportional selection: cumulative, last = 1
+    Vec3 emitterCentre{0.0f}; // bounding sphere of the emissive triangles
+    float emitterRadius2 = 0.0f;
 };
 
 struct Counters {
@@ -79,9 +90,19 @@ Context makeContext(const EmbreeScene& scene, const EyeSettings& settings,
     Context ctx{scene, scene.scene(), settings, caustics, set, std::max(1, settings.areaLightSamples),
                 true, 0, {}};
     const auto& tris = scene.emissiveTriangles();
-    if (int(tris.size()) > kMaxTrianglesSampledEach) {
-        ctx.sampleEach = false;
-        ctx.totalAreaSamples = kMaxTrianglesSampledEach * ctx.areaSamples;
+    ctx.sampleEach = int(tris.size()) <= kMaxTrianglesSampledEach;
+    ctx.maxAreaSamples = ctx.areaSamples * (ctx.sampleEach ? int(tris.size()) : kMaxTrianglesSampledEach);
+    if (!tris.empty()) {
+        Bounds b;
+        for (const EmissiveTriangle& e : tris) {
+            b.extend(e.p0);
+            b.extend(e.p1);
+            b.extend(e.p2);
+        }
+        ctx.emitterCentre = 0.5f * (b.lo + b.hi);
+        const Vec3 half = 0.5f * (b.hi - b.lo);
+        ctx.emitterRadius2 = glm::dot(half, half);
+        if (!std::isfinite(ctx.emitterRadius2)) ctx.emitterRadius2 = std::numeric_limits<float>::infinity();
         ctx.cdf.resize(tris.size());
         double acc = 0.0;
         for (size_t i = 0; i < tris.size(); ++i) {
@@ -182,7 +203,18 @@ Vec3 areaLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 
         if (++pending == 8) flush();
     };
 
-    if (ctx.sampleEach) {
+    // N from the solid angle the emitters' bounding sphere subtends (file comment); a point
+    // inside the sphere (or a degenerate one) keeps the full budget.
+    int budget = ctx.maxAreaSamples;
+    {
+        const Vec3 dc = hit.position - ctx.emitterCentre;
+        const float d2 = glm::dot(dc, dc);
+        if (d2 > ctx.emitterRadius2 && std::isfinite(d2)) {
+            const float omega = kPi * ctx.emitterRadius2 / d2;
+            budget = std::clamp(int(std::ceil(omega / kSolidAnglePerSample)), 1, ctx.maxAreaSamples);
+        }
+    }
+    if (ctx.sampleEach && budget == ctx.maxAreaSamples) {
         const int ns = ctx.areaSamples;
         for (const EmissiveTriangle& e : tris) {
             const float weight = e.area / float(ns);
@@ -191,7 +223,7 @@ Vec3 areaLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 
                                wrap01(static_cast<float>(radicalInverseBase2(uint64_t(k))) + rot[1]), weight);
         }
     } else {
-        const int ns = ctx.totalAreaSamples;
+        const int ns = budget;
         for (int k = 0; k < ns; ++k) {
             const float uSel = wrap01((float(k) + 0.5f) / float(ns) + rot[0]);
             const size_t t = std::min<size_t>(
@@ -227,7 +259,7 @@ struct PathState {
 /// the pixel's direct value leaves out their area-light term (EyeHit::areaDirect holds it) and
 /// no caustic is looked up.
 PixelRadiance shadePixel(const Context& ctx, int x, int y, int width, const Camera& camera,
-                         int height, PathState* stack, Counters& count,
+                         int height, PathState* stack, Counters& count, GatherHint& hint,
                          std::vector<EyeHit>* hits = nullptr, uint32_t pixel = 0) {
     const EmbreeScene& es = ctx.es;
     const Scene& scene = ctx.scene;
@@ -291,7 +323,7 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, int width, const Came
                 }
                 result.direct += throughput * directLight(ctx, hit, ns, ng, albedo, rot, count);
                 if (ctx.caustics)
-                    result.caustic += throughput * ctx.caustics->radiance(es, uint32_t(ctx.set), hit, ns, albedo);
+                    result.caustic += throughput * ctx.caustics->radiance(es, uint32_t(ctx.set), hit, ns, albedo, &hint);
             };
 
             if (mat.type == MaterialType::Diffuse) {
@@ -382,13 +414,15 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
     tbb::parallel_for(tbb::blocked_range<int>(0, rows), [&](const tbb::blocked_range<int>& range) {
         Counters count;
         std::vector<PathState> stack(kStackSize);
-        for (int r = range.begin(); r < range.end(); ++r)
+        for (int r = range.begin(); r < range.end(); ++r) {
+            GatherHint hint;  // per row: what a pixel's neighbours hint does not depend on threads
             for (int c = 0; c < cols; ++c) {
                 const int n = r * cols + c;
                 out[size_t(n)] = shadePixel(ctx, pattern.pixelX(set, n), pattern.pixelY(set, n),
                                             pattern.width, camera, pattern.height, stack.data(), count,
-                                            records ? &rowHits[size_t(r)] : nullptr, uint32_t(n));
+                                            hint, records ? &rowHits[size_t(r)] : nullptr, uint32_t(n));
             }
+        }
         primary += count.primary;
         secondary += count.secondary;
         shadow += count.shadow;

@@ -111,7 +111,8 @@ TEST(PhotonMaps, TreeVariantsGiveTheSameCausticEstimates) {
     const Vec3 up(0.0f, 1.0f, 0.0f);
     const uint32_t k = maps[0]->settings().k;
     const float rMax = maps[0]->gatherRadius();
-    size_t nonZero = 0;
+    size_t nonZero = 0, hinted = 0;
+    std::vector<GatherHint> hints(maps.size());  // carried from query to query, as along a row
     for (const Vec3& q : queries) {
         const Gathered a = gather(*maps[0]->index<KdTree>(0), q, up, k, rMax);
         const Gathered b = gather(*maps[1]->index<MedianKdTree>(0), q, up, k, rMax);
@@ -126,6 +127,13 @@ TEST(PhotonMaps, TreeVariantsGiveTheSameCausticEstimates) {
         hit.geometricNormal = hit.shadingNormal = up;
         const Vec3 la = maps[0]->radiance(es, 0, hit, up, Vec3(0.5f));
         nonZero += la.x > 0.0f;
+        // A hint only speeds the search up: the same photons (summed in another order).
+        for (size_t v = 0; v < maps.size(); ++v) {
+            hinted += hints[v].radius2 > 0.0f;
+            const Vec3 lh = maps[v]->radiance(es, 0, hit, up, Vec3(0.5f), &hints[v]);
+            for (int ch = 0; ch < 3; ++ch)
+                ASSERT_NEAR(lh[ch], la[ch], 1e-5f * la[ch] + 1e-30f) << "hinted " << photonTreeName(variants[v]);
+        }
         for (size_t v = 1; v < maps.size(); ++v) {
             const Vec3 lv = maps[v]->radiance(es, 0, hit, up, Vec3(0.5f));
             // Same photons, summed in another order (and ties at the k-th distance carry the
@@ -135,6 +143,7 @@ TEST(PhotonMaps, TreeVariantsGiveTheSameCausticEstimates) {
         }
     }
     EXPECT_GT(nonZero, queries.size() / 2);
+    EXPECT_GT(hinted, queries.size());  // most queries ran with a guess
 }
 
 // Scaling the light by 2^±40 scales the power unit by exactly that, so the stored codes are

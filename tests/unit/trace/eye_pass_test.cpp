@@ -193,7 +193,8 @@ TEST(EyePass, MirrorReflectsThePlane) {
 /// Returns a constant caustic radiance, scaled by the albedo to show it is passed through.
 class ConstantCaustics : public CausticEstimator {
 public:
-    Vec3 radiance(const EmbreeScene&, uint32_t, const SurfaceHit&, Vec3 normal, Vec3 albedo) const override {
+    Vec3 radiance(const EmbreeScene&, uint32_t, const SurfaceHit&, Vec3 normal, Vec3 albedo,
+                  GatherHint*) const override {
         EXPECT_NEAR(glm::length(normal), 1.0f, 1e-4f);
         return Vec3(2.0f) * albedo;
     }
@@ -276,26 +277,35 @@ double cornerIrradiance(double a, double b, double c) {
                   y / std::sqrt(1 + y * y) * std::atan(x / std::sqrt(1 + y * y)));
 }
 
-void checkAreaLight(int tessellation, int samples, float tolerance) {
-    const Vec3 rho(0.5f);
+/// The floor scene under a `size` × `size` m emitter of radiance 4 at `height`, facing down,
+/// split into tessellation² quads.
+Scene floorUnderSquareEmitter(Vec3 rho, int tessellation, float size, float height) {
     Scene s = floorScene(rho);
     Material light;
     light.baseColor = Vec3(0.0f);
     light.emission = Vec3(4.0f);
     s.materials.push_back(light);
-    // A 1 × 1 m emitter at height 1.5 facing down, split into tessellation² quads.
     Mesh m;
     m.material = 1;
     const int n = tessellation;
     for (int j = 0; j <= n; ++j)
         for (int i = 0; i <= n; ++i)
-            m.positions.push_back(Vec3(-0.5f + float(i) / float(n), -0.5f + float(j) / float(n), 1.5f));
+            m.positions.push_back(Vec3(size * (-0.5f + float(i) / float(n)),
+                                       size * (-0.5f + float(j) / float(n)), height));
     for (int j = 0; j < n; ++j)
         for (int i = 0; i < n; ++i) {
             const uint32_t a = uint32_t(j * (n + 1) + i), b = a + 1, c = a + uint32_t(n + 1), d = c + 1;
             m.indices.insert(m.indices.end(), {a, c, b, b, c, d});  // clockwise from above: faces −z
         }
     addMesh(s, m);
+    return s;
+}
+
+void checkAreaLight(int tessellation, int samples, float tolerance) {
+    const Vec3 rho(0.5f);
+    // A 1 × 1 m emitter at height 1.5 facing down, split into tessellation² quads.
+    const Scene s = floorUnderSquareEmitter(rho, tessellation, 1.0f, 1.5f);
+    const int n = tessellation;
     EmbreeScene es(s);
     ASSERT_EQ(es.emissiveTriangles().size(), size_t(2 * n * n));
     ASSERT_LT(es.emissiveTriangles()[0].normal.z, 0.0f);
@@ -316,6 +326,36 @@ void checkAreaLight(int tessellation, int samples, float tolerance) {
 TEST(EyePass, AreaLightMatchesRectangleFormFactorSampledPerTriangle) { checkAreaLight(1, 16, 0.005f); }
 
 TEST(EyePass, AreaLightMatchesRectangleFormFactorSampledByPower) { checkAreaLight(8, 16, 0.01f); }
+
+// The sample count follows the emitters' solid angle: a 10 cm lamp 2 m above the floor (Ω ≈
+// 0.004 sr) takes one shadow ray per pixel instead of areaLightSamples per triangle, and the
+// mean over pixels (each with its own rotation) is still the analytic irradiance; a large near
+// lamp keeps the full budget.
+TEST(EyePass, AreaLightSampleCountFollowsTheSolidAngle) {
+    const Vec3 rho(0.5f);
+    const Camera cam = Camera::lookAt(Vec3(0, 0, 1.0f), Vec3(0, 0, 0), Vec3(0, 1, 0), 0.002f);
+    EyeSettings settings;
+    settings.areaLightSamples = 4;
+    {
+        EmbreeScene es(floorUnderSquareEmitter(rho, 1, 0.1f, 2.0f));
+        EyeStats stats;
+        const auto img = render(es, cam, 16, 16, settings, nullptr, &stats);
+        EXPECT_EQ(stats.shadowRays, 256u);  // one per pixel, not 2 triangles × 4
+        Vec3 mean(0.0f);
+        for (const auto& p : img) mean += p.direct / float(img.size());
+        const double e = 4.0 * cornerIrradiance(0.05, 0.05, 2.0);
+        const float expected = float(4.0 * e * 0.5 / kPi);
+        EXPECT_NEAR(mean.x, expected, 0.01f * expected);
+        for (const auto& p : img) EXPECT_NEAR(p.direct.x, expected, 0.05f * expected);
+    }
+    {
+        EmbreeScene es(floorUnderSquareEmitter(rho, 1, 1.0f, 1.0f));  // Ω ≈ 1.6 sr
+        EyeStats stats;
+        const Camera low = Camera::lookAt(Vec3(0, 0, 0.5f), Vec3(0, 0, 0), Vec3(0, 1, 0), 0.002f);
+        render(es, low, 16, 16, settings, nullptr, &stats);
+        EXPECT_EQ(stats.shadowRays, 256u * 8u);
+    }
+}
 
 TEST(EyePass, EmitterSeenDirectlyOnlyFromTheFront) {
     Scene s;
