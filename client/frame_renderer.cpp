@@ -1,5 +1,7 @@
 // FrameRenderer: the client's scene, settings, edits and per-set-group RenderJobs, no sockets.
 #include "client/frame_renderer.h"
+
+#include <tbb/parallel_for.h>
 #include "common/core/strings.h"
 
 #include <algorithm>
@@ -197,20 +199,22 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
 
     const auto te = std::chrono::steady_clock::now();
     const Interleave pattern{settings_.width, settings_.height, settings_.interleave};
-    for (uint32_t s : fb.sets) {
+    // Sets encode in parallel (one task each, in FrameBegin order in `out.data`).
+    out.data.resize(fb.sets.size());
+    tbb::parallel_for(size_t(0), fb.sets.size(), [&](size_t i) {
+        const uint32_t s = fb.sets[i];
         const SetPixels* sp = bySet[s];
         RTPM_CHECK(sp != nullptr && sp->pixels.size() == size_t(pattern.pixelCount(int(s))));
         // Encoded straight from the renderer's buffer (no intermediate copy).
         proto::EncodedPixels enc = proto::encodePixels(bridge::pixelView(std::span(sp->pixels)), wire_->encoding);
-        proto::FrameData fd;
+        proto::FrameData& fd = out.data[i];
         fd.frame = fb.frame;
         fd.set = s;
         fd.encoding = enc.encoding;
         fd.pixelCount = uint32_t(sp->pixels.size());
         fd.pixels = std::move(enc.bytes);
         fd.passes = sp->passes;
-        out.data.push_back(std::move(fd));
-    }
+    });
     encodeMs = msSince(te);
 
     uint64_t memory = 0;

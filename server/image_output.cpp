@@ -26,7 +26,8 @@ ImageOutput::ImageOutput(ImageOutputOptions options)
         if (!csv_) throw std::runtime_error("cannot open " + opt_.csv);
         if (fresh)
             std::fprintf(csv_, "frame,fps,photons_per_set,mode,bytes,slowest_client,slowest_ms,sets_arrived,"
-                               "sets_total,deadline_hit,master_ms\n");
+                               "sets_total,deadline_hit,master_ms,slowest_photon_ms,slowest_eye_ms,"
+                               "slowest_encode_ms\n");
     }
     thread_ = std::thread([this] { io_.run(); });
 }
@@ -126,10 +127,11 @@ OutputResult ImageOutput::process(OutputJob& job) {
         std::fflush(stdout);
     }
     if (csv_) {
-        std::fprintf(csv_, "%llu,%.3f,%.1f,%s,%llu,%s,%.3f,%zu,%u,%d,%.3f\n", (unsigned long long)job.frame,
-                     job.fps, job.photonsPerSet, proto::frameModeName(job.mode), (unsigned long long)job.bytes,
-                     job.slowest.c_str(), job.slowestMs, job.arrived, job.setCount, job.deadlineHit ? 1 : 0,
-                     result.masterMs);
+        std::fprintf(csv_, "%llu,%.3f,%.1f,%s,%llu,%s,%.3f,%zu,%u,%d,%.3f,%.3f,%.3f,%.3f\n",
+                     (unsigned long long)job.frame, job.fps, job.photonsPerSet, proto::frameModeName(job.mode),
+                     (unsigned long long)job.bytes, job.slowest.c_str(), job.slowestMs, job.arrived,
+                     job.setCount, job.deadlineHit ? 1 : 0, result.masterMs, job.slowestPhotonMs,
+                     job.slowestEyeMs, job.slowestEncodeMs);
         std::fflush(csv_);
     }
     return result;

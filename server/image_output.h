@@ -39,6 +39,8 @@ struct OutputJob {
     double photonsPerSet = 0.0;
     std::string slowest;
     float slowestMs = 0.0f;
+    /// The slowest client's split of its frame: shooting + insertion, eye pass, encoding (ms).
+    float slowestPhotonMs = 0.0f, slowestEyeMs = 0.0f, slowestEncodeMs = 0.0f;
     size_t arrived = 0;
     uint32_t setCount = 0;
     bool deadlineHit = false;

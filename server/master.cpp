@@ -974,6 +974,9 @@ struct Master::Impl : net::ConnectionHandler {
         job.photonsPerSet = info.setsReported ? double(info.photonsStored) / double(info.setsReported) : 0.0;
         job.slowest = info.slowest;
         job.slowestMs = std::max(0.0f, info.slowestMs);
+        job.slowestPhotonMs = info.slowestStats.photonMs;
+        job.slowestEyeMs = info.slowestStats.renderMs;
+        job.slowestEncodeMs = info.slowestStats.encodeMs;
         job.arrived = r.arrived.size();
         job.setCount = setCount;
         job.deadlineHit = r.deadlineHit;

@@ -65,9 +65,10 @@ struct PassGather {
 /// Read photon powers in W through powerWatts() / storedPowerPerBatch(), never powerRgb().
 /// A batch runs in four stages per light: plan (the Halton indices and path power; SPT chooses
 /// them from the previous batch's outcomes), trace, weight (SPT refinement shares) and insert.
-/// Thread safety: `radiance` may be called concurrently; `shootBatch`, `reset` must not overlap
-/// any other call. `shootBatch` itself runs in parallel (TBB) and its result does not depend on
-/// the thread count.
+/// Thread safety: `radiance` may be called concurrently; after `prepare(scene)`, shootBatch,
+/// shootPass and flushPasses of *different* sets may run concurrently with each other; `reset`
+/// and `prepare` must not overlap any other call. `shootBatch` itself runs in parallel (TBB)
+/// and its result does not depend on the thread count.
 class PhotonMaps : public CausticEstimator {
 public:
     /// `ownedSets`: interleaving set ids this process renders (distinct).
@@ -152,6 +153,10 @@ public:
     /// Gather radius in use (metres): settings.rMax or the automatic one of the last scene.
     float gatherRadius() const { return rMax_; }
 
+    /// Emitters, gather radius and power unit from `scene`, once after a reset (later calls do
+    /// nothing). The first batch calls it; call it first to shoot several sets concurrently.
+    void prepare(const EmbreeScene& scene);
+
 private:
     struct LightSequence;
     struct LightPlan;
@@ -164,8 +169,6 @@ private:
     std::vector<Photon> traceBatch(const EmbreeScene& scene, SetState& state);
     /// Insert stage: the batch into the set's map; updates the count and the cap.
     void insertBatch(SetState& state, std::vector<Photon> batch);
-    /// First batch after a reset: emitters, gather radius and power unit from `scene`.
-    void prepare(const EmbreeScene& scene);
     /// Plan stage, first SPT batch only: traces one pilot period (not stored) to choose the
     /// refine set; adds its cost to `traced`.
     void probeRefineSet(const EmbreeScene& scene, const TraceSettings& ts, const PhotonSource& source,

@@ -1,6 +1,8 @@
 // RenderJob: per frame, shoot a photon batch per owned set, then trace that set's pixels.
 #include "common/render/render_job.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstring>
@@ -51,14 +53,18 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
     for (size_t i = 0; i < sets_.size(); ++i)
         converge[i] = progressive && shoot && progressive_[i].valid() &&
                       sameCamera(progressive_[i].camera(), camera);
-    for (size_t i = 0; i < sets_.size(); ++i) {
+    // Sets shoot and insert concurrently (a batch's tracing is parallel inside, its kd-tree
+    // insertion is not: with several sets per process both cores stay busy through insertion).
+    // Each set's photons depend only on its own sequence, so the maps are the same in any order.
+    if (shoot) photons_->prepare(*embree_);
+    tbb::parallel_for(size_t(0), sets_.size(), [&](size_t i) {
         if (converge[i])
             photons_->shootPass(*embree_, sets_[i]);
         else if (shoot)
             photons_->shootBatch(*embree_, sets_[i]);  // flushes the ended progression's passes
         else
             photons_->flushPasses(sets_[i]);
-    }
+    });
     stats.shootSeconds = secondsSince(t0);
 
     const auto t1 = std::chrono::steady_clock::now();

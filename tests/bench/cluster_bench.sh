@@ -238,7 +238,8 @@ procCpu() {
 clk=$(getconf CLK_TCK)
 
 # run_case CLIENTS SCENE W H MODE: one cluster run (in this shell, so `times` sees it); sets
-# result="fps|cpu_s_per_frame|photons_total|analytic_mae|analytic_energy|self_rmse|frames|incomplete|last_mode".
+# result="fps|cpu_s_per_frame|photons_total|analytic_mae|analytic_energy|self_rmse|frames|incomplete|last_mode|split"
+# (split: the slowest client's photon / eye / encode ms and the master's ms per frame).
 run_case() {
     local n=$1 scene=$2 w=$3 h=$4 mode=$5
     local csv=$work/run.csv out=$work/run.exr cpu0 cpu1 args
@@ -263,15 +264,19 @@ run_case() {
     wait_cluster || return 1
     childCpu "$work/times" >"$work/cpu1"
     cpu1=$(cat "$work/cpu1")
-    local fps cpuf ph nf inc lastMode err
-    # CSV: frame,fps,photons_per_set,mode,bytes,slowest_client,slowest_ms,sets_arrived,sets,deadline,master_ms
-    IFS='|' read -r fps cpuf ph nf inc lastMode < <(awk -F, -v c0="$cpu0" -v c1="$cpu1" -v a0="$at0" '
+    local fps cpuf ph nf inc lastMode split err
+    # CSV: frame,fps,photons_per_set,mode,bytes,slowest_client,slowest_ms,sets_arrived,sets,deadline,
+    # master_ms,slowest_photon_ms,slowest_eye_ms,slowest_encode_ms. The split is the mean over the
+    # frames after the first (the ones the CPU column covers).
+    IFS='|' read -r fps cpuf ph nf inc lastMode split < <(awk -F, -v c0="$cpu0" -v c1="$cpu1" -v a0="$at0" '
         NR == 1 { next }
         { n++; fps = $2; ph = $3 * $9; mode = $4; inc += ($8 < $9) }
+        NR > 2 { m++; sp += $12; se += $13; sc += $14; sm += $11 }
         END { cf = a0 == "" || n < 2 ? "n/a" : sprintf("%.2f", (c1 - c0 - a0) / (n - 1))
-              printf "%.3f|%s|%.0f|%d|%d|%s\n", fps, cf, ph, n, inc, mode }' "$csv")
+              sl = m ? sprintf("%.0f / %.0f / %.1f / %.0f", sp / m, se / m, sc / m, sm / m) : "n/a"
+              printf "%.3f|%s|%.0f|%d|%d|%s|%s\n", fps, cf, ph, n, inc, mode, sl }' "$csv")
     err=$(error "$out" "$scene" "$w" "$h")
-    result="$fps|$cpuf|$ph|$err|$nf|$inc|$lastMode"
+    result="$fps|$cpuf|$ph|$err|$nf|$inc|$lastMode|$split"
 }
 
 make_refs() {
@@ -308,17 +313,17 @@ scaling() {
     echo "N = 4 oversubscribes the machine. Interaction: $frames frames of P = 20 000 paths/set;"
     echo "walkthrough: --walkthrough, frame 0 shoots $walkPhotons paths/set, $((walkFrames - 1)) walkthrough frames."
     echo
-    echo "| scene | estimator | mode | clients | fps | fps / fps(1 client) | cpu s/frame | cpu / cpu(1 client) | fps bound | photons (all sets) | caustic rel. MAE vs analytic | caustic energy vs analytic | caustic rel. RMSE vs self-rendered k-NN ref. | frames (incomplete) |"
-    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    echo "| scene | estimator | mode | clients | fps | fps / fps(1 client) | cpu s/frame | cpu / cpu(1 client) | fps bound | photons (all sets) | caustic rel. MAE vs analytic | caustic energy vs analytic | caustic rel. RMSE vs self-rendered k-NN ref. | frames (incomplete) | ms/frame: photons / eye / encode (slowest client) / master |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     local scene mode n r base cbase
     for scene in $scenes; do
         for mode in interaction walkthrough; do
             base="" cbase=""
             for n in $clientCounts; do
-                run_case "$n" "$scene" "$sw" "$sh" "$mode" && r=$result || { echo "| $scene | $estimator | $mode | $n | failed | | | | | | | | | |"; continue; }
-                IFS='|' read -r fps cpuf ph mae energy rmse nf inc lastMode <<<"$r"
+                run_case "$n" "$scene" "$sw" "$sh" "$mode" && r=$result || { echo "| $scene | $estimator | $mode | $n | failed | | | | | | | | | | |"; continue; }
+                IFS='|' read -r fps cpuf ph mae energy rmse nf inc lastMode split <<<"$r"
                 [[ -z $base ]] && base=$fps cbase=$cpuf
-                echo "| $scene | $estimator | $mode | $n | $fps | $(ratio "$fps" "$base") | $cpuf | $(ratio "$cpuf" "$cbase") | $(bound "$cpuf") | $ph | $mae | $energy | $rmse | $nf ($inc) |"
+                echo "| $scene | $estimator | $mode | $n | $fps | $(ratio "$fps" "$base") | $cpuf | $(ratio "$cpuf" "$cbase") | $(bound "$cpuf") | $ph | $mae | $energy | $rmse | $nf ($inc) | $split |"
                 echo "  [$(date +%T) load$(uptime | sed 's/.*load average://')] $scene $mode $n: $r" >&2
             done
         done
@@ -329,18 +334,18 @@ scaling() {
 resolution() {
     echo "### fps vs resolution, $resClients clients, estimator $estimator (paper Table 7)"
     echo
-    echo "| scene | estimator | mode | resolution | fps | px/s ÷ px/s at first size | cpu s/frame | cpu µs/px | fps bound | photons (all sets) | caustic rel. MAE vs analytic | caustic energy vs analytic | caustic rel. RMSE vs self-rendered k-NN ref. | frames (incomplete) |"
-    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    echo "| scene | estimator | mode | resolution | fps | px/s ÷ px/s at first size | cpu s/frame | cpu µs/px | fps bound | photons (all sets) | caustic rel. MAE vs analytic | caustic energy vs analytic | caustic rel. RMSE vs self-rendered k-NN ref. | frames (incomplete) | ms/frame: photons / eye / encode (slowest client) / master |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     local scene mode size w h r base
     for scene in $scenes; do
         for mode in $resModes; do
             base=""
             for size in $sizes; do
                 w=${size%x*} h=${size#*x}
-                run_case "$resClients" "$scene" "$w" "$h" "$mode" && r=$result || { echo "| $scene | $estimator | $mode | $size | failed | | | | | | | | | |"; continue; }
-                IFS='|' read -r fps cpuf ph mae energy rmse nf inc lastMode <<<"$r"
+                run_case "$resClients" "$scene" "$w" "$h" "$mode" && r=$result || { echo "| $scene | $estimator | $mode | $size | failed | | | | | | | | | | |"; continue; }
+                IFS='|' read -r fps cpuf ph mae energy rmse nf inc lastMode split <<<"$r"
                 [[ -z $base ]] && base=$(awk -v f="$fps" -v w="$w" -v h="$h" 'BEGIN { print f * w * h }')
-                echo "| $scene | $estimator | $mode | $size | $fps | $(awk -v f="$fps" -v w="$w" -v h="$h" -v b="$base" 'BEGIN { printf "%.2f", f * w * h / b }') | $cpuf | $(awk -v c="$cpuf" -v p="$((w * h))" 'BEGIN { if (c == "n/a") print "n/a"; else printf "%.2f", c / p * 1e6 }') | $(bound "$cpuf") | $ph | $mae | $energy | $rmse | $nf ($inc) |"
+                echo "| $scene | $estimator | $mode | $size | $fps | $(awk -v f="$fps" -v w="$w" -v h="$h" -v b="$base" 'BEGIN { printf "%.2f", f * w * h / b }') | $cpuf | $(awk -v c="$cpuf" -v p="$((w * h))" 'BEGIN { if (c == "n/a") print "n/a"; else printf "%.2f", c / p * 1e6 }') | $(bound "$cpuf") | $ph | $mae | $energy | $rmse | $nf ($inc) | $split |"
                 echo "  [$(date +%T) load$(uptime | sed 's/.*load average://')] $scene $mode $size: $r" >&2
             done
         done
