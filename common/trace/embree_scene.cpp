@@ -19,6 +19,27 @@ namespace rtpm {
 
 namespace {
 
+/// An Embree packet of rays[0 .. count) (count ≤ 8); inactive lanes repeat ray 0 so every lane
+/// holds finite values, and are masked off in `valid`.
+void fillPacket(const Ray* rays, int count, int* valid, RTCRay8& r) {
+    for (int i = 0; i < 8; ++i) {
+        const Ray& ray = rays[i < count ? i : 0];
+        valid[i] = i < count ? -1 : 0;
+        r.org_x[i] = ray.origin.x;
+        r.org_y[i] = ray.origin.y;
+        r.org_z[i] = ray.origin.z;
+        r.dir_x[i] = ray.dir.x;
+        r.dir_y[i] = ray.dir.y;
+        r.dir_z[i] = ray.dir.z;
+        r.tnear[i] = ray.tMin;
+        r.tfar[i] = ray.tMax;
+        r.time[i] = 0.0f;
+        r.mask[i] = 0xFFFFFFFFu;
+        r.id[i] = 0;
+        r.flags[i] = 0;
+    }
+}
+
 const char* rtcErrorName(RTCError code) {
     switch (code) {
         case RTC_ERROR_NONE: return "none";
@@ -277,18 +298,47 @@ bool EmbreeScene::intersect(const Ray& ray, SurfaceHit& hit) const {
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID || rh.hit.instID[0] == RTC_INVALID_GEOMETRY_ID)
         return false;
 
-    const uint32_t inst = rh.hit.instID[0];
-    const uint32_t tri = rh.hit.primID;
+    return completeHit(ray, rh.ray.tfar, rh.hit.instID[0], rh.hit.primID, rh.hit.u, rh.hit.v, hit);
+}
+
+uint32_t EmbreeScene::intersect8(const Ray* rays, int count, SurfaceHit* hits) const {
+    RTPM_DCHECK(count >= 0 && count <= 8);
+    if (count <= 0) return 0;
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    alignas(32) int valid[8];
+    alignas(32) RTCRayHit8 rh;
+    fillPacket(rays, count, valid, rh.ray);
+    for (int i = 0; i < 8; ++i) {
+        rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect8(valid, impl_->top, &ctx, &rh);
+    uint32_t found = 0;
+    for (int i = 0; i < count; ++i)
+        if (completeHit(rays[i], rh.ray.tfar[i], rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID
+                                                     ? RTC_INVALID_GEOMETRY_ID
+                                                     : rh.hit.instID[0][i],
+                        rh.hit.primID[i], rh.hit.u[i], rh.hit.v[i], hits[i]))
+            found |= 1u << i;
+    return found;
+}
+
+bool EmbreeScene::completeHit(const Ray& ray, float t, uint32_t inst, uint32_t tri, float u, float v,
+                              SurfaceHit& hit) const {
+    if (inst == RTC_INVALID_GEOMETRY_ID) return false;
+    const Impl& s = *impl_;
     const Mesh& mesh = s.meshes[s.instanceMesh[inst]];
     const uint32_t i0 = mesh.indices[3 * tri + 0];
     const uint32_t i1 = mesh.indices[3 * tri + 1];
     const uint32_t i2 = mesh.indices[3 * tri + 2];
-    const float u = rh.hit.u, v = rh.hit.v, w = 1.0f - u - v;
+    const float w = 1.0f - u - v;
     // Most instances are not rotated or scaled; their normals need no matrix product.
     const glm::mat3& nm = s.normalMatrices[inst];
     const bool identity = s.identityLinear[inst] != 0;
 
-    hit.t = rh.ray.tfar;
+    hit.t = t;
     hit.position = ray.origin + hit.t * ray.dir;
     hit.instance = inst;
     hit.triangle = tri;
@@ -354,26 +404,10 @@ uint32_t EmbreeScene::occluded8(const Ray* rays, int count) const {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    if (count <= 0) return 0;
     alignas(32) int valid[8];
     alignas(32) RTCRay8 r;
-    for (int i = 0; i < 8; ++i) {
-        // Inactive lanes repeat ray 0 so every lane holds finite values.
-        const Ray& ray = rays[i < count ? i : 0];
-        valid[i] = i < count ? -1 : 0;
-        r.org_x[i] = ray.origin.x;
-        r.org_y[i] = ray.origin.y;
-        r.org_z[i] = ray.origin.z;
-        r.dir_x[i] = ray.dir.x;
-        r.dir_y[i] = ray.dir.y;
-        r.dir_z[i] = ray.dir.z;
-        r.tnear[i] = ray.tMin;
-        r.tfar[i] = ray.tMax;
-        r.time[i] = 0.0f;
-        r.mask[i] = 0xFFFFFFFFu;
-        r.id[i] = 0;
-        r.flags[i] = 0;
-    }
-    if (count <= 0) return 0;
+    fillPacket(rays, count, valid, r);
     rtcOccluded8(valid, impl_->top, &ctx, &r);
     uint32_t bits = 0;
     for (int i = 0; i < count; ++i)

@@ -258,15 +258,16 @@ struct PathState {
 /// With `hits` (record mode) the diffuse end points are appended to it (pixel index `pixel`),
 /// the pixel's direct value leaves out their area-light term (EyeHit::areaDirect holds it) and
 /// no caustic is looked up.
-PixelRadiance shadePixel(const Context& ctx, int x, int y, int width, const Camera& camera,
-                         int height, PathState* stack, Counters& count, GatherHint& hint,
-                         std::vector<EyeHit>* hits = nullptr, uint32_t pixel = 0) {
+/// The primary ray is traced by the caller (renderSet: 8 neighbouring pixels per Embree packet):
+/// `firstHit` is what it hit, null for a miss.
+PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay,
+                         const SurfaceHit* firstHit, PathState* stack, Counters& count,
+                         GatherHint& hint, std::vector<EyeHit>* hits = nullptr, uint32_t pixel = 0) {
     const EmbreeScene& es = ctx.es;
     const Scene& scene = ctx.scene;
     PixelRadiance result;
     int top = 0;
-    stack[top++] = PathState{Ray{camera.position, camera.rayDirection(x, y, width, height)},
-                             Vec3(1.0f), 0};
+    stack[top++] = PathState{primaryRay, Vec3(1.0f), 0};
     const uint64_t pixelKey = (uint64_t(uint32_t(y)) << 32) | uint32_t(x);
     uint32_t diffuseVertex = 0;
     bool primary = true;
@@ -278,10 +279,12 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, int width, const Came
             if (primary) {
                 ++count.primary;
                 primary = false;
+                if (!firstHit) break;  // no environment light
+                hit = *firstHit;
             } else {
                 ++count.secondary;
+                if (!es.intersect(path.ray, hit)) break;
             }
-            if (!es.intersect(path.ray, hit)) break;  // no environment light
             const Material& mat = scene.materials[hit.material];
             const Vec3 dir = path.ray.dir;
             const float cosGeo = glm::dot(dir, hit.geometricNormal);
@@ -414,13 +417,25 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
     tbb::parallel_for(tbb::blocked_range<int>(0, rows), [&](const tbb::blocked_range<int>& range) {
         Counters count;
         std::vector<PathState> stack(kStackSize);
+        Ray rays[8];
+        SurfaceHit firstHits[8];
         for (int r = range.begin(); r < range.end(); ++r) {
             GatherHint hint;  // per row: what a pixel's neighbours hint does not depend on threads
-            for (int c = 0; c < cols; ++c) {
-                const int n = r * cols + c;
-                out[size_t(n)] = shadePixel(ctx, pattern.pixelX(set, n), pattern.pixelY(set, n),
-                                            pattern.width, camera, pattern.height, stack.data(), count,
-                                            hint, records ? &rowHits[size_t(r)] : nullptr, uint32_t(n));
+            for (int c0 = 0; c0 < cols; c0 += 8) {
+                // Primary rays of 8 neighbouring pixels of the row as one coherent Embree packet.
+                const int lanes = std::min(8, cols - c0);
+                for (int l = 0; l < lanes; ++l) {
+                    const int n = r * cols + c0 + l;
+                    rays[l] = Ray{camera.position, camera.rayDirection(pattern.pixelX(set, n), pattern.pixelY(set, n),
+                                                                        pattern.width, pattern.height)};
+                }
+                const uint32_t hitMask = ctx.es.intersect8(rays, lanes, firstHits);
+                for (int l = 0; l < lanes; ++l) {
+                    const int n = r * cols + c0 + l;
+                    out[size_t(n)] = shadePixel(ctx, pattern.pixelX(set, n), pattern.pixelY(set, n), rays[l],
+                                                (hitMask >> l) & 1u ? &firstHits[l] : nullptr, stack.data(),
+                                                count, hint, records ? &rowHits[size_t(r)] : nullptr, uint32_t(n));
+                }
             }
         }
         primary += count.primary;
