@@ -11,7 +11,8 @@ namespace rtpm {
 /// Eye-pass settings (DESIGN §2 step 4).
 struct EyeSettings {
     int maxDepth = 16;          ///< specular bounces before a path is ended
-    int areaLightSamples = 4;   ///< shadow rays per emissive triangle sample set (stratified)
+    int areaLightSamples = 4;   ///< shadow rays per emissive triangle (stratified) for a light
+                                ///< of large solid angle; fewer for small or far ones (eye_pass.cpp)
 };
 
 /// Spatial index of a photon map (paper §5.2/§5.3, Table 5). Every variant answers the same

@@ -46,7 +46,7 @@ inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string&
     app.add_option("--depth", rs.eye.maxDepth, "specular depth limit of eye paths")->capture_default_str();
     app.add_option("--photon-depth", rs.photons.maxDepth, "ray segments per photon path")
         ->capture_default_str();
-    app.add_option("--area-samples", rs.eye.areaLightSamples, "shadow samples per emissive triangle")
+    app.add_option("--area-samples", rs.eye.areaLightSamples, "shadow samples per emissive triangle for a near, large light; a small or far one takes fewer, by its solid angle (down to 1 per pixel)")
         ->capture_default_str();
     app.add_option("--seed", rs.photons.seed, "seed of the Halton rotations")->capture_default_str();
     // PhotonTree; every variant gives the same estimate, they differ in build/query cost.
