@@ -57,6 +57,26 @@ private:
     Vec3 normal_;
 };
 
+/// Σ of RGB9E5 photon powers, exact and therefore independent of the order of the terms: a
+/// decoded channel is m·2^(e−29) with a 9-bit m and 0 ≤ e < 32 (PhotonPowerWord, bias 20), so
+/// every term is an integer multiple of 2^−29 below 2^11, i.e. below 2^40 such units, and a sum
+/// of up to 2^12 terms stays below 2^52 units: exact in double.
+/// (Gathers that reach the same photons in another order, e.g. gatherKnnGroup, give bit-identical
+/// power.) Longer sums are still correct, only rounded.
+class PowerSum {
+public:
+    void add(uint32_t packed) {
+        const Vec3 v = decodeRgb9e5(packed);
+        r_ += double(v.x);
+        g_ += double(v.y);
+        b_ += double(v.z);
+    }
+    Vec3 value() const { return Vec3(float(r_), float(g_), float(b_)); }
+
+private:
+    double r_ = 0.0, g_ = 0.0, b_ = 0.0;
+};
+
 /// The raw pieces of one k-NN gather (what causticRadianceIf turns into radiance and the
 /// progressive estimator takes as a pixel's starting state): Σ decoded stored power of the
 /// counted photons, the estimate's squared radius (r_k², clamped below; rMax² when fewer than k
@@ -91,11 +111,13 @@ DensityGather gatherKnn(const Index& index, Vec3 x, Vec3 normal, uint32_t k, flo
         index.search(x, policy);
     }
     if (heap.empty()) return g;
+    PowerSum sum;
     for (const KnnEntry& e : heap.entries())
         if (visible(index.photon(e.index))) {
-            g.power += decodeRgb9e5(index.photonPower(e.index));
+            sum.add(index.photonPower(e.index));
             ++g.count;
         }
+    g.power = sum.value();
     const float rMin = kMinDensityRadiusRelative * index.bounds().diagonal();
     g.radius2 = heap.full() ? std::max(heap.farthestDist2(), rMin * rMin) : maxDist2;
     return g;

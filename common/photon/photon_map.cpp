@@ -35,6 +35,7 @@
 
 #include "common/core/check.h"
 #include "common/photon/density.h"
+#include "common/photon/group_gather.h"
 
 namespace rtpm {
 
@@ -486,7 +487,7 @@ Vec3 PhotonMaps::radiance(const EmbreeScene& scene, uint32_t set, const SurfaceH
     const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
     // A guess 1.25 × the neighbour's r² (1.12 × r): measured on RING, 1.1–1.5 all gave the same
     // saving; too tight a guess costs a second search.
-    const float guess2 = hint ? 1.25f * hint->radius2 : 0.0f;
+    const float guess2 = hint ? kGuessScale * hint->radius2 : 0.0f;
     const DensityGather g = st->index->visit([&](const auto& index) {
         return gatherKnn(index, hit.position, normal, settings_.k, rMax_, heap, visible, guess2);
     });
@@ -506,6 +507,71 @@ DensityGather PhotonMaps::gatherMap(const EmbreeScene& scene, uint32_t set, cons
     });
     g.power *= powerUnit_ / static_cast<float>(st->stats.batches);
     return g;
+}
+
+void PhotonMaps::gatherGroup(const SetState& st, std::span<const CausticQuery> queries,
+                             std::span<DensityGather> out, GatherHint* hint) const {
+    RTPM_CHECK(out.size() == queries.size());
+    // Hits with no photon within rMax get no gather (the occupancy test, as in `radiance`); the
+    // others are gathered as one group.
+    thread_local GroupGatherScratch scratch;
+    thread_local std::vector<GatherQuery> group;
+    thread_local std::vector<uint32_t> slot;
+    thread_local std::vector<DensityGather> gathers;
+    group.clear();
+    slot.clear();
+    for (size_t i = 0; i < queries.size(); ++i) {
+        out[i] = DensityGather{};
+        if (!st.occupancy.mayHaveWithin(queries[i].hit->position)) continue;
+        group.push_back(GatherQuery{queries[i].hit->position, queries[i].normal});
+        slot.push_back(uint32_t(i));
+    }
+    gathers.resize(group.size());
+    const float guess2 = hint ? kGuessScale * hint->radius2 : 0.0f;
+    st.index->visit([&](const auto& index) {
+        gatherKnnGroup(index, std::span<const GatherQuery>(group), settings_.k, rMax_, guess2, scratch,
+                       std::span<DensityGather>(gathers));
+    });
+    // The next group's guess: the largest r_k² of the gathers that found k photons (one that
+    // found fewer searched all of rMax and says nothing about the density nearby).
+    float largest = 0.0f;
+    for (size_t j = 0; j < group.size(); ++j) {
+        out[slot[j]] = gathers[j];
+        if (gathers[j].count == settings_.k) largest = std::max(largest, gathers[j].radius2);
+    }
+    if (hint && !group.empty()) hint->radius2 = largest;
+}
+
+void PhotonMaps::radianceGroup(const EmbreeScene& scene, uint32_t set, std::span<const CausticQuery> queries,
+                               std::span<Vec3> out, GatherHint* hint) const {
+    RTPM_CHECK(out.size() == queries.size());
+    const SetState* st = find(set);
+    if (!st || st->stats.batches == 0 || !st->index) {
+        std::fill(out.begin(), out.end(), Vec3(0.0f));
+        return;
+    }
+    if (settings_.gatherVisibility) {  // a shadow ray per gathered photon: nothing to share
+        CausticEstimator::radianceGroup(scene, set, queries, out, hint);
+        return;
+    }
+    thread_local std::vector<DensityGather> gathers;
+    gathers.resize(queries.size());
+    gatherGroup(*st, queries, gathers, hint);
+    const float scale = powerUnit_ / static_cast<float>(st->stats.batches);
+    for (size_t i = 0; i < queries.size(); ++i) out[i] = causticRadianceFrom(gathers[i], queries[i].albedo, scale);
+}
+
+void PhotonMaps::gatherMapGroup(const EmbreeScene& scene, uint32_t set, std::span<const CausticQuery> queries,
+                                std::span<DensityGather> out, GatherHint* hint) const {
+    RTPM_CHECK(out.size() == queries.size());
+    const SetState* st = find(set);
+    if (!st || st->stats.batches == 0 || !st->index || settings_.gatherVisibility) {
+        for (size_t i = 0; i < queries.size(); ++i) out[i] = gatherMap(scene, set, *queries[i].hit, queries[i].normal);
+        return;
+    }
+    gatherGroup(*st, queries, out, hint);
+    const float scale = powerUnit_ / static_cast<float>(st->stats.batches);
+    for (DensityGather& g : out) g.power *= scale;
 }
 
 PassGather PhotonMaps::gatherPass(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,

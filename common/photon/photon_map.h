@@ -110,11 +110,22 @@ public:
     Vec3 radiance(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
                   Vec3 albedo, GatherHint* hint = nullptr) const override;
 
+    /// `radiance` for a group of nearby hits (one primary-ray packet's diffuse hits): density.h
+    /// gatherKnnGroup shares one radius search between them (group_gather.h), with the same
+    /// photons, radius and power per hit as `radiance`. The hint carries the group's largest r²
+    /// to the next group. With gatherVisibility each hit is gathered alone. Thread-safe.
+    void radianceGroup(const EmbreeScene& scene, uint32_t set, std::span<const CausticQuery> queries,
+                       std::span<Vec3> out, GatherHint* hint = nullptr) const override;
+
     /// The k-NN gather `radiance` makes, unconverted: power in W per batch (Σ stored power ×
     /// powerUnit() / batches), r_k² and the photon count. Empty (radius2 = 0) when nothing can
     /// be estimated. Thread-safe.
     DensityGather gatherMap(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
                             Vec3 normal) const;
+    /// gatherMap for a group of nearby hits (gatherKnnGroup: same photons, radius and power per
+    /// hit), `hint` carried as in radianceGroup. `out` has the size of `queries`. Thread-safe.
+    void gatherMapGroup(const EmbreeScene& scene, uint32_t set, std::span<const CausticQuery> queries,
+                        std::span<DensityGather> out, GatherHint* hint = nullptr) const;
     /// The last pass's photons strictly within sqrt(radius2) of `hit` arriving from the front of
     /// `normal` (and visible, with gatherVisibility): Σ power in W (one batch) and count.
     /// Cost O(log b + found), independent of the map's size. Thread-safe.
@@ -180,6 +191,10 @@ private:
     static void weightRefinedBoxes(const LightPlan& plan, const LightSequence& ls, TraceOutput& out);
     /// The next batch's refine set from this batch's outcomes; advances an SPT sequence.
     static void advanceLight(const LightPlan& plan, const TraceOutput& out, LightSequence& ls);
+    /// The k-NN gathers of `queries` from `st`'s map into `out`, in stored units per batch
+    /// (power not yet scaled): the occupancy test, then gatherKnnGroup; updates `hint`.
+    void gatherGroup(const SetState& st, std::span<const CausticQuery> queries, std::span<DensityGather> out,
+                     GatherHint* hint) const;
     /// Traced photons → stored photons in units of powerUnit(), appended to `batch`.
     void toStored(const TraceOutput& out, std::vector<Photon>& batch) const;
 

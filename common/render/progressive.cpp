@@ -24,18 +24,34 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
     for (size_t p = 0; p < out.size(); ++p) fixedDirect_[p] = out[p].direct;
     state_.assign(records_.hits.size(), HitState{});
     const double rMax2 = double(maps.gatherRadius()) * double(maps.gatherRadius());
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, records_.hits.size()), [&](const auto& range) {
-        for (size_t h = range.begin(); h < range.end(); ++h) {
-            const EyeHit& e = records_.hits[h];
-            HitState& s = state_[h];
-            s.areaSum = glm::dvec3(e.areaDirect);
-            const DensityGather g = maps.gatherMap(scene, set, e.hit, e.normal);
-            if (g.radius2 > 0.0f && finite(g.power)) {
-                s.radius2 = g.radius2;
-                s.count = double(g.count) * kRestartCountShare;
-                s.flux = glm::dvec3(g.power) * double(batches0_);
-            } else {
-                s.radius2 = rMax2;
+    // Hits in groups of 8 consecutive ones (neighbouring pixels) share their k-NN search
+    // (PhotonMaps::gatherMapGroup); the hint runs through a fixed block of groups, so neither the
+    // groups nor the hints depend on the thread count.
+    constexpr size_t kGroup = 8, kBlock = 64 * kGroup;
+    const size_t hitCount = records_.hits.size();
+    tbb::parallel_for(size_t(0), (hitCount + kBlock - 1) / kBlock, [&](size_t block) {
+        CausticQuery queries[kGroup];
+        DensityGather gathers[kGroup];
+        GatherHint hint;
+        const size_t end = std::min(hitCount, (block + 1) * kBlock);
+        for (size_t h0 = block * kBlock; h0 < end; h0 += kGroup) {
+            const size_t n = std::min(kGroup, end - h0);
+            for (size_t i = 0; i < n; ++i) {
+                const EyeHit& e = records_.hits[h0 + i];
+                queries[i] = CausticQuery{&e.hit, e.normal, e.albedo};
+            }
+            maps.gatherMapGroup(scene, set, std::span(queries, n), std::span(gathers, n), &hint);
+            for (size_t i = 0; i < n; ++i) {
+                const DensityGather& g = gathers[i];
+                HitState& s = state_[h0 + i];
+                s.areaSum = glm::dvec3(records_.hits[h0 + i].areaDirect);
+                if (g.radius2 > 0.0f && finite(g.power)) {
+                    s.radius2 = g.radius2;
+                    s.count = double(g.count) * kRestartCountShare;
+                    s.flux = glm::dvec3(g.power) * double(batches0_);
+                } else {
+                    s.radius2 = rMax2;
+                }
             }
         }
     });

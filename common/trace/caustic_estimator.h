@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 
 #include "common/core/math.h"
 #include "common/trace/embree_scene.h"
@@ -13,6 +14,14 @@ namespace rtpm {
 /// hints a query sees do not depend on the thread count or the set split.
 struct GatherHint {
     float radius2 = 0.0f;
+};
+
+/// One query of a group (CausticEstimator::radianceGroup): a diffuse hit, its shading normal
+/// facing the viewer and its diffuse reflectance.
+struct CausticQuery {
+    const SurfaceHit* hit = nullptr;
+    Vec3 normal{0.0f};
+    Vec3 albedo{0.0f};
 };
 
 /// Caustic radiance at a diffuse hit of `scene` from the photon map of interleaving set `set`.
@@ -27,6 +36,15 @@ public:
     virtual ~CausticEstimator() = default;
     virtual Vec3 radiance(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
                          Vec3 albedo, GatherHint* hint = nullptr) const = 0;
+    /// The radiance of each of `queries` (neighbouring pixels' hits of set `set`, in pixel
+    /// order) into `out` (same size): what `radiance` answers for each, with `hint` carried
+    /// from one group to the next. An estimator may share work between nearby queries; the
+    /// default asks `radiance` once per query. Must be thread-safe.
+    virtual void radianceGroup(const EmbreeScene& scene, uint32_t set, std::span<const CausticQuery> queries,
+                               std::span<Vec3> out, GatherHint* hint = nullptr) const {
+        for (size_t i = 0; i < queries.size(); ++i)
+            out[i] = radiance(scene, set, *queries[i].hit, queries[i].normal, queries[i].albedo, hint);
+    }
 };
 
 }  // namespace rtpm

@@ -253,16 +253,30 @@ struct PathState {
     int depth;
 };
 
+/// A caustic lookup a pixel of the packet asks for: shadePixel queues them, renderSet answers a
+/// packet's lookups as one group (CausticEstimator::radianceGroup) and adds throughput × radiance
+/// to the pixel's caustic in queue order.
+struct CausticRequest {
+    SurfaceHit hit;
+    Vec3 normal;
+    Vec3 albedo;
+    Vec3 throughput;
+    int lane;
+};
+
 /// `stack` is kStackSize entries of scratch owned by the calling task: constructing the split
 /// stack per pixel (64 rays with their default values) cost more than a typical pixel's shading.
 /// With `hits` (record mode) the diffuse end points are appended to it (pixel index `pixel`),
 /// the pixel's direct value leaves out their area-light term (EyeHit::areaDirect holds it) and
-/// no caustic is looked up.
+/// no caustic is looked up. Otherwise, with an estimator, each diffuse end point queues its
+/// caustic lookup in `requests` (tagged `lane`); the returned caustic is 0 until renderSet adds
+/// the answers.
 /// The primary ray is traced by the caller (renderSet: 8 neighbouring pixels per Embree packet):
 /// `firstHit` is what it hit, null for a miss.
 PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay,
                          const SurfaceHit* firstHit, PathState* stack, Counters& count,
-                         GatherHint& hint, std::vector<EyeHit>* hits = nullptr, uint32_t pixel = 0) {
+                         std::vector<CausticRequest>& requests, int lane,
+                         std::vector<EyeHit>* hits = nullptr, uint32_t pixel = 0) {
     const EmbreeScene& es = ctx.es;
     const Scene& scene = ctx.scene;
     PixelRadiance result;
@@ -325,8 +339,7 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
                     return;
                 }
                 result.direct += throughput * directLight(ctx, hit, ns, ng, albedo, rot, count);
-                if (ctx.caustics)
-                    result.caustic += throughput * ctx.caustics->radiance(es, uint32_t(ctx.set), hit, ns, albedo, &hint);
+                if (ctx.caustics) requests.push_back(CausticRequest{hit, ns, albedo, throughput, lane});
             };
 
             if (mat.type == MaterialType::Diffuse) {
@@ -393,10 +406,6 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
         result.direct = Vec3(0.0f);
         ++count.nonFinite;
     }
-    if (!finite(result.caustic)) {
-        result.caustic = Vec3(0.0f);
-        ++count.nonFinite;
-    }
     return result;
 }
 
@@ -419,6 +428,9 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
         std::vector<PathState> stack(kStackSize);
         Ray rays[8];
         SurfaceHit firstHits[8];
+        std::vector<CausticRequest> requests;
+        std::vector<CausticQuery> queries;
+        std::vector<Vec3> answers;
         for (int r = range.begin(); r < range.end(); ++r) {
             GatherHint hint;  // per row: what a pixel's neighbours hint does not depend on threads
             for (int c0 = 0; c0 < cols; c0 += 8) {
@@ -430,11 +442,30 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
                                                                         pattern.width, pattern.height)};
                 }
                 const uint32_t hitMask = ctx.es.intersect8(rays, lanes, firstHits);
+                requests.clear();
                 for (int l = 0; l < lanes; ++l) {
                     const int n = r * cols + c0 + l;
                     out[size_t(n)] = shadePixel(ctx, pattern.pixelX(set, n), pattern.pixelY(set, n), rays[l],
                                                 (hitMask >> l) & 1u ? &firstHits[l] : nullptr, stack.data(),
-                                                count, hint, records ? &rowHits[size_t(r)] : nullptr, uint32_t(n));
+                                                count, requests, l, records ? &rowHits[size_t(r)] : nullptr,
+                                                uint32_t(n));
+                }
+                // The packet's caustic lookups as one group (neighbouring hits share their search).
+                if (!requests.empty()) {
+                    queries.resize(requests.size());
+                    answers.resize(requests.size());
+                    for (size_t i = 0; i < requests.size(); ++i)
+                        queries[i] = CausticQuery{&requests[i].hit, requests[i].normal, requests[i].albedo};
+                    ctx.caustics->radianceGroup(ctx.es, uint32_t(ctx.set), queries, answers, &hint);
+                    for (size_t i = 0; i < requests.size(); ++i)
+                        out[size_t(r * cols + c0 + requests[i].lane)].caustic += requests[i].throughput * answers[i];
+                    for (int l = 0; l < lanes; ++l) {
+                        Vec3& caustic = out[size_t(r * cols + c0 + l)].caustic;
+                        if (!finite(caustic)) {
+                            caustic = Vec3(0.0f);
+                            ++count.nonFinite;
+                        }
+                    }
                 }
             }
         }

@@ -26,6 +26,7 @@
 
 #include "common/trace/embree_scene.h"
 #include "common/photon/density.h"
+#include "common/photon/group_gather.h"
 #include "common/photon/kd_tree.h"
 #include "common/photon/median_kd_tree.h"
 #include "common/trace/optics.h"
@@ -252,6 +253,42 @@ void gatherMiddle(benchmark::State& state, const std::string& scene) {
     state.counters["none/query"] = double(none) / double(s.queries.size());
 }
 
+// The same frame of gathers as the renderer now issues them (group_gather.h): 8 consecutive
+// queries of the scan order share one radius search, each group guessing its radius from the
+// previous group's largest r_k² of a full gather (× kGuessScale, as PhotonMaps::radianceGroup). Same photons and power per
+// query as gather/middle ("found/query" and the radiance sum agree).
+void gatherGroupMiddle(benchmark::State& state, const std::string& scene) {
+    const PhotonScene& s = photonScene(scene);
+    KdTree tree(s.bounds, kLeafSize);
+    tree.build(photonSet(s, size_t(state.range(0))));
+    const uint32_t k = uint32_t(state.range(1));
+    std::vector<GatherQuery> queries(s.queries.size());
+    for (size_t i = 0; i < queries.size(); ++i) queries[i] = GatherQuery{s.queries[i], s.normals[i]};
+    GroupGatherScratch scratch;
+    DensityGather gathers[8];
+    uint64_t found = 0, none = 0;
+    Vec3 sum(0.0f);
+    for (auto _ : state) {
+        found = none = 0;
+        float hint2 = 0.0f;
+        for (size_t q0 = 0; q0 < queries.size(); q0 += 8) {
+            const size_t n = std::min<size_t>(8, queries.size() - q0);
+            gatherKnnGroup(tree, std::span(queries).subspan(q0, n), k, s.rMax, kGuessScale * hint2, scratch,
+                           std::span(gathers, n));
+            hint2 = 0.0f;
+            for (size_t i = 0; i < n; ++i) {
+                sum += causticRadianceFrom(gathers[i], Vec3(0.8f), 1.0f);
+                found += gathers[i].count;
+                none += gathers[i].count == 0 ? 1 : 0;
+                if (gathers[i].count == k) hint2 = std::max(hint2, gathers[i].radius2);
+            }
+        }
+        benchmark::DoNotOptimize(sum);
+    }
+    setQueryCounters(state, s, found);
+    state.counters["none/query"] = double(none) / double(s.queries.size());
+}
+
 // Ten equal batches inserted into one tree, as accumulation builds a map (paper §5.4).
 void insertInTenBatches(KdTree& tree, std::span<const Photon> photons) {
     const size_t batch = (photons.size() + 9) / 10;
@@ -367,6 +404,7 @@ void registerAll() {
             for (int64_t k : kKs) {
                 reg("knn/middle", scene, queryMiddle)->Args({n, k});
                 reg("gather/middle", scene, gatherMiddle)->Args({n, k});
+                reg("gather-group/middle", scene, gatherGroupMiddle)->Args({n, k});
                 reg("knn/middle-incremental", scene, queryMiddleIncremental)->Args({n, k});
                 reg("knn/median", scene, queryMedian)->Args({n, k});
                 reg("knn/nanoflann", scene, queryNanoflann)->Args({n, k});

@@ -144,6 +144,37 @@ TEST(PhotonMaps, TreeVariantsGiveTheSameCausticEstimates) {
     }
     EXPECT_GT(nonZero, queries.size() / 2);
     EXPECT_GT(hinted, queries.size());  // most queries ran with a guess
+
+    // Groups of 8 consecutive queries (radianceGroup, group_gather.h) give every query what
+    // radiance gives it: the same photons and radius, and PowerSum makes the sum exact in any order.
+    std::vector<SurfaceHit> hits(queries.size());
+    for (size_t i = 0; i < queries.size(); ++i) {
+        hits[i].position = queries[i];
+        hits[i].geometricNormal = hits[i].shadingNormal = up;
+    }
+    for (size_t v = 0; v < maps.size(); ++v) {
+        GatherHint hint;
+        size_t differing = 0;
+        for (size_t q0 = 0; q0 < queries.size(); q0 += 8) {
+            const size_t n = std::min<size_t>(8, queries.size() - q0);
+            std::vector<CausticQuery> group(n);
+            for (size_t i = 0; i < n; ++i) group[i] = CausticQuery{&hits[q0 + i], up, Vec3(0.5f)};
+            std::vector<Vec3> out(n);
+            maps[v]->radianceGroup(es, 0, group, out, &hint);
+            std::vector<DensityGather> gathers(n);
+            maps[v]->gatherMapGroup(es, 0, group, gathers);
+            for (size_t i = 0; i < n; ++i) {
+                const Vec3 single = maps[v]->radiance(es, 0, hits[q0 + i], up, Vec3(0.5f));
+                const DensityGather g = maps[v]->gatherMap(es, 0, hits[q0 + i], up);
+                differing += out[i] != single;
+                for (int ch = 0; ch < 3; ++ch)
+                    ASSERT_NEAR(out[i][ch], single[ch], 1e-5f * single[ch] + 1e-30f) << photonTreeName(variants[v]);
+                ASSERT_EQ(gathers[i].count, g.count);
+                ASSERT_EQ(gathers[i].radius2, g.radius2);
+            }
+        }
+        EXPECT_EQ(differing, 0u) << photonTreeName(variants[v]);  // no ties at the k-th photon here
+    }
 }
 
 // Scaling the light by 2^±40 scales the power unit by exactly that, so the stored codes are
