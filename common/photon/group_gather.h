@@ -13,7 +13,9 @@
 // With R = rMax and fewer than k kept, they are all the photons within rMax (radius rMax, as
 // gatherKnn). Only a query whose guess R < rMax found fewer than k falls back to gatherKnn.
 // A group spread wider than kMaxSpreadRatio · R is split in halves (down to single queries,
-// which take gatherKnn with the guess) so the candidate list stays near the per-query count.
+// which take gatherKnn with the guess), and one whose candidate search overflows a cap (the
+// guess came from a sparser neighbour) gathers per query, so a group never costs more than its
+// queries would alone by much.
 // Result: the same photons, radius and (PowerSum is exact) power as gatherKnn for every query,
 // ties at the k-th distance aside.
 #pragma once
@@ -55,7 +57,35 @@ inline constexpr float kGuessScale = 1.25f;
 /// radius ρ + R would hold (1 + ρ/R)² times the photons of one query's ball).
 inline constexpr float kMaxSpreadRatio = 1.5f;
 
+/// A group whose candidate search finds more than kMaxCandidatesPerK · k + 64 photons gathers
+/// per query instead: each of its queries would scan more candidates than its own k-NN search
+/// visits (about 2k photons and 50 nodes on the Table 5 maps).
+inline constexpr uint32_t kMaxCandidatesPerK = 6;
+
 namespace detail {
+
+/// Radius search policy that stops the traversal once it holds `cap` hits (the bound drops below
+/// every distance, which a result set may do): the caller then takes another route.
+class CappedRadiusSet {
+public:
+    CappedRadiusSet(float maxDist2, size_t cap, std::vector<KnnEntry>& out)
+        : bound_(maxDist2), cap_(cap), out_(out) {
+        out_.clear();
+    }
+    float worstDist2() const { return bound_; }
+    void add(float dist2, uint32_t index) {
+        if (!(dist2 < bound_)) return;
+        out_.push_back({dist2, index});
+        if (out_.size() >= cap_) bound_ = -1.0f;
+    }
+    bool capped() const { return bound_ < 0.0f; }
+
+private:
+    float bound_;
+    size_t cap_;
+    std::vector<KnnEntry>& out_;
+};
+static_assert(ResultSet<CappedRadiusSet>);
 
 /// Keeps the front-facing candidates of `q` strictly within sqrt(bound2) in `kept` (distance,
 /// candidate slot); returns how many. `d2` holds q's squared distance to every candidate.
@@ -112,7 +142,19 @@ void gatherGroupRange(const Index& index, std::span<const GatherQuery> queries, 
     // Candidates: every photon within R of some query lies within ρ + R of the centre (the
     // relative margin covers the rounding of ρ, R and the distances).
     const float reach = (spread + bound) * (1.0f + 1e-5f);
-    radiusSearch(index, centre, reach * reach, s.found);
+    CappedRadiusSet candidates(reach * reach, kMaxCandidatesPerK * k + 64, s.found);
+    index.search(centre, candidates);
+    if (candidates.capped()) {
+        // Too many for the group (a guess from a sparser neighbour, or a dense caustic): each
+        // query searches alone, guessing from its predecessor's r_k.
+        float next = guess2;
+        for (size_t qi = 0; qi < queries.size(); ++qi) {
+            const float g2 = next > 0.0f && next < maxDist2 ? next : 0.0f;
+            out[qi] = gatherKnn(index, queries[qi].position, queries[qi].normal, k, rMax, s.heap, alwaysVisible, g2);
+            next = out[qi].count == k ? kGuessScale * out[qi].radius2 : guess2;
+        }
+        return;
+    }
     const size_t n = s.found.size();
     for (auto* v : {&s.x, &s.y, &s.z, &s.dx, &s.dy, &s.dz, &s.d2})
         if (v->size() < n) v->resize(n);
