@@ -485,8 +485,7 @@ Vec3 PhotonMaps::radiance(const EmbreeScene& scene, uint32_t set, const SurfaceH
     thread_local KnnHeap heap;
     const float scale = powerUnit_ / static_cast<float>(st->stats.batches);
     const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
-    // A guess 1.25 × the neighbour's r² (1.12 × r): measured on RING, 1.1–1.5 all gave the same
-    // saving; too tight a guess costs a second search.
+    // The neighbour's r² × kGuessScale as the first bound (group_gather.h says why 1.25).
     const float guess2 = hint ? kGuessScale * hint->radius2 : 0.0f;
     const DensityGather g = st->index->visit([&](const auto& index) {
         return gatherKnn(index, hit.position, normal, settings_.k, rMax_, heap, visible, guess2);

@@ -50,7 +50,8 @@ struct EyeRecords {
 /// Cost per pixel: one primary ray, ≤ 2^depth specular rays (pruned at throughput 1e-3), and per
 /// diffuse end point one shadow ray per punctual light plus, for the emitters, between 1 and
 /// areaLightSamples per emissive triangle (at most 16·areaLightSamples in total) chosen by the
-/// solid angle they subtend (see eye_pass.cpp). Primary rays go to Embree in packets of 8.
+/// solid angle they subtend (see eye_pass.cpp). Primary rays go to Embree in packets of 8, and
+/// the caustic lookups of a packet's pixels go to `caustics` as one group (radianceGroup).
 void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings& settings,
                const Interleave& pattern, int set, const CausticEstimator* caustics,
                std::span<PixelRadiance> out, EyeStats* stats = nullptr,
