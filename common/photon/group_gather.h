@@ -58,8 +58,9 @@ inline constexpr float kGuessScale = 1.25f;
 inline constexpr float kMaxSpreadRatio = 1.5f;
 
 /// A group whose candidate search finds more than kMaxCandidatesPerK · k + 64 photons gathers
-/// per query instead: each of its queries would scan more candidates than its own k-NN search
-/// visits (about 2k photons and 50 nodes on the Table 5 maps).
+/// per query instead: each of its queries would scan about three times the photons its own k-NN
+/// search visits (≈ 2k photons and 50 nodes on the Table 5 maps), which no longer pays; the
+/// value was chosen on HEADLIGHT's 750 k-photon maps (RESULTS.md, "gather by groups").
 inline constexpr uint32_t kMaxCandidatesPerK = 6;
 
 namespace detail {
