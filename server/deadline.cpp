@@ -14,23 +14,25 @@ FrameDeadline::FrameDeadline(DeadlinePolicy policy) : policy_(policy) {
         throw std::invalid_argument("adaptive deadline: need multiple >= 1, 1 ms <= floor <= ceiling, window >= 1");
 }
 
-void FrameDeadline::completed(std::chrono::nanoseconds took) {
-    samples_.push_back(std::max(took, std::chrono::nanoseconds(0)));
-    while (samples_.size() > policy_.window) samples_.pop_front();
+void FrameDeadline::completed(std::chrono::nanoseconds took, FrameCost cost) {
+    auto& s = samples_[size_t(cost)];
+    s.push_back(std::max(took, std::chrono::nanoseconds(0)));
+    while (s.size() > policy_.window) s.pop_front();
 }
 
-std::chrono::nanoseconds FrameDeadline::median() const {
-    if (samples_.empty()) return std::chrono::nanoseconds(0);
-    std::vector<std::chrono::nanoseconds> v(samples_.begin(), samples_.end());
+std::chrono::nanoseconds FrameDeadline::median(FrameCost cost) const {
+    const auto& s = samples(cost);
+    if (s.empty()) return std::chrono::nanoseconds(0);
+    std::vector<std::chrono::nanoseconds> v(s.begin(), s.end());
     auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);
     std::nth_element(v.begin(), mid, v.end());
     return *mid;  // the upper median: never under-estimates with an even count
 }
 
-std::chrono::milliseconds FrameDeadline::forFrame(bool costUnknown) const {
+std::chrono::milliseconds FrameDeadline::forFrame(bool costUnknown, FrameCost cost) const {
     if (policy_.fixed) return *policy_.fixed;
-    if (costUnknown || samples_.size() < policy_.minSamples) return policy_.ceiling;
-    const double ms = policy_.multiple * std::chrono::duration<double, std::milli>(median()).count();
+    if (costUnknown || samples(cost).size() < policy_.minSamples) return policy_.ceiling;
+    const double ms = policy_.multiple * std::chrono::duration<double, std::milli>(median(cost)).count();
     const auto scaled = std::chrono::milliseconds(static_cast<long long>(std::min(ms, 1e12)) + 1);
     return std::clamp(scaled, policy_.floor, policy_.ceiling);
 }

@@ -58,6 +58,11 @@ std::pair<std::string, uint16_t> parseHostPort(const std::string& s) {
     return {host, static_cast<uint16_t>(std::stoul(port))};
 }
 
+/// Converging frames reuse every pixel's record; the other modes trace every pixel again.
+FrameCost frameCost(proto::FrameMode mode) {
+    return mode == proto::FrameMode::Converging ? FrameCost::Converging : FrameCost::Retraced;
+}
+
 nlohmann::json vec(Vec3 v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
 ImageOutputOptions outputOptions(const MasterOptions& o) {
@@ -124,6 +129,7 @@ struct Master::Impl : net::ConnectionHandler {
     uint32_t clientPayloadCap = 0;            // largest message a client may announce (raiseClientPayloadCap)
     FramePolicy policy;
     FrameDeadline deadlines;
+    std::chrono::milliseconds lastDeadline{0};  ///< of the newest frame begun (told to evicted clients)
     std::optional<proto::CameraState> previousCamera;  ///< of the last FrameBegin
     FrameAssembler assembler;
     std::map<uint64_t, FrameInfo> frameInfo;
@@ -901,7 +907,7 @@ struct Master::Impl : net::ConnectionHandler {
             auto connection = c->connection;
             const std::string why = "evicted: late or skipped " + std::to_string(opt.evictAfter) +
                                     " frames in a row (frame deadline " +
-                                    std::to_string(deadlines.forFrame(false).count()) +
+                                    std::to_string(lastDeadline.count()) +
                                     " ms); its sets go to others, it may rejoin";
             std::fprintf(stderr, "rtpm-server: client %u (%s) %s (before frame %llu)\n", id, c->name.c_str(),
                          why.c_str(), (unsigned long long)nextFrame);
@@ -953,8 +959,9 @@ struct Master::Impl : net::ConnectionHandler {
         // A frame whose cost the last ones do not predict waits the ceiling, and so does the last
         // frame of a finite run (it is the image written: nothing rendered may be cut short).
         const bool last = opt.frames > 0 && f + 1 == static_cast<uint64_t>(opt.frames);
-        assembler.beginFrame(f, plan.owners, now,
-                             deadlines.forFrame(plan.mode == proto::FrameMode::Interaction || plan.reassigned || last));
+        lastDeadline = deadlines.forFrame(plan.mode == proto::FrameMode::Interaction || plan.reassigned || last,
+                                          frameCost(plan.mode));
+        assembler.beginFrame(f, plan.owners, now, lastDeadline);
     }
 
     void retire(RetiredFrame& r, TimePoint now) {
@@ -991,7 +998,7 @@ struct Master::Impl : net::ConnectionHandler {
             job.saveAs = numberedPath(opt.out, r.frame, ".exr");
         ++summary.framesShown;
         if (!r.missing.empty()) ++summary.framesIncomplete;
-        if (!r.deadlineHit && !r.arrived.empty()) deadlines.completed(r.waited);
+        if (!r.deadlineHit && !r.arrived.empty()) deadlines.completed(r.waited, frameCost(info.mode));
         summary.seconds = std::chrono::duration<double>(now - startTime).count();
         if (r.deadlineHit) {
             std::string late;

@@ -131,13 +131,22 @@ try {
     await sleep(40);
   }
   await page.mouse.up();
+  const frameAtMouseUp = (await viewer()).status.frame;
   await waitFor('a walkthrough frame after the drag',
     async () => (await viewer()).modes.some((m) => m.frame > frameBeforeDrag && m.mode === 'walkthrough'));
   check(true, 'dragging the camera switches the mode to walkthrough');
-  await waitFor('a frame after the camera moved', async () => (await viewer()).lastFrame >= frameBeforeDrag + 3);
+  // Compare with a frame drawn after the camera came to rest (not a walkthrough frame, so its
+  // camera is the last one) in which every set arrived: a frame shown at its deadline keeps the
+  // previous values of the late sets, i.e. the old view, and on a loaded machine walkthrough
+  // frames can be late.
+  const settled = await waitFor('a complete frame drawn after the camera came to rest', async () => {
+    const v = await viewer();
+    return v.lastFrame > frameAtMouseUp &&
+      v.modes.find((m) => m.frame === v.lastFrame && m.mode !== 'walkthrough' && m.complete) ? v.lastFrame : null;
+  });
   const afterDrag = await pixels();
   const dragDiff = meanAbsDiff(before, afterDrag);
-  check(dragDiff > 2, `the picture follows the camera (mean |Δ| ${dragDiff.toFixed(2)} grey levels)`);
+  check(dragDiff > 2, `the picture follows the camera (frames ${frameBeforeDrag} → ${settled}, mean |Δ| ${dragDiff.toFixed(2)} grey levels)`);
 
   // Light: drag the x slider → an interaction edit → a new epoch at every client.
   const epochBefore = (await viewer()).status.epoch;
@@ -168,11 +177,35 @@ try {
   await waitFor('two frames after the refused controls', async () => (await viewer()).lastFrame >= lastFrameNow + 2);
   check((await viewer()).status.epoch === epochNow, 'refused controls change nothing (same epoch)');
 
-  // Latency: when the page drew a frame, the newest frame the master had reported was at most
-  // one later (on average; the server's own figure, newest composed frame at the acknowledgement,
-  // is checked after the stop).
+  // Latest frame wins. A second page opened in front hides this one, and a hidden page holds the
+  // acknowledgement of the frame it drew, as a stalled page would: it must be sent nothing more
+  // while the second page keeps drawing. Brought back to the front it acknowledges, and the next
+  // frame it gets is at least the newest the second page drew: never the frames it missed. (How
+  // far behind the newest frame a page is depends on how fast this machine lets Chromium draw:
+  // tests/bench/viewer_cost.sh measures it; here it is only printed.)
+  const other = await browser.newPage();
+  other.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(`second page: ${m.text()}`); });
+  other.on('pageerror', (e) => consoleErrors.push(`second page: ${e}`));
+  await other.goto(`${url}#token=${token}`);  // same display settings: both are sent the same encoded frames
+  const otherViewer = () => other.evaluate(() => ({ framesDrawn: rtpmViewer.framesDrawn, lastFrame: rtpmViewer.lastFrame }));
+  await waitFor('this page hidden behind the second, holding its acknowledgement',
+    () => page.evaluate(() => document.hidden && rtpmViewer.heldAck !== null));
+  const stalled = await viewer();
+  await waitFor('the second page drawing three frames', async () => (await otherViewer()).framesDrawn >= 3);
+  const whileStalled = await viewer();
+  check(whileStalled.framesDrawn === stalled.framesDrawn,
+    `a hidden page is sent no frame (drew ${whileStalled.framesDrawn - stalled.framesDrawn} while holding its acknowledgement)`);
+  const newestElsewhere = (await otherViewer()).lastFrame;
+  check(newestElsewhere > stalled.lastFrame,
+    `a stalled page holds up no other page (second page at frame ${newestElsewhere}, stalled page at ${stalled.lastFrame})`);
+  await page.bringToFront();
+  await waitFor('a frame after the page came back', async () => (await viewer()).framesDrawn > stalled.framesDrawn);
+  const resumed = (await viewer()).lastFrame;
+  check(resumed >= newestElsewhere,
+    `back in front, the page gets the newest frame, not the ones it missed (frame ${stalled.lastFrame} → ${resumed}, newest drawn by the second page ${newestElsewhere})`);
+  await other.close();
   const lag = (await viewer()).lag;
-  check(lag.n > 0 && lag.sum / lag.n <= 1, `the page is at most one frame behind on average (mean ${(lag.sum / Math.max(1, lag.n)).toFixed(2)}, max ${lag.max} over ${lag.n} frames)`);
+  console.log(`info page lag behind the newest frame: mean ${(lag.sum / Math.max(1, lag.n)).toFixed(2)}, max ${lag.max} over ${lag.n} frames`);
 
   if (args.screenshot) {
     await page.screenshot({ path: args.screenshot });
@@ -192,8 +225,8 @@ try {
   check(Boolean(report), 'the server reports the viewer\'s figures');
   if (report) {
     console.log(report[0]);
-    const m = /lag behind the newest frame mean ([0-9.]+) max (\d+) frames/.exec(report[0]);
-    check(m && Number(m[1]) <= 1, `the server sees the page at most one frame behind on average (${m && m[0]})`);
+    check(/(\d+) drawn by pages; lag behind the newest frame mean [0-9.]+ max \d+ frames/.test(report[0]) &&
+      Number(/(\d+) drawn by pages/.exec(report[0])[1]) > 0, 'the server counts the frames pages drew and their lag');
   }
 } catch (e) {
   failures.push(String(e && e.stack || e));

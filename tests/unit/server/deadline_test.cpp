@@ -42,6 +42,26 @@ TEST(FrameDeadline, FastFramesAreClampedToTheFloor) {
     EXPECT_EQ(d.forFrame(false), milliseconds(1000));
 }
 
+TEST(FrameDeadline, RetracedAndConvergingFramesKeepTheirOwnMeasurements) {
+    FrameDeadline d;
+    for (int i = 0; i < 3; ++i) d.completed(milliseconds(2000), FrameCost::Retraced);
+    for (int i = 0; i < 100; ++i) d.completed(milliseconds(30), FrameCost::Converging);
+    EXPECT_EQ(d.median(FrameCost::Converging), milliseconds(30));
+    EXPECT_EQ(d.forFrame(false, FrameCost::Converging), milliseconds(1000)) << "cheap still frames: the floor";
+    // A walkthrough after a long still period is judged by the re-traced frames, not by the
+    // hundred cheap ones since.
+    EXPECT_EQ(d.median(FrameCost::Retraced), milliseconds(2000));
+    EXPECT_EQ(d.forFrame(false, FrameCost::Retraced), milliseconds(8001));
+}
+
+TEST(FrameDeadline, AKindNotYetMeasuredWaitsTheCeiling) {
+    FrameDeadline d;
+    for (int i = 0; i < 10; ++i) d.completed(milliseconds(40), FrameCost::Converging);
+    EXPECT_EQ(d.forFrame(false, FrameCost::Converging), milliseconds(1000));
+    EXPECT_EQ(d.forFrame(false, FrameCost::Retraced), milliseconds(10000))
+        << "no re-traced frame measured yet: its cost is unknown";
+}
+
 TEST(FrameDeadline, AFixedDeadlineIgnoresMeasurements) {
     DeadlinePolicy p;
     p.fixed = milliseconds(250);
