@@ -47,7 +47,10 @@ struct EmissiveTriangle {
 /// Thread-safe for concurrent intersect/occluded; edits must not overlap queries.
 class EmbreeScene {
 public:
+    /// Keeps a pointer to `scene` (materials, lights, textures), which must outlive it.
     explicit EmbreeScene(const Scene& scene);
+    /// A temporary scene would be gone before the first query: refused at compile time.
+    explicit EmbreeScene(Scene&&) = delete;
     ~EmbreeScene();
     EmbreeScene(const EmbreeScene&) = delete;
     EmbreeScene& operator=(const EmbreeScene&) = delete;

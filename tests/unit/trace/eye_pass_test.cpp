@@ -337,7 +337,8 @@ TEST(EyePass, AreaLightSampleCountFollowsTheSolidAngle) {
     EyeSettings settings;
     settings.areaLightSamples = 4;
     {
-        EmbreeScene es(floorUnderSquareEmitter(rho, 1, 0.1f, 2.0f));
+        const Scene small = floorUnderSquareEmitter(rho, 1, 0.1f, 2.0f);
+        EmbreeScene es(small);
         EyeStats stats;
         const auto img = render(es, cam, 16, 16, settings, nullptr, &stats);
         EXPECT_EQ(stats.shadowRays, 256u);  // one per pixel, not 2 triangles × 4
@@ -349,7 +350,8 @@ TEST(EyePass, AreaLightSampleCountFollowsTheSolidAngle) {
         for (const auto& p : img) EXPECT_NEAR(p.direct.x, expected, 0.05f * expected);
     }
     {
-        EmbreeScene es(floorUnderSquareEmitter(rho, 1, 1.0f, 1.0f));  // Ω ≈ 1.6 sr
+        const Scene large = floorUnderSquareEmitter(rho, 1, 1.0f, 1.0f);  // Ω ≈ 1.6 sr
+        EmbreeScene es(large);
         EyeStats stats;
         const Camera low = Camera::lookAt(Vec3(0, 0, 0.5f), Vec3(0, 0, 0), Vec3(0, 1, 0), 0.002f);
         render(es, low, 16, 16, settings, nullptr, &stats);
