@@ -214,6 +214,11 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
                 std::optional<PhotonTree> tree = parsePhotonTree(t);
                 if (!tree) p.fail("unknown tree '" + t + "' (expected middle, median or grid)");
                 setOnce(p, e.tree, *tree, key);
+            } else if (e.kind == K::Settings && key == "estimator") {
+                std::string t = p.word("progressive or knn");
+                std::optional<CausticEstimatorKind> estimator = parseCausticEstimator(t);
+                if (!estimator) p.fail("unknown estimator '" + printableText(t) + "' (expected progressive or knn)");
+                setOnce(p, e.estimator, *estimator, key);
             } else {
                 p.fail("unknown keyword '" + printableText(key) + "' for a " + kind + " edit");
             }
@@ -304,6 +309,7 @@ std::string formatScriptEdit(const ScriptEdit& e) {
     if (e.k) o << " k " << *e.k;
     if (e.photons) o << " P " << *e.photons;
     if (e.tree) o << " tree " << photonTreeName(*e.tree);
+    if (e.estimator) o << " estimator " << causticEstimatorName(*e.estimator);
     return o.str();
 }
 
@@ -314,6 +320,7 @@ void applySettingsEdit(const ScriptEdit& e, const std::string& file, RenderSetti
     if (e.k) s.photons.k = *e.k;
     if (e.photons) s.photons.photonsPerBatch = *e.photons;
     if (e.tree) s.photons.tree = *e.tree;
+    if (e.estimator) s.photons.estimator = *e.estimator;
     try {
         validateSettings(s);
     } catch (const std::invalid_argument& ex) {

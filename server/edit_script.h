@@ -24,14 +24,16 @@ namespace rtpm::server {
 ///     frame <n> transform <i> [translate x y z] [rotate ax ay az degrees] [scale s]
 ///                             [matrix m0 … m15]
 ///     frame <n> settings [M m] [F f] [k k] [P paths] [tree middle|median|grid]
+///                           [estimator progressive|knn]
 ///
 /// `transform` builds T·R·S from its keywords and applies it to the instance's transform as
 /// loaded (not to the current one), so a script can state absolute poses; `matrix` (16 floats,
 /// column-major object → world) replaces the loaded transform and excludes the other three.
 /// `camera eye` alone translates the camera (orientation kept); with `target` the camera looks at
 /// that point (up stays near +Y). `settings` changes rendering settings (interleave M, filter F,
-/// photons per estimate k, paths per set per frame P, photon index): the master sends every client
-/// new Settings and starts a new epoch (F alone changes only the master's filter). Edits take
+/// photons per estimate k, paths per set per frame P, photon index, caustic estimator): the master
+/// sends every client new Settings and starts a new epoch (F alone changes only the master's
+/// filter). Edits take
 /// effect at the start of frame n.
 struct ScriptEdit {
     enum class Kind { Camera, Light, Material, Transform, Settings };
@@ -53,6 +55,7 @@ struct ScriptEdit {
     std::optional<int> interleave, filter;          ///< settings: M, F (0 = M)
     std::optional<uint32_t> k, photons;             ///< settings: k, P
     std::optional<PhotonTree> tree;                 ///< settings: photon index
+    std::optional<CausticEstimatorKind> estimator;  ///< settings: caustic estimator
 };
 
 /// Largest edit script file read, and most edits one script may hold (each ScriptEdit is a few

@@ -55,6 +55,10 @@ public:
                    const std::function<size_t(ClientId)>& outstanding, bool cameraMoved = false,
                    bool cameraStill = false);
 
+    /// The caustic estimator changed (a settings edit, which also starts an epoch): with the
+    /// progressive one, still frames are Converging.
+    void setProgressive(bool progressive) { progressive_ = progressive; }
+
     /// Changes M² (a settings change of M); the next plan deals the sets afresh. Call with no
     /// frame in flight and with `edited` set on the next plan (the maps restart).
     void resize(uint32_t setCount) {

@@ -733,6 +733,7 @@ struct Master::Impl : net::ConnectionHandler {
         pattern = Interleave{opt.settings.width, opt.settings.height, opt.settings.interleave};
         setCount = static_cast<uint32_t>(opt.settings.interleave * opt.settings.interleave);
         policy.resize(setCount);
+        policy.setProgressive(opt.settings.photons.estimator == CausticEstimatorKind::Progressive);
         assembler.resize(setCount);
         output.reconfigure(opt.settings.interleave, opt.settings.filterSize());
         settingsMsg = std::make_shared<const std::vector<uint8_t>>(proto::encode(bridge::toWire(opt.settings, opt.encoding)));
@@ -753,10 +754,12 @@ struct Master::Impl : net::ConnectionHandler {
             } else {
                 const bool photonsChange = s.photons.k != opt.settings.photons.k ||
                                            s.photons.photonsPerBatch != opt.settings.photons.photonsPerBatch ||
-                                           s.photons.tree != opt.settings.photons.tree;
+                                           s.photons.tree != opt.settings.photons.tree ||
+                                           s.photons.estimator != opt.settings.photons.estimator;
                 if (s.filterSize() != opt.settings.filterSize())
                     output.reconfigure(s.interleave, s.filterSize());
                 opt.settings = s;
+                policy.setProgressive(s.photons.estimator == CausticEstimatorKind::Progressive);
                 settingsMsg = std::make_shared<const std::vector<uint8_t>>(
                     proto::encode(bridge::toWire(opt.settings, opt.encoding)));
                 for (const auto& [id, c] : registry.clients()) c.connection->send(settingsMsg);
@@ -843,7 +846,8 @@ struct Master::Impl : net::ConnectionHandler {
             {"type", "scene"}, {"name", opt.sceneName}, {"width", rs.width}, {"height", rs.height},
             {"centre", vec(b.centre())}, {"diagonal", b.diagonal()}, {"lights", lights}, {"emitters", emitters}, {"materials", materials},
             {"settings", {{"M", rs.interleave}, {"F", rs.filter}, {"k", rs.photons.k}, {"P", rs.photons.photonsPerBatch},
-                          {"tree", photonTreeName(rs.photons.tree)}}}}.dump());
+                          {"tree", photonTreeName(rs.photons.tree)},
+                          {"estimator", causticEstimatorName(rs.photons.estimator)}}}}.dump());
     }
 
     struct FrameStatus {

@@ -149,7 +149,7 @@ ViewerCommand parseObject(const json& j) {
         if (!j.contains("translate")) throw Refused{"a transform control needs translate"};
         e.translate = vec3(j, "translate", -kMaxCoord, kMaxCoord);
     } else if (type == "settings") {
-        onlyKeys(j, {"M", "F", "k", "P", "tree"});
+        onlyKeys(j, {"M", "F", "k", "P", "tree", "estimator"});
         e.kind = K::Settings;
         if (j.contains("M")) e.interleave = int(integer(j, "M", 1, 16));
         if (j.contains("F")) e.filter = int(integer(j, "F", 0, 64));
@@ -160,8 +160,13 @@ ViewerCommand parseObject(const json& j) {
             e.tree = parsePhotonTree(t);
             if (!e.tree) throw Refused{"\"tree\" must be middle, median or grid, got \"" + t + "\""};
         }
-        if (!e.interleave && !e.filter && !e.k && !e.photons && !e.tree)
-            throw Refused{"a settings control needs M, F, k, P or tree"};
+        if (j.contains("estimator")) {
+            const std::string t = string(j, "estimator", 16);
+            e.estimator = parseCausticEstimator(t);
+            if (!e.estimator) throw Refused{"\"estimator\" must be progressive or knn, got \"" + t + "\""};
+        }
+        if (!e.interleave && !e.filter && !e.k && !e.photons && !e.tree && !e.estimator)
+            throw Refused{"a settings control needs M, F, k, P, tree or estimator"};
     } else {
         throw Refused{"unknown control type \"" + type.substr(0, 32) + "\""};
     }

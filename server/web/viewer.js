@@ -212,6 +212,7 @@ function onScene(s) {
   if (first || !document.activeElement || !document.activeElement.id.startsWith('set-')) {
     $('set-M').value = s.settings.M; $('set-F').value = s.settings.F; $('set-k').value = s.settings.k;
     $('set-P').value = s.settings.P; $('set-tree').value = s.settings.tree;
+    $('set-estimator').value = s.settings.estimator;
   }
 }
 
@@ -384,6 +385,7 @@ function setup() {
       if (!s || v !== s[k]) msg[k] = v;
     }
     if (!s || $('set-tree').value !== s.tree) msg.tree = $('set-tree').value;
+    if (!s || $('set-estimator').value !== s.estimator) msg.estimator = $('set-estimator').value;
     send(msg);
   };
   $('token-form').onsubmit = (e) => {

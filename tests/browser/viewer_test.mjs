@@ -177,6 +177,21 @@ try {
   await waitFor('two frames after the refused controls', async () => (await viewer()).lastFrame >= lastFrameNow + 2);
   check((await viewer()).status.epoch === epochNow, 'refused controls change nothing (same epoch)');
 
+  // Estimator: knn from the settings form → new Settings at a new epoch, and still frames
+  // accumulate (re-traced, the paper's frames) instead of converging.
+  const epochBeforeKnn = (await viewer()).status.epoch;
+  await page.select('#set-estimator', 'knn');
+  await page.click('#settings-apply');
+  const knnFrom = await waitFor('the knn estimator at a new epoch', async () => {
+    const v = await viewer();
+    return v.status.estimator === 'knn' && v.status.epoch > epochBeforeKnn ? v.status.frame : null;
+  });
+  await waitFor('an accumulating frame with knn',
+    async () => (await viewer()).modes.some((m) => m.frame > knnFrom && m.mode === 'accumulate'));
+  const knnModes = (await viewer()).modes.filter((m) => m.frame > knnFrom).map((m) => m.mode);
+  check(!knnModes.includes('converging') && /estimator knn/.test(await page.$eval('#progress', (e) => e.textContent)),
+    `the estimator switches to knn from the page (epoch ${epochBeforeKnn} → ${(await viewer()).status.epoch}, then ${[...new Set(knnModes)].join(', ')} frames)`);
+
   // Latest frame wins. A second page opened in front hides this one, and a hidden page holds the
   // acknowledgement of the frame it drew, as a stalled page would: it must be sent nothing more
   // while the second page keeps drawing. Brought back to the front it acknowledges, and the next

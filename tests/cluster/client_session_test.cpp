@@ -561,6 +561,37 @@ TEST(FrameRenderer, OnlyFilterOrEncodingChangesKeepPhotons) {
     EXPECT_EQ(r.batches(0), 1u);
 }
 
+// The viewer and edit scripts switch the estimator live: new Settings, then a new epoch. The
+// client restarts its sets with the new estimator and renders what a client that started with it
+// renders, bit for bit.
+TEST(FrameRenderer, AnEstimatorChangeRestartsTheSetsWithTheNewEstimator) {
+    proto::Settings s = smallSettings();
+    ASSERT_EQ(s.estimator, proto::CausticEstimator::Progressive);
+    client::FrameRenderer r(1);
+    r.setSettings(s);
+    r.setScene(ringScene());
+    const auto now = std::chrono::steady_clock::now();
+    r.render(frameBegin(0, 0, 1, {0, 1}, proto::FrameMode::Interaction), now);
+    client::RenderedFrame still = r.render(frameBegin(1, 0, 1, {0, 1}, proto::FrameMode::Converging), now);
+    ASSERT_EQ(still.data.size(), 2u);
+    EXPECT_GT(still.data[0].passes, 0u) << "a converging frame of the progressive estimator";
+    s.estimator = proto::CausticEstimator::Knn;
+    r.setSettings(s);
+    r.render(frameBegin(2, 1, 1, {0, 1}, proto::FrameMode::Interaction), now);
+    client::RenderedFrame knn = r.render(frameBegin(3, 1, 1, {0, 1}, proto::FrameMode::Accumulate), now);
+    client::FrameRenderer fresh(1);
+    fresh.setSettings(s);
+    fresh.setScene(ringScene());
+    fresh.render(frameBegin(2, 1, 1, {0, 1}, proto::FrameMode::Interaction), now);
+    client::RenderedFrame ref = fresh.render(frameBegin(3, 1, 1, {0, 1}, proto::FrameMode::Accumulate), now);
+    ASSERT_EQ(knn.data.size(), ref.data.size());
+    for (size_t i = 0; i < knn.data.size(); ++i) {
+        EXPECT_EQ(knn.data[i].passes, 0u);
+        EXPECT_EQ(knn.data[i].pixels, ref.data[i].pixels) << "set " << knn.data[i].set;
+    }
+    EXPECT_EQ(r.batches(0), 2u);
+}
+
 TEST(FrameRenderer, WireSettingsMapOneToOneOntoRenderSettings) {
     proto::Settings s = smallSettings();
     s.maxDepth = 5;

@@ -62,13 +62,27 @@ TEST(EditScript, SettingsLinesParseAndValidate) {
     EXPECT_THROW(parseEditScript("frame 1 settings tree oak\n", "s.txt"), SceneError);
 }
 
+TEST(EditScript, TheEstimatorIsASetting) {
+    auto e = parseEditScript("frame 9 settings estimator knn\n", "s.txt");
+    ASSERT_EQ(e.size(), 1u);
+    ASSERT_TRUE(e[0].estimator);
+    EXPECT_EQ(*e[0].estimator, CausticEstimatorKind::Knn);
+    RenderSettings rs;
+    ASSERT_EQ(rs.photons.estimator, CausticEstimatorKind::Progressive);
+    applySettingsEdit(e[0], "s.txt", rs);
+    EXPECT_EQ(rs.photons.estimator, CausticEstimatorKind::Knn);
+    EXPECT_EQ(formatScriptEdit(e[0]), "frame 9 settings estimator knn");
+    EXPECT_NE(errorOf("frame 1 settings estimator sppm").find("unknown estimator 'sppm'"), std::string::npos);
+    EXPECT_NE(errorOf("frame 1 settings estimator knn estimator knn").find("estimator"), std::string::npos);
+}
+
 TEST(EditScript, FormattedEditsParseBackToTheSameEdit) {
     const std::string text =
         "frame 3 camera eye 0.1 0.2 0.3 target 1 2 3 yfov 0.7\n"
         "frame 4 light 0 position 1.25 -2 3.0000001 intensity 10 20 30\n"
         "frame 5 material 1 type dielectric color 0.5 0.25 1 ior 1.33333 absorption 0.1 0 0 emission 0 0 0\n"
         "frame 6 transform 0 translate 0.1 0 -0.2 rotate 0 1 0 45 scale 2\n"
-        "frame 7 settings M 4 F 0 k 16 P 12345 tree median\n";
+        "frame 7 settings M 4 F 0 k 16 P 12345 tree median estimator knn\n";
     const auto edits = parseEditScript(text, "a.txt");
     std::string formatted;
     for (const ScriptEdit& e : edits) formatted += formatScriptEdit(e) + "\n";
@@ -81,6 +95,7 @@ TEST(EditScript, FormattedEditsParseBackToTheSameEdit) {
         EXPECT_EQ(again[i].ior, edits[i].ior);
         EXPECT_EQ(again[i].rotate, edits[i].rotate);
         EXPECT_EQ(again[i].photons, edits[i].photons);
+        EXPECT_EQ(again[i].estimator, edits[i].estimator);
     }
 }
 

@@ -50,6 +50,20 @@ TEST(FramePolicy, CameraMovesAreWalkthroughFramesAndDoNotMarkClientsCapped) {
     EXPECT_EQ(p.plan(3, true, clients, none, true).mode, proto::FrameMode::Interaction);
 }
 
+TEST(FramePolicy, StillFramesConvergeOnlyWithTheProgressiveEstimator) {
+    FramePolicy p(4, false, 2, 3, /*progressive=*/true);
+    std::vector<ClientId> clients{1};
+    p.plan(0, false, clients, none);
+    EXPECT_EQ(p.plan(1, false, clients, none, false, /*cameraStill=*/true).mode, proto::FrameMode::Converging);
+    // A settings edit switches to knn (and starts an epoch): still frames accumulate again.
+    p.setProgressive(false);
+    EXPECT_EQ(p.plan(2, true, clients, none, false, true).mode, proto::FrameMode::Interaction);
+    EXPECT_EQ(p.plan(3, false, clients, none, false, true).mode, proto::FrameMode::Accumulate);
+    p.setProgressive(true);
+    EXPECT_EQ(p.plan(4, true, clients, none, false, true).mode, proto::FrameMode::Interaction);
+    EXPECT_EQ(p.plan(5, false, clients, none, false, true).mode, proto::FrameMode::Converging);
+}
+
 TEST(FramePolicy, ResizeDealsTheNewSetsAfresh) {
     FramePolicy p(9, false, 2, 3);
     std::vector<ClientId> clients{1, 2};

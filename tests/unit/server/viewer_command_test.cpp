@@ -25,6 +25,10 @@ TEST(ViewerCommand, AcceptsEveryControl) {
     ASSERT_TRUE(set.ok()) << set.error();
     EXPECT_EQ(*edit(set).interleave, 4);
     EXPECT_EQ(*edit(set).tree, PhotonTree::UniformGrid);
+    EXPECT_FALSE(edit(set).estimator);
+    ViewerParse est = parseViewerCommand(R"({"type":"settings","estimator":"knn"})");
+    ASSERT_TRUE(est.ok()) << est.error();
+    EXPECT_EQ(*edit(est).estimator, CausticEstimatorKind::Knn);
     ViewerParse d = parseViewerCommand(R"({"type":"display","layer":"caustic_unfiltered","exposure":-1.5})");
     ASSERT_TRUE(d.ok()) << d.error();
     EXPECT_EQ(std::get<ViewerDisplay>(d.command()).layer, ViewerLayer::CausticUnfiltered);
@@ -61,6 +65,8 @@ TEST(ViewerCommand, RefusesMalformedControlsNamingWhatIsWrong) {
     refused(R"({"type":"settings","M":0})", "\"M\"");
     refused(R"({"type":"settings","P":100000000})", "\"P\"");
     refused(R"({"type":"settings","tree":"oak"})", "tree");
+    refused(R"({"type":"settings","estimator":"sppm"})", "estimator");
+    refused(R"({"type":"settings","estimator":1})", "estimator");
     refused(R"({"type":"display","layer":"depth","exposure":0})", "layer");
     refused(R"({"type":"display","layer":"final","exposure":99})", "exposure");
     refused(R"({"type":"pause","paused":"yes"})", "paused");
