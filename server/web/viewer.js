@@ -122,7 +122,7 @@ function onStatus(s) {
   const prev = state.status;
   state.status = s;
   if (!prev || prev.epoch !== s.epoch) state.epochs.push({ epoch: s.epoch, frame: s.frame, mode: s.mode });
-  state.modes.push({ frame: s.frame, mode: s.mode, complete: s.setsArrived === s.M * s.M });
+  state.modes.push({ frame: s.frame, mode: s.mode, complete: s.setsArrived === s.M * s.M, passes: s.passes, photonsPerSet: s.photonsPerSet });
   if (state.modes.length > 1000) state.modes.shift();
   $('frame').textContent = s.frame;
   $('fps').textContent = s.fps.toFixed(2);

@@ -105,10 +105,13 @@ try {
   // default) three more passes — a still frame's pass photons refine every pixel's estimate but
   // reach the stored maps only when the progression ends.
   const f0 = v0.lastFrame, p0 = v0.status.photonsPerSet, passes0 = v0.status.passes || 0;
+  // The figures of the frame drawn come from its own status (the page keeps the last ones): a
+  // page that draws slower than the master composes is rarely at the newest status.
   await waitFor('more photons', async () => {
     const v = await viewer();
-    const more = v.status.photonsPerSet >= 2 * p0 || (v.status.estimator === 'progressive' && v.status.passes >= passes0 + 3);
-    return v.lastFrame >= f0 + 3 && more && v.lastFrame === v.status.frame;
+    const drawn = v.modes.find((m) => m.frame === v.lastFrame);
+    const more = drawn && (drawn.photonsPerSet >= 2 * p0 || (v.status.estimator === 'progressive' && drawn.passes >= passes0 + 3));
+    return v.lastFrame >= f0 + 3 && more;
   });
   const later = await pixels();
   const accDiff = meanAbsDiff(first, later);
