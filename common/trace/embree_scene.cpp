@@ -5,6 +5,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <mutex>
@@ -62,11 +63,22 @@ float maxAbs(Vec3 v) { return std::max({std::abs(v.x), std::abs(v.y), std::abs(v
 // that is not (yet) in the Scene the caller passed, and shading must use the same vertices Embree
 // intersects. Materials, by contrast, are read live from the Scene (edits need no rebuild).
 struct EmbreeScene::Impl {
+    /// What completeHit reads of a mesh, per triangle and in triangle order: one or two cache
+    /// lines a hit instead of the index triple and three scattered vertices each of positions,
+    /// normals and uvs (those misses were 14 % of a HEADLIGHT frame). The same floats as the
+    /// mesh's, so hits are bit for bit what they were.
+    struct TriangleShading {
+        std::vector<Vec3> cross;                   ///< cross(p1 − p0, p2 − p0), object space
+        std::vector<std::array<Vec3, 3>> normals;  ///< vertex normals; empty when the mesh has none
+        std::vector<std::array<Vec2, 3>> uvs;      ///< texture coordinates; empty when none
+    };
+
     RTCDevice device = nullptr;
     RTCScene top = nullptr;
     std::vector<RTCScene> meshScenes;      // one per mesh, each holding geometry 0
     std::vector<RTCGeometry> instanceGeoms;  // one per instance, geomID == instance index
     std::vector<Mesh> meshes;
+    std::vector<TriangleShading> shading;  // one per mesh, built with its BLAS
     std::vector<Mat4> transforms;          // object → world
     std::vector<glm::mat3> normalMatrices;  // inverse transpose of the upper 3×3
     std::vector<uint8_t> identityLinear;    // upper 3×3 is exactly the identity: skip nm · n per hit
@@ -147,6 +159,25 @@ struct EmbreeScene::Impl {
         if (meshScenes[meshIndex]) rtcReleaseScene(meshScenes[meshIndex]);
         meshScenes[meshIndex] = s;
         throwOnError("building mesh " + std::to_string(meshIndex));
+        shading[meshIndex] = triangleShading(meshes[meshIndex]);
+    }
+
+    static TriangleShading triangleShading(const Mesh& mesh) {
+        TriangleShading t;
+        const size_t n = mesh.indices.size() / 3;
+        const bool normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
+        const bool uvs = mesh.uvs.size() == mesh.positions.size() && !mesh.uvs.empty();
+        t.cross.resize(n);
+        if (normals) t.normals.resize(n);
+        if (uvs) t.uvs.resize(n);
+        for (size_t i = 0; i < n; ++i) {
+            const uint32_t i0 = mesh.indices[3 * i + 0], i1 = mesh.indices[3 * i + 1], i2 = mesh.indices[3 * i + 2];
+            const Vec3 p0 = mesh.positions[i0], p1 = mesh.positions[i1], p2 = mesh.positions[i2];
+            t.cross[i] = glm::cross(p1 - p0, p2 - p0);
+            if (normals) t.normals[i] = {mesh.normals[i0], mesh.normals[i1], mesh.normals[i2]};
+            if (uvs) t.uvs[i] = {mesh.uvs[i0], mesh.uvs[i1], mesh.uvs[i2]};
+        }
+        return t;
     }
 
     void setInstanceTransform(uint32_t index, const Mat4& m, const std::string& name) {
@@ -178,6 +209,7 @@ EmbreeScene::EmbreeScene(const Scene& scene) : impl_(std::make_unique<Impl>()), 
 
     s.meshes = scene.meshes;
     s.meshScenes.assign(s.meshes.size(), nullptr);
+    s.shading.assign(s.meshes.size(), {});
     for (uint32_t i = 0; i < s.meshes.size(); ++i) {
         if (s.meshes[i].material >= scene.materials.size())
             throw SceneError("<embree>", "mesh " + std::to_string(i) + " '" + s.meshes[i].name + "'",
@@ -329,10 +361,8 @@ bool EmbreeScene::completeHit(const Ray& ray, float t, uint32_t inst, uint32_t t
                               SurfaceHit& hit) const {
     if (inst == RTC_INVALID_GEOMETRY_ID) return false;
     const Impl& s = *impl_;
-    const Mesh& mesh = s.meshes[s.instanceMesh[inst]];
-    const uint32_t i0 = mesh.indices[3 * tri + 0];
-    const uint32_t i1 = mesh.indices[3 * tri + 1];
-    const uint32_t i2 = mesh.indices[3 * tri + 2];
+    const uint32_t meshIndex = s.instanceMesh[inst];
+    const Impl::TriangleShading& tris = s.shading[meshIndex];
     const float w = 1.0f - u - v;
     // Most instances are not rotated or scaled; their normals need no matrix product.
     const glm::mat3& nm = s.normalMatrices[inst];
@@ -342,13 +372,12 @@ bool EmbreeScene::completeHit(const Ray& ray, float t, uint32_t inst, uint32_t t
     hit.position = ray.origin + hit.t * ray.dir;
     hit.instance = inst;
     hit.triangle = tri;
-    hit.material = mesh.material;
+    hit.material = s.meshes[meshIndex].material;
 
     // Geometric normal from the winding (counter-clockwise seen from the front), recomputed from
     // the mesh so it does not depend on Embree's Ng convention; degenerate triangles (which a
     // robust traversal may still report) fall back to facing the ray instead of producing NaN.
-    const Vec3 p0 = mesh.positions[i0], p1 = mesh.positions[i1], p2 = mesh.positions[i2];
-    Vec3 ng = glm::cross(p1 - p0, p2 - p0);
+    Vec3 ng = tris.cross[tri];
     if (!identity) ng = nm * ng;
     float len2 = glm::dot(ng, ng);
     if (len2 > 0.0f && std::isfinite(len2)) {
@@ -360,8 +389,9 @@ bool EmbreeScene::completeHit(const Ray& ray, float t, uint32_t inst, uint32_t t
     hit.geometricNormal = ng;
 
     Vec3 ns = ng;
-    if (mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty()) {
-        Vec3 interp = w * mesh.normals[i0] + u * mesh.normals[i1] + v * mesh.normals[i2];
+    if (!tris.normals.empty()) {
+        const std::array<Vec3, 3>& n = tris.normals[tri];
+        Vec3 interp = w * n[0] + u * n[1] + v * n[2];
         if (!identity) interp = nm * interp;
         const float l2 = glm::dot(interp, interp);
         if (l2 > 0.0f && std::isfinite(l2)) {
@@ -371,10 +401,12 @@ bool EmbreeScene::completeHit(const Ray& ray, float t, uint32_t inst, uint32_t t
     }
     hit.shadingNormal = ns;
 
-    if (mesh.uvs.size() == mesh.positions.size() && !mesh.uvs.empty())
-        hit.uv = w * mesh.uvs[i0] + u * mesh.uvs[i1] + v * mesh.uvs[i2];
-    else
+    if (!tris.uvs.empty()) {
+        const std::array<Vec2, 3>& uv = tris.uvs[tri];
+        hit.uv = w * uv[0] + u * uv[1] + v * uv[2];
+    } else {
         hit.uv = Vec2(0.0f);
+    }
     return true;
 }
 
