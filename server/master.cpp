@@ -733,7 +733,6 @@ struct Master::Impl : net::ConnectionHandler {
         pattern = Interleave{opt.settings.width, opt.settings.height, opt.settings.interleave};
         setCount = static_cast<uint32_t>(opt.settings.interleave * opt.settings.interleave);
         policy.resize(setCount);
-        policy.setProgressive(opt.settings.photons.estimator == CausticEstimatorKind::Progressive);
         assembler.resize(setCount);
         output.reconfigure(opt.settings.interleave, opt.settings.filterSize());
         settingsMsg = std::make_shared<const std::vector<uint8_t>>(proto::encode(bridge::toWire(opt.settings, opt.encoding)));
@@ -759,7 +758,6 @@ struct Master::Impl : net::ConnectionHandler {
                 if (s.filterSize() != opt.settings.filterSize())
                     output.reconfigure(s.interleave, s.filterSize());
                 opt.settings = s;
-                policy.setProgressive(s.photons.estimator == CausticEstimatorKind::Progressive);
                 settingsMsg = std::make_shared<const std::vector<uint8_t>>(
                     proto::encode(bridge::toWire(opt.settings, opt.encoding)));
                 for (const auto& [id, c] : registry.clients()) c.connection->send(settingsMsg);
@@ -949,6 +947,7 @@ struct Master::Impl : net::ConnectionHandler {
         const proto::CameraState cam = bridge::toWire(live.camera());
         const bool still = previousCamera && *previousCamera == cam;
         previousCamera = cam;
+        policy.setProgressive(opt.settings.photons.estimator == CausticEstimatorKind::Progressive);  // may be edited
         FramePlan plan = policy.plan(f, !edits.empty() || settingsChanged, registry.joinOrder(),
                                      [this](ClientId id) { return assembler.outstanding(id); }, cameraMoved,
                                      still && !cameraMoved);

@@ -433,6 +433,7 @@ bool EmbreeScene::occluded(const Ray& ray) const {
 
 uint32_t EmbreeScene::occluded8(const Ray* rays, int count) const {
     RTPM_DCHECK(count >= 0 && count <= 8);
+    if (count == 1) return occluded(rays[0]) ? 1u : 0u;  // RING's lamp: one sample per point
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;

@@ -65,7 +65,8 @@ public:
     bool occluded(const Ray& ray) const;
     /// Occlusion of rays[0 .. count) (count ≤ 8) as one Embree packet: bit i of the result is
     /// occluded(rays[i]). Cheaper than count single queries when the rays are coherent (shadow
-    /// rays from one point toward one light). Thread-safe like occluded().
+    /// rays from one point toward one light); a lone ray takes the single-ray traversal, which
+    /// costs less than a packet with one live lane. Thread-safe like occluded().
     uint32_t occluded8(const Ray* rays, int count) const;
 
     /// Moves instance `index` (object → world); recommits only the top level.

@@ -178,13 +178,7 @@ Vec3 areaLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 
     Vec3 pendingValue[8];
     int pending = 0;
     auto flush = [&] {
-        // A lone ray (a small or far light takes one sample) goes alone: an 8-wide packet with
-        // one live lane costs more than a single-ray traversal.
-        uint32_t blocked = 0;
-        if (pending == 1)
-            blocked = es.occluded(pendingRay[0]) ? 1u : 0u;
-        else
-            blocked = es.occluded8(pendingRay, pending);
+        const uint32_t blocked = es.occluded8(pendingRay, pending);
         for (int i = 0; i < pending; ++i)
             if (!(blocked & (1u << i))) sum += pendingValue[i];
         pending = 0;
