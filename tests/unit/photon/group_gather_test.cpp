@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -141,6 +142,50 @@ TEST(GroupGather, MatchesBruteForceOnTheGrid) {
     PhotonGrid grid(32);
     grid.build(photons);
     expectGroupsMatch(grid, photonsOf(grid), 0.01f, 64, 0.08f, {1.25f});
+}
+
+TEST(GroupGather, SelectNearestKeepsTheKNearestOfAnyDistanceSpread) {
+    // Distances spread evenly, crowded into one bucket, all equal (coincident photons), in two
+    // clumps, and one bound so small the buckets cannot be scaled; k from 1 to m − 1.
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    const float bounds[] = {1.0f, 1.0f, 1.0f, 1.0f, 1e-38f};
+    for (int spread = 0; spread < 5; ++spread)
+        for (size_t m : {2u, 65u, 80u, 300u})
+            for (uint32_t k : {1u, 5u, 64u, 79u})
+                if (k < m) {
+                    SCOPED_TRACE(testing::Message() << "spread " << spread << " m " << m << " k " << k);
+                    const float bound2 = bounds[spread];
+                    std::vector<KnnEntry> kept(m), tied(m + 1);
+                    std::vector<uint32_t> buckets(m);
+                    for (size_t j = 0; j < m; ++j) {
+                        const float u = unit(rng);
+                        const float d2 = spread == 0   ? u
+                                         : spread == 1 ? 0.5f + 1e-4f * u
+                                         : spread == 2 ? 0.25f
+                                         : spread == 3 ? (j % 2 ? 0.9f : 0.1f) + 1e-3f * u
+                                                       : 0.5f * u * bound2;
+                        kept[j] = KnnEntry{std::min(d2, std::nextafter(bound2, 0.0f)), uint32_t(j)};
+                    }
+                    std::vector<float> want;
+                    for (const KnnEntry& e : kept) want.push_back(e.dist2);
+                    std::sort(want.begin(), want.end());
+                    want.resize(k);
+                    std::vector<KnnEntry> before = kept;
+                    detail::selectNearest(kept.data(), m, k, bound2, tied.data(), buckets.data());
+                    std::vector<float> got;
+                    for (uint32_t e = 0; e < k; ++e) got.push_back(kept[e].dist2);
+                    std::sort(got.begin(), got.end());
+                    EXPECT_EQ(got, want);
+                    // The front holds distinct entries of the input, unchanged.
+                    std::vector<uint32_t> ids;
+                    for (uint32_t e = 0; e < k; ++e) {
+                        ids.push_back(kept[e].index);
+                        EXPECT_EQ(kept[e].dist2, before[kept[e].index].dist2);
+                    }
+                    std::sort(ids.begin(), ids.end());
+                    EXPECT_EQ(std::adjacent_find(ids.begin(), ids.end()), ids.end());
+                }
 }
 
 TEST(GroupGather, DegenerateArgumentsGiveEmptyGathers) {
