@@ -161,9 +161,11 @@ void gatherGroupRange(const Index& index, std::span<const GatherQuery> queries, 
     if (!(guess2 > 0.0f) && queries.size() > 1) {
         // No guess: the first query alone with rMax, its r_k the guess of the others (a group
         // searched with rMax in a dense caustic would collect far more than k candidates each).
+        // If it found fewer than k, the photons are sparse here: the others search rMax as a
+        // group (the candidate cap still sends a dense group to per-query searches).
         out[0] = gatherKnn(index, queries[0].position, queries[0].normal, k, rMax, s.heap,
                            alwaysVisible);
-        const float next = out[0].count == k ? kGuessScale * out[0].radius2 : 0.0f;
+        const float next = out[0].count == k ? kGuessScale * out[0].radius2 : maxDist2;
         gatherGroupRange(index, queries.subspan(1), k, rMax, next, s, out.subspan(1));
         return;
     }

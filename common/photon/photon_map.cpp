@@ -532,13 +532,14 @@ void PhotonMaps::gatherGroup(const SetState& st, std::span<const CausticQuery> q
                        std::span<DensityGather>(gathers));
     });
     // The next group's guess: the largest r_k² of the gathers that found k photons (one that
-    // found fewer searched all of rMax and says nothing about the density nearby).
+    // found fewer searched all of rMax and says nothing about the density nearby). If none
+    // found k, the photons are sparse here and the next group searches all of rMax as a group.
     float largest = 0.0f;
     for (size_t j = 0; j < group.size(); ++j) {
         out[slot[j]] = gathers[j];
         if (gathers[j].count == settings_.k) largest = std::max(largest, gathers[j].radius2);
     }
-    if (hint && !group.empty()) hint->radius2 = largest;
+    if (hint && !group.empty()) hint->radius2 = largest > 0.0f ? largest : rMax_ * rMax_;
 }
 
 void PhotonMaps::radianceGroup(const EmbreeScene& scene, uint32_t set, std::span<const CausticQuery> queries,

@@ -10,8 +10,10 @@
 namespace rtpm {
 
 /// What one caustic query (or group of queries, radianceGroup) leaves for the next one nearby:
-/// the squared radius of its estimate (a group's: the largest of its full k-NN gathers; 0 = none). The eye pass keeps one per image row and resets it at the row's start, so the
-/// hints a query sees do not depend on the thread count or the set split.
+/// the squared radius of its estimate (a group's: the largest of its full k-NN gathers, or
+/// rMax² when none found k photons: sparse photons, search all of rMax; 0 = none). The eye pass
+/// keeps one per image row and resets it at the row's start, so the hints a query sees do not
+/// depend on the thread count or the set split.
 struct GatherHint {
     float radius2 = 0.0f;
 };
