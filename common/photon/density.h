@@ -65,8 +65,9 @@ private:
 /// power.) Longer sums are still correct, only rounded.
 class PowerSum {
 public:
-    void add(uint32_t packed) {
-        const Vec3 v = decodeRgb9e5(packed);
+    void add(uint32_t packed) { add(decodeRgb9e5(packed)); }
+    /// A power already decoded by decodeRgb9e5 (the same exact terms).
+    void add(Vec3 v) {
         r_ += double(v.x);
         g_ += double(v.y);
         b_ += double(v.z);

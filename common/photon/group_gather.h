@@ -44,6 +44,7 @@ struct GroupGatherScratch {
     std::vector<KnnEntry> found;    ///< the group's radius search
     std::vector<float> x, y, z;     ///< candidate positions (m)
     std::vector<float> dx, dy, dz;  ///< candidate incoming directions (unnormalised)
+    std::vector<Vec3> power;        ///< candidate powers, decoded once for the group
     std::vector<float> d2;          ///< one query's squared distances
     std::vector<KnnEntry> kept;     ///< one query's front-facing candidates within R
     std::vector<KnnEntry> tied;     ///< selectNearest's entries in the k-th's bucket
@@ -211,6 +212,7 @@ void gatherGroupRange(const Index& index, std::span<const GatherQuery> queries, 
     const size_t n = s.found.size();
     for (auto* v : {&s.x, &s.y, &s.z, &s.dx, &s.dy, &s.dz, &s.d2})
         if (v->size() < n) v->resize(n);
+    if (s.power.size() < n) s.power.resize(n);
     if (s.kept.size() < n) s.kept.resize(n);
     if (s.tied.size() < n + 1) s.tied.resize(n + 1);
     if (s.buckets.size() < n) s.buckets.resize(n);
@@ -223,6 +225,7 @@ void gatherGroupRange(const Index& index, std::span<const GatherQuery> queries, 
         s.dx[j] = d.x;
         s.dy[j] = d.y;
         s.dz[j] = d.z;
+        s.power[j] = decodeRgb9e5(index.photonPower(s.found[j].index));
     }
     const float rMin = kMinDensityRadiusRelative * index.bounds().diagonal();
 
@@ -253,7 +256,7 @@ void gatherGroupRange(const Index& index, std::span<const GatherQuery> queries, 
             PowerSum sum;
             float farthest = 0.0f;
             for (uint32_t e = 0; e < k; ++e) {
-                sum.add(index.photonPower(s.found[kept[e].index].index));
+                sum.add(s.power[kept[e].index]);
                 farthest = std::max(farthest, kept[e].dist2);
             }
             g.power = sum.value();
@@ -263,7 +266,7 @@ void gatherGroupRange(const Index& index, std::span<const GatherQuery> queries, 
         } else if (bound2 >= maxDist2) {
             if (m == 0) continue;  // nothing within rMax: no estimate
             PowerSum sum;
-            for (size_t e = 0; e < m; ++e) sum.add(index.photonPower(s.found[kept[e].index].index));
+            for (size_t e = 0; e < m; ++e) sum.add(s.power[kept[e].index]);
             g.power = sum.value();
             g.count = uint32_t(m);
             g.radius2 = maxDist2;
