@@ -255,6 +255,10 @@ Scene buildGlassScene() {
     addLatheBand(glass, outside, seg);
     addLatheBand(glass, line(outside.back(), inside.front(), 1), seg);
     addLatheBand(glass, inside, seg);
+    // Lifted 0.1 mm (with the liquid below) so the foot's bottom face is not coplanar with the
+    // table: a ray reaching both at one distance would hit either, depending on BVH order.
+    const Mat4 lift = glm::translate(Mat4(1.0f), Vec3(0.0f, 0.0001f, 0.0f));
+    transformMesh(glass, lift);
     addMesh(s, std::move(glass), "cognac glass", glassMat);
 
     // Liquid up to y = 10 cm, 0.2 mm inside the bowl's inner wall: coincident glass/liquid
@@ -265,6 +269,7 @@ Scene buildGlassScene() {
     const std::vector<Vec2> wetted = arc({0.0f, yc}, Rl, -0.5f * kPi, aLevel, 24);
     addLatheBand(liquid, wetted, seg);
     addLatheBand(liquid, line(wetted.back(), {0.0f, wetted.back().y}, 6), seg);
+    transformMesh(liquid, lift);
     addMesh(s, std::move(liquid), "cognac", cognac);
 
     Light l;

@@ -69,10 +69,15 @@ public:
     /// costs less than a packet with one live lane. Thread-safe like occluded().
     uint32_t occluded8(const Ray* rays, int count) const;
 
-    /// Moves instance `index` (object → world); recommits only the top level.
+    /// Moves instance `index` (object → world); recommits the top level and rebuilds the flat
+    /// scene (embree_scene.cpp).
     void setTransform(uint32_t index, const Mat4& transform);
-    /// Replaces mesh `index`'s vertices/indices; recommits that geometry and the top level.
+    /// Replaces mesh `index`'s vertices/indices; recommits that geometry and the top level and
+    /// rebuilds the flat scene.
     void setMesh(uint32_t index, const Mesh& mesh);
+    /// True when rays are traced in the flat single-BVH copy, false when in the two-level scene
+    /// (instancing that would more than double the triangles, or a failed flat build).
+    bool flattened() const;
 
     /// Point just off the surface at `p` on the side of `towards` (a direction), offset scaled to
     /// |p| and the scene size so it works from millimetre to 100 km scenes.

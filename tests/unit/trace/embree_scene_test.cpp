@@ -128,6 +128,34 @@ TEST(EmbreeScene, InstanceTransformAppliedToHitAndNormal) {
     EXPECT_NEAR(hit.t, 10.0f, 1e-5f);
 }
 
+TEST(EmbreeScene, ManyInstancesOfAMeshStayTwoLevelAndHitLikeTheFlatScene) {
+    // Two instances of one quad double its triangles: traced flat. Five would quintuple them:
+    // traced in the two-level scene. Both answer the same hits, and follow a moved instance.
+    for (int copies : {2, 5}) {
+        SCOPED_TRACE(copies);
+        Scene scene = sceneWith(makeQuad());
+        for (int i = 1; i < copies; ++i)
+            scene.instances.push_back(Instance{"copy", 0, glm::translate(Mat4(1.0f), Vec3(2.0f * float(i), 0, 0))});
+        EmbreeScene es(scene);
+        EXPECT_EQ(es.flattened(), copies <= 2);
+        SurfaceHit hit;
+        for (int i = 0; i < copies; ++i) {
+            ASSERT_TRUE(es.intersect(Ray{{2.0f * float(i) + 0.25f, 0.1f, 1.0f}, {0, 0, -1}}, hit));
+            EXPECT_EQ(hit.instance, uint32_t(i));
+            EXPECT_NEAR(hit.t, 1.0f, 1e-6f);
+            EXPECT_NEAR(hit.uv.x, 0.75f, 1e-5f);
+            EXPECT_NEAR(hit.geometricNormal.z, 1.0f, 1e-6f);
+            EXPECT_TRUE(es.occluded(Ray{{2.0f * float(i), 0.0f, 1.0f}, {0, 0, -1}, 0.0f, 2.0f}));
+        }
+        EXPECT_FALSE(es.intersect(Ray{{1.0f, 0.0f, 1.0f}, {0, 0, -1}}, hit));  // between two quads
+        es.setTransform(0, glm::translate(Mat4(1.0f), Vec3(0, 0, -3)));
+        EXPECT_EQ(es.flattened(), copies <= 2);
+        ASSERT_TRUE(es.intersect(Ray{{0.1f, 0.1f, 1.0f}, {0, 0, -1}}, hit));
+        EXPECT_EQ(hit.instance, 0u);
+        EXPECT_NEAR(hit.t, 4.0f, 1e-5f);
+    }
+}
+
 TEST(EmbreeScene, NonUniformScaleUsesInverseTransposeForNormals) {
     // A tilted quad squashed along x: the normal must follow the inverse transpose, not M.
     Mesh m = makeQuad();
