@@ -108,12 +108,19 @@ Camera Camera::lookAt(Vec3 eye, Vec3 target, Vec3 upHint, float yfovRadians) {
 }
 
 Vec3 Camera::rayDirection(int i, int j, int width, int height) const {
+    return pixelRays(width, height).direction(i, j);
+}
+
+Camera::PixelRays Camera::pixelRays(int width, int height) const {
     // Image plane at distance 1: half height tan(yfov/2), aspect from the image size.
-    float halfH = std::tan(0.5f * yfov);
-    float halfW = halfH * float(width) / float(height);
-    float sx = (2.0f * (float(i) + 0.5f) / float(width) - 1.0f) * halfW;
-    float sy = (1.0f - 2.0f * (float(j) + 0.5f) / float(height)) * halfH;
-    Vec3 right = glm::cross(forward, up);
+    const float halfH = std::tan(0.5f * yfov);
+    const float halfW = halfH * float(width) / float(height);
+    return PixelRays{forward, glm::cross(forward, up), up, halfW, halfH, float(width), float(height)};
+}
+
+Vec3 Camera::PixelRays::direction(int i, int j) const {
+    const float sx = (2.0f * (float(i) + 0.5f) / width - 1.0f) * halfW;
+    const float sy = (1.0f - 2.0f * (float(j) + 0.5f) / height) * halfH;
     return glm::normalize(forward + sx * right + sy * up);
 }
 

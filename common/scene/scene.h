@@ -141,6 +141,15 @@ struct Camera {
     static Camera lookAt(Vec3 eye, Vec3 target, Vec3 upHint, float yfovRadians);
     /// Unit world-space direction through the centre of pixel (i, j) of a width × height image.
     Vec3 rayDirection(int i, int j, int width, int height) const;
+
+    /// What rayDirection computes once per image (the tangent, the right vector), so that a
+    /// loop over pixels pays only the per-pixel part; direction() returns the same floats.
+    struct PixelRays {
+        Vec3 forward, right, up;
+        float halfW, halfH, width, height;
+        Vec3 direction(int i, int j) const;
+    };
+    PixelRays pixelRays(int width, int height) const;
 };
 
 /// A whole scene. Owned by value; loaders and builders fill it, everything else reads it.

@@ -423,6 +423,7 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
     // so the record order does not depend on the thread count.
     std::vector<std::vector<EyeHit>> rowHits(records ? size_t(rows) : 0);
     std::atomic<uint64_t> primary{0}, secondary{0}, shadow{0}, nonFinite{0}, overflow{0};
+    const Camera::PixelRays pixelRays = camera.pixelRays(pattern.width, pattern.height);
     tbb::parallel_for(tbb::blocked_range<int>(0, rows), [&](const tbb::blocked_range<int>& range) {
         Counters count;
         std::vector<PathState> stack(kStackSize);
@@ -438,8 +439,8 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
                 const int lanes = std::min(8, cols - c0);
                 for (int l = 0; l < lanes; ++l) {
                     const int n = r * cols + c0 + l;
-                    rays[l] = Ray{camera.position, camera.rayDirection(pattern.pixelX(set, n), pattern.pixelY(set, n),
-                                                                        pattern.width, pattern.height)};
+                    rays[l] = Ray{camera.position,
+                                  pixelRays.direction(pattern.pixelX(set, n), pattern.pixelY(set, n))};
                 }
                 const uint32_t hitMask = ctx.es.intersect8(rays, lanes, firstHits);
                 requests.clear();
