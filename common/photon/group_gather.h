@@ -126,7 +126,10 @@ inline void selectNearest(KnnEntry* kept, size_t m, uint32_t k, float bound2, Kn
     }
     if (j < m) ++count[0][bucket[j]];
     uint32_t b = 0, before = 0;  // bucket of the k-th; entries in nearer buckets
-    while (before + count[0][b] + count[1][b] < k) before += count[0][b] + count[1][b++];
+    for (uint32_t inB = count[0][0] + count[1][0]; before + inB < k; inB = count[0][b] + count[1][b]) {
+        before += inB;
+        ++b;
+    }
     size_t near = 0, tie = 0;
     for (j = 0; j < m; ++j) {
         const KnnEntry e = kept[j];
@@ -138,6 +141,10 @@ inline void selectNearest(KnnEntry* kept, size_t m, uint32_t k, float bound2, Kn
     std::copy(tied, tied + tie, kept + before);
     std::nth_element(kept + before, kept + (k - 1), kept + before + tie, nearerEntry);
 }
+
+/// d2[j] = |(x, y, z)[j] − q|² for j < n, in the leaf scan's operation order (kd_tree.h
+/// PhotonColumns::scan). Compiled for AVX2 with a baseline fallback (group_gather.cpp).
+void squaredDistances(const float* x, const float* y, const float* z, size_t n, Vec3 q, float* d2);
 
 /// Keeps the front-facing candidates of `q` strictly within sqrt(bound2) in `kept` (distance,
 /// candidate slot); returns how many. `d2` holds q's squared distance to every candidate.
@@ -235,12 +242,7 @@ void gatherGroupRange(const Index& index, std::span<const GatherQuery> queries, 
     for (size_t qi = 0; qi < queries.size(); ++qi) {
         const Vec3 q = queries[qi].position;
         const Vec3 nrm = queries[qi].normal;
-        // Squared distances in the leaf scan's operation order (kd_tree.h PhotonColumns::scan).
-        float* d2 = s.d2.data();
-        for (size_t j = 0; j < n; ++j) {
-            const float ex = s.x[j] - q.x, ey = s.y[j] - q.y, ez = s.z[j] - q.z;
-            d2[j] = ex * ex + ey * ey + ez * ez;
-        }
+        squaredDistances(s.x.data(), s.y.data(), s.z.data(), n, q, s.d2.data());
         KnnEntry* kept = s.kept.data();
         float keptWithin2 = local2;
         size_t m = keepWithin(s, n, nrm, local2, kept);

@@ -188,6 +188,25 @@ TEST(GroupGather, SelectNearestKeepsTheKNearestOfAnyDistanceSpread) {
                 }
 }
 
+TEST(GroupGather, SquaredDistancesAreTheScalarFormulaBitForBit) {
+    // The AVX2 clone (when the CPU has it) must give the bits of the baseline loop, any n.
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> u(-3.0f, 3.0f);
+    for (size_t n : {0u, 1u, 7u, 8u, 9u, 31u, 1000u}) {
+        std::vector<float> x(n), y(n), z(n), d2(n, -1.0f);
+        for (size_t j = 0; j < n; ++j) x[j] = u(rng), y[j] = u(rng), z[j] = 1e-3f * u(rng);
+        const Vec3 q(u(rng), u(rng), u(rng));
+        detail::squaredDistances(x.data(), y.data(), z.data(), n, q, d2.data());
+        for (size_t j = 0; j < n; ++j) {
+            volatile float ex = x[j] - q.x, ey = y[j] - q.y, ez = z[j] - q.z;
+            volatile float xx = ex * ex, yy = ey * ey, zz = ez * ez;
+            volatile float sum = xx + yy;
+            const float want = sum + zz;
+            EXPECT_EQ(d2[j], want) << "n " << n << " j " << j;
+        }
+    }
+}
+
 TEST(GroupGather, DegenerateArgumentsGiveEmptyGathers) {
     KdTree tree(kBox);
     tree.insert(floorPhotons(3));
