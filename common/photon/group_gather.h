@@ -91,56 +91,13 @@ private:
 };
 static_assert(ResultSet<CappedRadiusSet>);
 
-/// Buckets of `selectNearest`: with d² spread evenly over [0, bound²) (a locally uniform photon
-/// density fills area, i.e. d², evenly), m kept candidates leave ≈ m / 128 in the bucket the
-/// k-th falls in, so the final exact selection is over one or two entries.
-inline constexpr uint32_t kSelectBuckets = 128;
-
-inline bool nearerEntry(const KnnEntry& a, const KnnEntry& b) { return a.dist2 < b.dist2; }
-
 /// Moves the k nearest of `kept[0, m)` (every dist2 in [0, bound2); k ≤ m) to its front, in no
 /// particular order: the contract of nth_element at k − 1, up to which of several entries tied
-/// at the k-th distance is taken. One counting pass buckets d² linearly over [0, bound2), a
-/// prefix sum finds the bucket holding the k-th, a branch-free pass compacts the nearer buckets
-/// to the front (a write never passes the read position) and copies that bucket's entries to
-/// `tied` (room for m + 1), and nth_element picks among those few only. Replaces an nth_element
-/// over all m, whose partition loop was 42 % of a grouped gather on RING.
-inline void selectNearest(KnnEntry* kept, size_t m, uint32_t k, float bound2, KnnEntry* tied,
-                          uint32_t* buckets) {
-    if (m <= k) return;
-    const float scale = float(kSelectBuckets) / bound2;
-    if (!(scale <= 1e30f)) {  // bound2 near the smallest floats (coincident photons): no buckets
-        std::nth_element(kept, kept + (k - 1), kept + m, nearerEntry);
-        return;
-    }
-    // Bucket numbers first (a vectorisable pass), then two interleaved histograms, so that
-    // neighbours falling into one bucket do not wait on each other's increment.
-    uint32_t* const bucket = buckets;
-    for (size_t j = 0; j < m; ++j)
-        bucket[j] = std::min(uint32_t(kept[j].dist2 * scale), kSelectBuckets - 1);  // d2 ≥ 0
-    uint32_t count[2][kSelectBuckets] = {};
-    size_t j = 0;
-    for (; j + 1 < m; j += 2) {
-        ++count[0][bucket[j]];
-        ++count[1][bucket[j + 1]];
-    }
-    if (j < m) ++count[0][bucket[j]];
-    uint32_t b = 0, before = 0;  // bucket of the k-th; entries in nearer buckets
-    for (uint32_t inB = count[0][0] + count[1][0]; before + inB < k; inB = count[0][b] + count[1][b]) {
-        before += inB;
-        ++b;
-    }
-    size_t near = 0, tie = 0;
-    for (j = 0; j < m; ++j) {
-        const KnnEntry e = kept[j];
-        kept[near] = e;
-        near += bucket[j] < b ? 1u : 0u;
-        tied[tie] = e;
-        tie += bucket[j] == b ? 1u : 0u;
-    }
-    std::copy(tied, tied + tie, kept + before);
-    std::nth_element(kept + before, kept + (k - 1), kept + before + tie, nearerEntry);
-}
+/// at the k-th distance is taken. Buckets d² linearly over [0, bound2), finds the bucket holding
+/// the k-th by a prefix sum, compacts the nearer buckets to the front and runs nth_element over
+/// that bucket's few entries only (group_gather.cpp). `tied` has room for m + 1 entries,
+/// `buckets` for m.
+void selectNearest(KnnEntry* kept, size_t m, uint32_t k, float bound2, KnnEntry* tied, uint32_t* buckets);
 
 /// d2[j] = |(x, y, z)[j] − q|² for j < n, in the leaf scan's operation order (kd_tree.h
 /// PhotonColumns::scan). Compiled for AVX2 with a baseline fallback (group_gather.cpp).
