@@ -1,4 +1,5 @@
-// Hello and Auth validation: message type, protocol version, the MAC over the nonce and the Hello.
+// Hello and Auth validation (message type, protocol version, the MAC over the nonce and the Hello)
+// and the per-connection handshake state machine built on them.
 #include "server/handshake.h"
 
 #include "common/core/printable_text.h"
@@ -42,6 +43,30 @@ HandshakeResult checkAuth(const proto::Message& second, const proto::Hello& hell
     }
     r.accepted = true;
     return r;
+}
+
+HandshakeStep HandshakeSession::refuse(proto::RejectReason reason, std::string text) {
+    refused_ = true;
+    return {HandshakeStep::Action::Refuse, reason, std::move(text)};
+}
+
+HandshakeStep HandshakeSession::onMessage(const proto::Message& m, const std::string& token, bool insecureNoToken) {
+    if (refused_) return {};
+    if (!hello_) {
+        HandshakeResult h = checkHello(m);
+        if (!h.accepted) return refuse(h.reason, std::move(h.text));
+        hello_ = std::get<proto::Hello>(m);
+        name_ = std::move(h.clientName);
+        nonce_ = proto::makeNonce();
+        return {HandshakeStep::Action::Challenge, {}, {}};
+    }
+    HandshakeResult h = checkAuth(m, *hello_, nonce_, token, insecureNoToken);
+    if (!h.accepted && h.reason == proto::RejectReason::BadToken) {
+        refused_ = true;
+        return {HandshakeStep::Action::RefuseLater, h.reason, std::move(h.text)};
+    }
+    if (!h.accepted) return refuse(h.reason, std::move(h.text));
+    return {HandshakeStep::Action::Authenticated, {}, {}};
 }
 
 }  // namespace rtpm::server

@@ -9,7 +9,8 @@
 #include "common/render/render_flags.h"
 #include "common/core/strings.h"
 #include "common/scene/scene_loader.h"
-#include "server/edit_script.h"
+#include "server/animation.h"
+#include "server/script/script_edit.h"
 #include "common/image/image_io.h"
 #include "server/master.h"
 
@@ -76,7 +77,7 @@ int run(int argc, char** argv) {
     app.add_option("--csv", o.csv,
                    "append per-frame figures: frame, fps, photons per set, mode, bytes, slowest client and ms");
     app.add_option("--animate", animate, "live edit preset: orbit (camera), light, ior or object (scene edits)");
-    app.add_option("--edit-script", editScript, "file of 'frame <n> camera|light|material|transform|settings ...' lines (server/edit_script.h)");
+    app.add_option("--edit-script", editScript, "file of 'frame <n> camera|light|material|transform|settings ...' lines (server/script/script_edit.h)");
     app.add_flag("--quiet", o.quiet, "no per-frame line");
     // Browser viewer.
     app.add_option("--http", o.http,

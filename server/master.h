@@ -12,7 +12,8 @@
 #include "proto/messages.h"
 #include "server/deadline.h"
 #include "server/admission.h"
-#include "server/edit_script.h"
+#include "server/animation.h"
+#include "server/script/script_edit.h"
 
 namespace rtpm::server {
 

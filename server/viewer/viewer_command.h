@@ -6,7 +6,7 @@
 #include <string_view>
 #include <variant>
 
-#include "server/edit_script.h"
+#include "server/script/script_edit.h"
 
 namespace rtpm::server {
 

@@ -1,5 +1,7 @@
 // Edit scripts: grammar, errors naming the line, application to the live scene, animate presets.
-#include "server/edit_script.h"
+#include "server/animation.h"
+#include "server/live_scene.h"
+#include "server/script/script_edit.h"
 #include "tests/support/test_scenes.h"
 
 #include <gtest/gtest.h>
@@ -175,7 +177,9 @@ TEST(EditScript, CompactedEditsKeepTheLatestPerTarget) {
     for (const char* line : {"frame 1 light 0 position 1 1 1", "frame 2 material 1 ior 1.2",
                              "frame 3 light 0 position 2 2 2"})
         live.apply(parseEditScript(line, "s")[0], "s", out);
+    EXPECT_EQ(live.version(), 1u);  // applied, not yet sent
     for (const auto& e : out) live.record(e);
+    EXPECT_EQ(live.version(), 4u);  // every edit sent counts, compacted or not
     ASSERT_EQ(live.compactedEdits().size(), 2u);
     EXPECT_EQ(std::get<proto::LightEdit>(live.compactedEdits()[0]).position, (proto::Vec3f{2, 2, 2}));
 }

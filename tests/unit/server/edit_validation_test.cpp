@@ -15,7 +15,9 @@
 #include "client/frame_renderer.h"
 #include "common/render/render_job.h"
 #include "proto/bridge/bridge.h"
-#include "server/edit_script.h"
+#include "server/animation.h"
+#include "server/live_scene.h"
+#include "server/script/script_edit.h"
 #include "tests/support/test_scenes.h"
 
 namespace rtpm::server {

@@ -101,6 +101,51 @@ TEST(Handshake, ClientNamesCannotForgeOrFloodLogLines) {
     EXPECT_LE(r.clientName.size(), kMaxLoggedNameBytes + 32);
 }
 
+TEST(HandshakeSession, HelloThenTheTokensAuthJoins) {
+    HandshakeSession s(7, "10.0.0.1");
+    EXPECT_FALSE(s.awaitingAuth());
+    EXPECT_EQ(s.onMessage(hello(), kToken, false).action, HandshakeStep::Action::Challenge);
+    EXPECT_TRUE(s.awaitingAuth());
+    EXPECT_EQ(s.name(), "w1");
+    EXPECT_EQ(s.cores(), 2u);
+    const proto::Auth auth{proto::authMac(kToken, s.nonce(), hello())};
+    EXPECT_EQ(s.onMessage(auth, kToken, false).action, HandshakeStep::Action::Authenticated);
+}
+
+TEST(HandshakeSession, EachNonceIsFreshSoAnOldAnswerFails) {
+    HandshakeSession first(1, "a"), second(2, "a");
+    first.onMessage(hello(), kToken, false);
+    second.onMessage(hello(), kToken, false);
+    EXPECT_NE(first.nonce(), second.nonce());
+    const proto::Auth replayed{proto::authMac(kToken, first.nonce(), hello())};
+    EXPECT_EQ(second.onMessage(replayed, kToken, false).action, HandshakeStep::Action::RefuseLater);
+}
+
+TEST(HandshakeSession, WrongTokenIsAnsweredLaterAndThenEverythingIgnored) {
+    HandshakeSession s(1, "a");
+    s.onMessage(hello(), kToken, false);
+    const HandshakeStep bad = s.onMessage(proto::Auth{}, kToken, false);
+    EXPECT_EQ(bad.action, HandshakeStep::Action::RefuseLater);
+    EXPECT_EQ(bad.reason, proto::RejectReason::BadToken);
+    EXPECT_FALSE(s.awaitingAuth());
+    EXPECT_EQ(s.onMessage(proto::Auth{}, kToken, false).action, HandshakeStep::Action::Ignore);
+}
+
+TEST(HandshakeSession, AuthBeforeHelloOrAnOldVersionIsRefusedAtOnce) {
+    HandshakeSession early(1, "a");
+    const HandshakeStep r = early.onMessage(proto::Auth{}, kToken, false);
+    EXPECT_EQ(r.action, HandshakeStep::Action::Refuse);
+    EXPECT_EQ(r.reason, proto::RejectReason::ProtocolError);
+    proto::Hello old = hello();
+    old.protocolVersion = proto::kProtocolVersion + 1;
+    HandshakeSession s(2, "a");
+    EXPECT_EQ(s.onMessage(old, kToken, false).reason, proto::RejectReason::VersionMismatch);
+    EXPECT_EQ(s.onMessage(hello(), kToken, false).action, HandshakeStep::Action::Ignore);
+    HandshakeSession twice(3, "a");
+    twice.onMessage(hello(), kToken, false);
+    EXPECT_EQ(twice.onMessage(hello(), kToken, false).action, HandshakeStep::Action::Refuse);
+}
+
 TEST(TokenStrength, ShortOrRepetitiveTokensAreRefusedRandomOnesAccepted) {
     EXPECT_TRUE(proto::tokenWeakness("s3cret").has_value());                 // 6 characters
     EXPECT_TRUE(proto::tokenWeakness("ab").has_value());

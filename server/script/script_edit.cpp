@@ -1,15 +1,10 @@
-// Edit-script parsing, the server's live scene state, and the --animate presets.
-#include "server/edit_script.h"
-
-#include "proto/bridge/bridge.h"
+// The edit-script grammar: tokenising, parsing, formatting and the settings keywords.
+#include "server/script/script_edit.h"
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <sstream>
 #include <stdexcept>
-
-#include <glm/gtc/matrix_transform.hpp>
 
 #include "common/core/printable_text.h"
 #include "common/scene/scene_files.h"
@@ -17,8 +12,6 @@
 namespace rtpm::server {
 
 namespace {
-
-
 
 // Tokenised line with positions for error messages.
 class LineParser {
@@ -86,45 +79,6 @@ std::string lineEl(int line) { return line > 0 ? "line " + std::to_string(line) 
 
 [[noreturn]] void fail(const std::string& file, int line, const std::string& msg) {
     throw SceneError(file, lineEl(line), msg);
-}
-
-bool inUnit(Vec3 v) { return v.x >= 0 && v.y >= 0 && v.z >= 0 && v.x <= 1 && v.y <= 1 && v.z <= 1; }
-bool nonNegative(Vec3 v) { return v.x >= 0 && v.y >= 0 && v.z >= 0; }
-
-// Rotation by `degrees` about the vertical axis through `pivot`.
-Mat4 spinY(Vec3 pivot, float degrees) {
-    Mat4 m = glm::translate(Mat4(1.0f), pivot);
-    m = glm::rotate(m, glm::radians(degrees), Vec3(0, 1, 0));
-    return glm::translate(m, -pivot);
-}
-
-Bounds instanceBounds(const Scene& s, uint32_t instance) {
-    Bounds b;
-    const Instance& in = s.instances[instance];
-    for (const Vec3& p : s.meshes[in.mesh].positions) b.extend(Vec3(in.transform * glm::vec4(p, 1.0f)));
-    return b;
-}
-
-std::optional<uint32_t> firstInstanceWith(const Scene& s, bool (*pred)(const Material&)) {
-    for (uint32_t i = 0; i < s.instances.size(); ++i)
-        if (pred(s.materials[s.meshes[s.instances[i].mesh].material])) return i;
-    return std::nullopt;
-}
-
-bool isEmissive(const Material& m) { return m.isEmissive(); }
-bool isSpecular(const Material& m) { return m.isSpecular(); }
-
-std::optional<uint32_t> firstDielectric(const Scene& s) {
-    for (uint32_t i = 0; i < s.materials.size(); ++i)
-        if (s.materials[i].type == MaterialType::Dielectric) return i;
-    return std::nullopt;
-}
-
-uint64_t editKey(const proto::SceneEdit& e) {
-    if (auto* l = std::get_if<proto::LightEdit>(&e)) return (1ull << 32) | l->index;
-    if (auto* m = std::get_if<proto::MaterialEdit>(&e)) return (2ull << 32) | m->index;
-    if (auto* t = std::get_if<proto::TransformEdit>(&e)) return (3ull << 32) | t->instance;
-    return 0;
 }
 
 }  // namespace
@@ -250,23 +204,6 @@ std::vector<ScriptEdit> loadEditScript(const std::string& path) {
     return parseEditScript(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), path);
 }
 
-LiveScene::LiveScene(Scene loaded) : loaded_(std::move(loaded)), scene_(loaded_) {
-    if (!scene_.camera) throw std::invalid_argument("scene has no camera");
-    camera_ = *scene_.camera;
-    meshBoxes_.reserve(loaded_.meshes.size());
-    for (const Mesh& m : loaded_.meshes) meshBoxes_.push_back(meshBounds(m));
-}
-
-void LiveScene::record(const proto::SceneEdit& e) {
-    uint64_t key = editKey(e);
-    for (proto::SceneEdit& old : compacted_)
-        if (editKey(old) == key) {
-            old = e;
-            return;
-        }
-    compacted_.push_back(e);
-}
-
 std::string formatScriptEdit(const ScriptEdit& e) {
     std::ostringstream o;
     o.imbue(std::locale::classic());
@@ -328,183 +265,5 @@ void applySettingsEdit(const ScriptEdit& e, const std::string& file, RenderSetti
     }
     settings = s;
 }
-
-void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<proto::SceneEdit>& out) {
-    using K = ScriptEdit::Kind;
-    switch (e.kind) {
-        case K::Settings: fail(file, e.line, "settings edits are applied by the master, not the scene");
-        case K::Camera: {
-            Camera c = camera_;
-            if (e.eye) c.position = *e.eye;
-            if (e.target) {
-                if (glm::length(*e.target - c.position) < 1e-6f) fail(file, e.line, "camera target equals its eye");
-                c = Camera::lookAt(c.position, *e.target, Vec3(0, 1, 0), c.yfov);
-            }
-            if (e.yfov) c.yfov = *e.yfov;
-            validateCamera(c, file, lineEl(e.line));
-            camera_ = c;
-            return;
-        }
-        case K::Light: {
-            if (e.index >= scene_.lights.size())
-                fail(file, e.line, "light " + std::to_string(e.index) + " does not exist (scene has " +
-                                       std::to_string(scene_.lights.size()) + " punctual lights)");
-            Light l = scene_.lights[e.index];
-            if (e.position) l.position = *e.position;
-            if (e.direction) {
-                if (glm::length(*e.direction) == 0.0f) fail(file, e.line, "light direction is zero");
-                l.direction = glm::normalize(*e.direction);
-            }
-            if (e.intensity) {
-                if (!nonNegative(*e.intensity)) fail(file, e.line, "light intensity must be >= 0");
-                l.intensity = *e.intensity;
-            }
-            validateLight(l, file, lineEl(e.line));  // the rule every client applies
-            scene_.lights[e.index] = l;
-            out.emplace_back(bridge::lightToWire(scene_, e.index));
-            return;
-        }
-        case K::Material: {
-            if (e.index >= scene_.materials.size())
-                fail(file, e.line, "material " + std::to_string(e.index) + " does not exist (scene has " +
-                                       std::to_string(scene_.materials.size()) + ")");
-            Material m = scene_.materials[e.index];
-            if (e.type) m.type = *e.type;
-            if (e.color) {
-                if (!inUnit(*e.color)) fail(file, e.line, "material color must be in [0, 1]");
-                m.baseColor = *e.color;
-            }
-            if (e.ior) {
-                if (!(*e.ior > 0.0f)) fail(file, e.line, "ior must be > 0");
-                m.ior = *e.ior;
-            }
-            if (e.absorption) {
-                if (!nonNegative(*e.absorption)) fail(file, e.line, "absorption must be >= 0");
-                m.absorption = *e.absorption;
-            }
-            if (e.emission) {
-                if (!nonNegative(*e.emission)) fail(file, e.line, "emission must be >= 0");
-                m.emission = *e.emission;
-            }
-            validateMaterial(m, scene_.textures.size(), file, lineEl(e.line));
-            scene_.materials[e.index] = m;
-            out.emplace_back(bridge::materialToWire(scene_, e.index));
-            return;
-        }
-        case K::Transform: {
-            if (e.index >= scene_.instances.size())
-                fail(file, e.line, "instance " + std::to_string(e.index) + " does not exist (scene has " +
-                                       std::to_string(scene_.instances.size()) + ")");
-            Mat4 m;
-            if (e.matrix) {
-                m = *e.matrix;
-            } else {
-                Mat4 t(1.0f);
-                if (e.translate) t = glm::translate(t, *e.translate);
-                if (e.rotate) t = glm::rotate(t, glm::radians(e.rotate->w), glm::normalize(Vec3(*e.rotate)));
-                if (e.scale) t = glm::scale(t, Vec3(*e.scale));
-                m = t * loaded_.instances[e.index].transform;
-            }
-            validateInstanceTransform(m, meshBoxes_[scene_.instances[e.index].mesh], file, lineEl(e.line));
-            scene_.instances[e.index].transform = m;
-            out.emplace_back(bridge::transformToWire(scene_, e.index));
-            return;
-        }
-    }
-}
-
-std::optional<Animation> parseAnimation(std::string_view name) {
-    if (name.empty() || name == "none") return Animation::None;
-    if (name == "orbit") return Animation::Orbit;
-    if (name == "light") return Animation::Light;
-    if (name == "ior") return Animation::Ior;
-    if (name == "object") return Animation::Object;
-    return std::nullopt;
-}
-
-void checkAnimation(Animation a, const Scene& s) {
-    switch (a) {
-        case Animation::None: return;
-        case Animation::Orbit: break;
-        case Animation::Light:
-            if (s.lights.empty() && !firstInstanceWith(s, isEmissive))
-                throw std::invalid_argument("--animate light: the scene has no punctual light and no emissive object");
-            break;
-        case Animation::Ior:
-            if (!firstDielectric(s))
-                throw std::invalid_argument("--animate ior: the scene has no dielectric material");
-            break;
-        case Animation::Object:
-            if (!firstInstanceWith(s, isSpecular))
-                throw std::invalid_argument("--animate object: the scene has no mirror or dielectric object");
-            break;
-    }
-    // Every preset repeats within kAnimationPeriod frames: run them all once on a copy, so a
-    // state a client would refuse (an object spun beyond the world's bounds, …) fails now.
-    LiveScene dry(s);
-    std::vector<proto::SceneEdit> sink;
-    for (uint64_t f = 1; f <= kAnimationPeriod; ++f) {
-        animate(a, f, dry, sink);
-        sink.clear();
-    }
-}
-
-void animate(Animation a, uint64_t frame, LiveScene& live, std::vector<proto::SceneEdit>& out) {
-    if (frame == 0 || a == Animation::None) return;
-    const Scene& loaded = live.loaded();
-    const Bounds bounds = loaded.bounds();
-    const float f = static_cast<float>(frame % 7200);  // all presets repeat within 7200 frames
-    switch (a) {
-        case Animation::None: return;
-        case Animation::Orbit: {
-            Mat4 r = spinY(bounds.centre(), 3.0f * f);
-            Camera c = *loaded.camera;
-            c.position = Vec3(r * glm::vec4(c.position, 1.0f));
-            c.forward = glm::normalize(Vec3(r * glm::vec4(c.forward, 0.0f)));
-            c.up = glm::normalize(Vec3(r * glm::vec4(c.up, 0.0f)));
-            validateCamera(c, "--animate orbit", "camera");
-            live.setCamera(c);
-            return;
-        }
-        case Animation::Light: {
-            const float radius = 0.1f * bounds.diagonal();
-            const float theta = glm::radians(6.0f * f);
-            // Circle through the loaded position: offset (cos θ − 1, 0, sin θ)·radius.
-            const Vec3 offset = radius * Vec3(std::cos(theta) - 1.0f, 0.0f, std::sin(theta));
-            ScriptEdit e;
-            e.line = 0;
-            if (!loaded.lights.empty()) {
-                e.kind = ScriptEdit::Kind::Light;
-                e.index = 0;
-                e.position = loaded.lights[0].position + offset;
-            } else {
-                e.kind = ScriptEdit::Kind::Transform;
-                e.index = *firstInstanceWith(loaded, isEmissive);
-                e.translate = offset;
-            }
-            live.apply(e, "--animate light", out);
-            return;
-        }
-        case Animation::Ior: {
-            uint32_t m = *firstDielectric(loaded);
-            ScriptEdit e;
-            e.kind = ScriptEdit::Kind::Material;
-            e.index = m;
-            e.ior = std::max(1.01f, loaded.materials[m].ior + 0.2f * std::sin(2.0f * kPi * f / 60.0f));
-            live.apply(e, "--animate ior", out);
-            return;
-        }
-        case Animation::Object: {
-            uint32_t i = *firstInstanceWith(loaded, isSpecular);
-            ScriptEdit e;
-            e.kind = ScriptEdit::Kind::Transform;
-            e.index = i;
-            e.matrix = spinY(instanceBounds(loaded, i).centre(), 3.0f * f) * loaded.instances[i].transform;
-            live.apply(e, "--animate object", out);
-            return;
-        }
-    }
-}
-
 
 }  // namespace rtpm::server

@@ -1,4 +1,4 @@
-// Live edits driven by the server: the --edit-script file format and the --animate presets.
+// The edit-script grammar: one ScriptEdit per line, parsed and formatted without a scene.
 #pragma once
 
 #include <cstdint>
@@ -9,7 +9,6 @@
 
 #include "common/core/render_settings.h"
 #include "common/scene/scene.h"
-#include "proto/messages.h"
 
 namespace rtpm::server {
 
@@ -81,68 +80,5 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
 /// Reads and parses a script file; SceneError{path, "file", …} if it cannot be read, is not a
 /// regular file or is larger than kMaxScriptBytes (checked before reading).
 std::vector<ScriptEdit> loadEditScript(const std::string& path);
-
-/// The server's authoritative view of the scene: the scene as loaded, its current state, and the
-/// camera. Edits are checked here (index ranges, and the rules of common/scene/scene.h every
-/// client applies: validateLight, validateMaterial, validateInstanceTransform, validateCamera)
-/// before they are sent, so a client never receives an edit it must refuse. Not thread-safe.
-class LiveScene {
-public:
-    explicit LiveScene(Scene loaded);
-
-    /// Applies one script edit. Camera edits change camera() only; the others change scene() and
-    /// append the protocol edit to `out`. Throws SceneError{fileName, "line N", …} when the edit
-    /// does not fit the scene (index out of range, colour above 1, zero direction…); nothing
-    /// changes then.
-    void apply(const ScriptEdit& edit, const std::string& fileName, std::vector<proto::SceneEdit>& out);
-
-    const Scene& loaded() const { return loaded_; }
-    const Scene& scene() const { return scene_; }
-    const Camera& camera() const { return camera_; }
-    void setCamera(const Camera& c) { camera_ = c; }
-
-    /// Records that `e` was sent (for the compacted list late joiners receive).
-    void record(const proto::SceneEdit& e);
-    /// Every scene edit so far, compacted to the latest one per light, material and instance, in
-    /// order of first change: what Scene.edits carries for a client joining now.
-    const std::vector<proto::SceneEdit>& compactedEdits() const { return compacted_; }
-
-private:
-    Scene loaded_;
-    Scene scene_;
-    Camera camera_;
-    std::vector<Bounds> meshBoxes_;  // object-space bounds per mesh, for transform checks
-    std::vector<proto::SceneEdit> compacted_;
-};
-
-/// --animate presets. Each gives the state at frame `frame` as a function of the loaded scene
-/// (no drift over long runs):
-///  * Orbit: the camera turns 3° per frame about the vertical axis through the scene's centre;
-///    no scene edit (photons keep accumulating: camera moves never reset).
-///  * Light: the first punctual light circles 6° per frame on a horizontal circle of radius 10 %
-///    of the scene diagonal through its loaded position; without a punctual light the instance
-///    carrying the first emissive material moves on that circle instead.
-///  * Ior: the first dielectric material's index of refraction oscillates ±0.2 around its loaded
-///    value with a period of 60 frames.
-///  * Object: the first instance with a specular (mirror or dielectric) material spins 3° per
-///    frame about the vertical axis through its centre.
-/// Scene-changing presets edit every frame ≥ 1, so every frame is a new epoch (interaction mode).
-enum class Animation { None, Orbit, Light, Ior, Object };
-
-/// Parses "orbit", "light", "ior", "object" (or "" / "none"); std::nullopt otherwise.
-std::optional<Animation> parseAnimation(std::string_view name);
-
-/// Frames after which every preset repeats (Light and Ior: 60, Orbit and Object: 120).
-constexpr uint64_t kAnimationPeriod = 120;
-
-/// Throws std::invalid_argument naming what is missing when `scene` cannot be animated so, and
-/// SceneError when a frame of the preset would break the scene rules (every state of the
-/// preset, frames 1…kAnimationPeriod, is tried on a copy). Cost: kAnimationPeriod edits.
-void checkAnimation(Animation a, const Scene& scene);
-
-/// Applies preset `a` for `frame` to `live` (camera or scene) and appends scene edits to `out`.
-/// Frame 0 is the scene as loaded: nothing happens. Precondition: checkAnimation passed.
-void animate(Animation a, uint64_t frame, LiveScene& live, std::vector<proto::SceneEdit>& out);
-
 
 }  // namespace rtpm::server

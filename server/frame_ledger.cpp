@@ -1,0 +1,92 @@
+// Per-frame records of the frame loop: data, Stats, the slowest client, the pace of the run.
+#include "server/frame_ledger.h"
+
+#include <algorithm>
+#include <chrono>
+
+namespace rtpm::server {
+
+namespace {
+
+/// Frames over which the per-frame fps figure is averaged.
+constexpr size_t kFpsWindow = 8;
+
+}  // namespace
+
+void FrameLedger::start(TimePoint now) {
+    started_ = true;
+    startTime_ = now;
+}
+
+void FrameLedger::began(uint64_t frame, proto::FrameMode mode, uint32_t epoch, std::vector<ClientId> owners) {
+    FrameInfo& info = frames_[frame];
+    info.mode = mode;
+    info.epoch = epoch;
+    info.owners = std::move(owners);
+}
+
+void FrameLedger::addData(proto::FrameData&& fd, size_t wireBytes) {
+    FrameInfo& info = frames_[fd.frame];
+    info.bytes += wireBytes;
+    info.data.push_back(std::move(fd));
+}
+
+proto::FrameMode FrameLedger::addStats(ClientId client, const std::string& name, const proto::Stats& st) {
+    FrameInfo& info = frames_[st.frame];
+    info.photonsStored += st.photonsStored;
+    info.setsReported += static_cast<uint64_t>(std::count(info.owners.begin(), info.owners.end(), client));
+    lastStats_[client] = st;
+    if (st.frameMs > info.slowestMs) {
+        info.slowestMs = st.frameMs;
+        info.slowestStats = st;
+        info.slowest = std::to_string(client) + ":" + name;
+    }
+    return info.mode;
+}
+
+const proto::Stats* FrameLedger::lastStats(ClientId client) const {
+    auto it = lastStats_.find(client);
+    return it == lastStats_.end() ? nullptr : &it->second;
+}
+
+// Frames often retire in pairs (pipelining): a rate over the last few frames says more than the
+// gap to the previous one.
+double FrameLedger::fps(TimePoint now) {
+    shownTimes_.push_back(now);
+    if (shownTimes_.size() > kFpsWindow + 1) shownTimes_.pop_front();
+    const double span =
+        std::chrono::duration<double>(now - (shownTimes_.size() > 1 ? shownTimes_.front() : startTime_)).count();
+    const double frames = shownTimes_.size() > 1 ? double(shownTimes_.size() - 1) : 1.0;
+    return span > 0 ? frames / span : 0.0;
+}
+
+std::pair<OutputJob, ViewerFrame> FrameLedger::retire(const RetiredFrame& r, TimePoint now, uint32_t setCount) {
+    FrameInfo info = std::move(frames_[r.frame]);
+    frames_.erase(r.frame);
+    OutputJob job;
+    job.frame = r.frame;
+    job.mode = info.mode;
+    job.fps = fps(now);
+    job.bytes = info.bytes;
+    job.photonsPerSet = info.setsReported ? double(info.photonsStored) / double(info.setsReported) : 0.0;
+    job.slowest = info.slowest;
+    job.slowestMs = std::max(0.0f, info.slowestMs);
+    job.slowestPhotonMs = info.slowestStats.photonMs;
+    job.slowestEyeMs = info.slowestStats.renderMs;
+    job.slowestEncodeMs = info.slowestStats.encodeMs;
+    job.arrived = r.arrived.size();
+    job.setCount = setCount;
+    job.deadlineHit = r.deadlineHit;
+    job.owners = std::move(info.owners);
+    uint32_t passes = UINT32_MAX;
+    for (const proto::FrameData& d : info.data) passes = std::min(passes, d.passes);
+    job.data = std::move(info.data);
+    ViewerFrame shown{r.frame,        info.epoch, info.mode,  job.fps,    job.photonsPerSet, info.slowestStats,
+                      info.slowest,   job.arrived, job.owners, passes == UINT32_MAX ? 0u : passes};
+    ++counts_.framesShown;
+    if (!r.missing.empty()) ++counts_.framesIncomplete;
+    counts_.seconds = std::chrono::duration<double>(now - startTime_).count();
+    return {std::move(job), std::move(shown)};
+}
+
+}  // namespace rtpm::server
