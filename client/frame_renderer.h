@@ -62,8 +62,8 @@ public:
     /// previous scene and drops every photon map. Throws ProtocolViolation naming what is wrong.
     /// Cost: the scene load, O(file size + triangles).
     void setScene(const proto::Scene& scene);
-    /// Queues an edit; edits apply at the next FrameBegin (DESIGN §2: all clients switch at the
-    /// same frame). Throws ProtocolViolation if its sceneVersion does not increase.
+    /// Queues an edit; edits apply at the next FrameBegin (docs/ARCHITECTURE.md §2: all clients
+    /// switch at the same frame). Throws ProtocolViolation if its sceneVersion does not increase.
     void queueEdit(const proto::Edit& edit);
     /// Renders `frame`: applies queued edits, resets photons when the epoch changed, adopts the
     /// frame's sets, shoots (unless Walkthrough) and traces, encodes the pixels with the settings'

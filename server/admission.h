@@ -13,9 +13,9 @@
 
 namespace rtpm::server {
 
-/// Limits of the pre-authentication state (DESIGN §1: accepts and authenticates clients).
-/// Authenticated clients are counted elsewhere (MasterOptions::maxPeers): they never compete
-/// with pending sockets for a slot.
+/// Limits of the pre-authentication state (docs/ARCHITECTURE.md §1: the master accepts and
+/// authenticates clients). Authenticated clients are counted elsewhere (MasterOptions::maxPeers):
+/// they never compete with pending sockets for a slot.
 struct AdmissionLimits {
     size_t maxPending = 128;          ///< connections still in their handshake, all sources together
     size_t maxPendingPerSource = 16;  ///< of which from one source address (IPv6: one /64)

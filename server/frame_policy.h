@@ -25,7 +25,8 @@ struct FramePlan {
     bool reassigned = false;
 };
 
-/// The master's frame-loop policy, pure: no sockets, no clock, no threads (DESIGN §2–§3).
+/// The master's frame-loop policy, pure: no sockets, no clock, no threads (docs/ARCHITECTURE.md
+/// §2–§3).
 ///  * Epochs: frame 0 and every frame that carries scene edits start a new epoch (edits increment
 ///    the epoch number); all clients
 ///    reset their photon maps at it, and the plain round-robin deal is used (maps restart anyway).

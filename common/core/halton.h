@@ -16,8 +16,8 @@ inline constexpr int kHaltonMaxDims = static_cast<int>(kHaltonPrimes.size());
 inline constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
 
 /// Radical inverse Φ_b(i) in base `kHaltonPrimes[dim]`: the base-b digits of i mirrored about the
-/// radix point (paper-notes §3.2). Exact in double up to 2^53 distinct values; result in [0, 1).
-/// Base 2 uses a bit reversal. Pure, thread-safe, O(log_b i).
+/// radix point (docs/ARCHITECTURE.md §5.1). Exact in double up to 2^53 distinct values; result in
+/// [0, 1). Base 2 uses a bit reversal. Pure, thread-safe, O(log_b i).
 double radicalInverse(int dim, uint64_t index);
 
 /// Base-2 radical inverse by bit reversal: Φ_2(i) = reverse64(i) · 2^-64. O(1).
@@ -45,10 +45,10 @@ inline float hashToUnit(uint64_t h) {
 }
 
 /// A Halton sequence over the first kHaltonMaxDims primes, rotated per interleaving set
-/// (Cranley–Patterson: x ↦ (Φ_b(i) + u_d) mod 1, DESIGN §5). The offsets u_d are hashed from
-/// (seed, stream, dimension), so every set (and every light within a set, via `stream`) draws its
-/// own randomised QMC point set while keeping the elementary-box structure that SPT relies on:
-/// indices i and i + j·Π b_d^{k_d} still lie in the same (rotated, wrapped) box.
+/// (Cranley–Patterson: x ↦ (Φ_b(i) + u_d) mod 1, docs/ARCHITECTURE.md §5.1). The offsets u_d are
+/// hashed from (seed, stream, dimension), so every set (and every light within a set, via `stream`)
+/// draws its own randomised QMC point set while keeping the elementary-box structure that SPT
+/// relies on: indices i and i + j·Π b_d^{k_d} still lie in the same (rotated, wrapped) box.
 /// Sets are never separated by index strides, which would alias with the bases.
 /// Immutable after construction; thread-safe for concurrent `sample` calls.
 class Halton {

@@ -1,4 +1,4 @@
-// Interleaved sampling: which pixels belong to which of the M×M sets (DESIGN §3).
+// Interleaved sampling: which pixels belong to which of the M×M sets (docs/ARCHITECTURE.md §3).
 #pragma once
 
 #include <cstdint>

@@ -1,4 +1,5 @@
-// Constant-time-per-pixel F×F box filter of an RGB float image (paper §4.1, DESIGN §4).
+// Constant-time-per-pixel F×F box filter of an RGB float image
+// (paper §4.1, docs/ARCHITECTURE.md §4).
 #pragma once
 
 #include <span>

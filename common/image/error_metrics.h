@@ -1,5 +1,5 @@
-// Error metrics between a rendered layer and a reference layer (DESIGN §8: every speed figure
-// stands next to a measured error).
+// Error metrics between a rendered layer and a reference layer (docs/ARCHITECTURE.md §12: every
+// speed figure stands next to a measured error).
 #pragma once
 
 #include <cstddef>

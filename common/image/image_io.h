@@ -1,4 +1,5 @@
-// Image output and input: multi-layer linear EXR (DESIGN §6 channel names) and tone-mapped PNG.
+// Image output and input: multi-layer linear EXR (docs/ARCHITECTURE.md §9 channel names) and
+// tone-mapped PNG.
 #pragma once
 
 #include <map>
@@ -35,7 +36,7 @@ void checkImageWritable(const std::string& path, bool createFolders = true);
 void writeExr(const std::string& path, int width, int height, std::span<const ImageLayer> layers,
               bool half = false);
 
-/// Writes a frame with the DESIGN §6 channels: R G B (final), direct.*, caustic.*,
+/// Writes a frame with the docs/ARCHITECTURE.md §9 channels: R G B (final), direct.*, caustic.*,
 /// caustic_filtered.* (the buffers of `frame`, which must have been composed).
 void writeExr(const std::string& path, const FrameImage& frame, bool half = false);
 

@@ -210,7 +210,8 @@ private:
 
 }  // namespace detail
 
-/// Unbalanced middle-split kd-tree over caustic photons (paper §5.2, §5.4; DESIGN §5).
+/// Unbalanced middle-split kd-tree over caustic photons
+/// (paper §5.2, §5.4; docs/ARCHITECTURE.md §5.4).
 ///
 /// Cells are implicit bisections of a fixed root box: a node splits its cell at the spatial
 /// middle of the cell's largest extent, so split planes depend only on the subdivision, never on

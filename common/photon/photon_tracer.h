@@ -58,8 +58,8 @@ std::vector<Emitter> buildEmitters(const EmbreeScene& scene);
 std::vector<uint32_t> splitBudget(std::span<const Emitter> emitters, uint32_t total);
 
 /// Halton dimensions a photon of this emitter uses. Steering dims come first and get the
-/// smallest bases (DESIGN §5.1): direction (2), point on an area light (2), first diffuse bounce
-/// direction (2, when diffuseBounces > 0). Everything else is hashed.
+/// smallest bases (docs/ARCHITECTURE.md §5.1–§5.2): direction (2), point on an area light (2),
+/// first diffuse bounce direction (2, when diffuseBounces > 0). Everything else is hashed.
 struct DimLayout {
     int direction = 0;   ///< dims direction, direction+1
     int point = -1;      ///< area lights: dims point, point+1
@@ -154,8 +154,8 @@ int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& source,
                     const TraceSettings& settings, uint64_t index,
                     std::vector<TracedPhoton>& out, TraceStats& stats, bool timed = false);
 
-/// Selective Photon Tracing grid over the steering dims (DESIGN §5.1): N_g = Π b_d^{k_d}.
-/// Indices i and i + m·N_g lie in the same elementary box for every m.
+/// Selective Photon Tracing grid over the steering dims (docs/ARCHITECTURE.md §5.2):
+/// N_g = Π b_d^{k_d}. Indices i and i + m·N_g lie in the same elementary box for every m.
 struct SptGrid {
     int dims = 0;                       ///< steering dims 0 … dims−1
     std::array<uint32_t, kHaltonMaxDims> digits{};  ///< k_d

@@ -11,10 +11,10 @@
 namespace rtpm {
 
 /// Loads a glTF 2.0 file (`.gltf` JSON with embedded or external buffers, or `.glb`).
-/// Mapping (DESIGN §6): every primitive of a glTF mesh becomes one rtpm Mesh; every node that
-/// uses the mesh adds one Instance per primitive with the node's world transform (matrix or TRS).
-/// Cameras: the first perspective camera met in a depth-first traversal of the default scene
-/// (glTF cameras look down local −Z with +Y up). KHR_lights_punctual: point/spot intensity in
+/// Mapping (docs/ARCHITECTURE.md §9): every primitive of a glTF mesh becomes one rtpm Mesh; every
+/// node that uses the mesh adds one Instance per primitive with the node's world transform (matrix
+/// or TRS). Cameras: the first perspective camera met in a depth-first traversal of the default
+/// scene (glTF cameras look down local −Z with +Y up). KHR_lights_punctual: point/spot intensity in
 /// W/sr, directional in W/m², times colour; spot cone angles; direction = the node's local −Z.
 /// Materials: KHR_materials_unlit → unlit Diffuse; KHR_materials_transmission t > 0 → Dielectric
 /// with transmission t (t < 1: the rest Lambertian with the base colour and texture;

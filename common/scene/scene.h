@@ -68,7 +68,8 @@ struct TextureTransform {
     bool operator==(const TextureTransform&) const = default;
 };
 
-/// DESIGN §6 mapping from glTF metallic-roughness. Emission makes any material an area light.
+/// docs/ARCHITECTURE.md §9 mapping from glTF metallic-roughness. Emission makes any material an
+/// area light.
 struct Material {
     std::string name;
     MaterialType type = MaterialType::Diffuse;
@@ -119,7 +120,8 @@ struct Instance {
 enum class LightType : uint8_t { Point, Spot, Directional };
 
 /// Punctual light (area lights are emissive triangles, see Material::emission).
-/// DESIGN §6: point/spot intensity is radiant intensity W/sr; directional is irradiance W/m².
+/// docs/ARCHITECTURE.md §9: point/spot intensity is radiant intensity W/sr; directional is
+/// irradiance W/m².
 struct Light {
     std::string name;
     LightType type = LightType::Point;

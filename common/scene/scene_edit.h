@@ -8,7 +8,7 @@
 namespace rtpm {
 
 /// A scene edit applied between frames. Camera changes are not edits (photons are
-/// view-independent); every edit here resets the photon maps (DESIGN §2).
+/// view-independent); every edit here resets the photon maps (docs/ARCHITECTURE.md §2.1).
 struct SceneEdit {
     enum class Kind { Light, Material, Transform } kind = Kind::Light;
     uint32_t index = 0;  ///< light, material or instance index

@@ -1,7 +1,7 @@
 // The eye pass: per pixel, a primary ray, deterministic splitting along specular chains, and at
 // each diffuse end point direct light by shadow rays plus the caustic estimate (paper §4.2).
 //
-// Choices (DESIGN leaves them to us):
+// Choices the paper leaves open (docs/ARCHITECTURE.md §11):
 // * Dielectrics split the path deterministically: both the reflected (×F) and the refracted
 //   (×(1−F)) branch are traced with a small explicit stack, branches whose throughput falls below
 //   kMinThroughput are dropped. One pixel is then noise-free through glass and the image does not

@@ -25,7 +25,7 @@ struct EyeStats {
 };
 
 /// One diffuse end point of a pixel's eye path: what a progressive pass needs to refine the
-/// pixel without re-tracing it (DESIGN §9: "reuse every eye-pass record").
+/// pixel without re-tracing it (docs/ARCHITECTURE.md §6.2: a still frame re-traces no eye ray).
 struct EyeHit {
     SurfaceHit hit;            ///< as Embree reported it (geometricNormal not flipped)
     Vec3 normal{0.0f};         ///< shading normal facing the viewer

@@ -55,7 +55,8 @@ TEST(AnalyticDirect, PointLitPlaneMatchesClosedFormThroughExr) {
     for (const SetPixels& sp : pixels) frame.scatter(pattern, sp.set, sp.pixels);
     frame.filterAndCompose(rs.filterSize());
 
-    // L = ρ/π · I cosθ / r² at the floor point each pixel's centre ray hits (DESIGN §6 camera).
+    // L = ρ/π · I cosθ / r² at the floor point each pixel's centre ray hits (docs/ARCHITECTURE.md
+    // §9 camera).
     std::vector<float> expected(size_t(rs.width) * rs.height * 3);
     for (int j = 0; j < rs.height; ++j)
         for (int i = 0; i < rs.width; ++i) {

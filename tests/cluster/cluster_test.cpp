@@ -124,7 +124,7 @@ struct Cluster {
     }
 };
 
-/// Layers of the DESIGN §6 EXR, "" = final.
+/// Layers of the EXR (docs/ARCHITECTURE.md §9), "" = final.
 const char* const kLayers[] = {"direct", "caustic", "caustic_filtered", ""};
 
 void expectBitIdentical(const ExrImage& got, const ExrImage& want, const std::string& layer) {

@@ -56,7 +56,7 @@ TEST(Halton, StaysBelowOneForHugeIndices) {
 }
 
 TEST(Halton, IndicesOnePeriodApartShareTheElementaryBox) {
-    // i and i + j·2^a·3^b lie in the same 2^-a × 3^-b box (DESIGN §5.1).
+    // i and i + j·2^a·3^b lie in the same 2^-a × 3^-b box (docs/ARCHITECTURE.md §5.2).
     const uint64_t period = 8 * 9;
     for (uint64_t i = 0; i < period; ++i) {
         const auto boxX = box(radicalInverse(0, i), 8);

@@ -1,4 +1,5 @@
-// Tests of image output: EXR layer round trip with the DESIGN §6 channel names, PNG tone mapping.
+// Tests of image output: EXR layer round trip with the docs/ARCHITECTURE.md §9 channel names, PNG
+// tone mapping.
 #include "common/image/image_io.h"
 
 #include <gtest/gtest.h>

@@ -164,7 +164,7 @@ TEST(GltfLoader, HandWrittenFileLoadsCameraLightsMaterialsAndInstances) {
     ASSERT_TRUE(lamp);
     expectNear3(Vec3(lamp->transform * glm::vec4(0, 0, 0, 1)), Vec3(0, 5, 0));
 
-    // Materials (DESIGN §6).
+    // Materials (docs/ARCHITECTURE.md §9).
     const Material& mirror = s.materials[s.meshes[a->mesh].material];
     EXPECT_EQ(mirror.type, MaterialType::Mirror);
     expectNear3(mirror.baseColor, Vec3(0.9f, 0.8f, 0.7f));
