@@ -108,37 +108,57 @@ Admission::Verdict Admission::onConnect(uint64_t id, const std::string& key, Tim
         return v;
     }
     if (s.pending.size() >= limits_.maxPendingPerSource) {
-        v.decision = AdmissionDecision::RefuseCapacity;
-        v.text = "too many handshakes in progress from " + key + " (" + std::to_string(s.pending.size()) +
-                 "); retry later";
-        count(&AdmissionCounts::refusedCapacity);
-        return v;
-    }
-    if (pendingById_.size() >= limits_.maxPending) {
-        // Fair share: the oldest slot of a source holding at least two more than the newcomer's,
-        // the one connecting most often (the flooder) among them.
-        Source* biggest = nullptr;
+        // The source's own oldest idle slot (the newcomer may be a real client sharing the
+        // address of an idle flood); refused when every one of them has made progress.
+        v.evict = oldestIdle(s);
+        if (!v.evict) {
+            v.decision = AdmissionDecision::RefuseCapacity;
+            v.text = "too many handshakes in progress from " + key + " (" + std::to_string(s.pending.size()) +
+                     "); retry later";
+            count(&AdmissionCounts::refusedCapacity);
+            return v;
+        }
+        onPendingEnded(*v.evict, End::Evicted);
+    } else if (pendingById_.size() >= limits_.maxPending) {
+        // Fair share: the oldest idle slot of a source holding at least two more than the
+        // newcomer's, the one connecting most often (the flooder) among them.
+        std::optional<uint64_t> victim;
         double biggestRate = -1.0;
         for (auto& [k, other] : sources_) {
             if (other.pending.size() < s.pending.size() + 2) continue;
+            const auto idle = oldestIdle(other);
+            if (!idle) continue;
             const double rate = decayed(other, now);
             if (rate > biggestRate) {
-                biggest = &other;
+                victim = idle;
                 biggestRate = rate;
             }
         }
-        if (!biggest) {
+        if (!victim) {
             v.decision = AdmissionDecision::RefuseCapacity;
             v.text = "the server has " + std::to_string(pendingById_.size()) + " handshakes in progress; retry later";
             count(&AdmissionCounts::refusedCapacity);
             return v;
         }
-        v.evict = biggest->pending.front();
+        v.evict = victim;
         onPendingEnded(*v.evict, End::Evicted);
     }
     s.pending.push_back(id);
     pendingById_[id] = Pending{key};
     return v;
+}
+
+std::optional<uint64_t> Admission::oldestIdle(const Source& s) const {
+    for (uint64_t id : s.pending) {
+        auto it = pendingById_.find(id);
+        if (it != pendingById_.end() && !it->second.progressed) return id;
+    }
+    return std::nullopt;
+}
+
+void Admission::onProgress(uint64_t id) {
+    auto it = pendingById_.find(id);
+    if (it != pendingById_.end()) it->second.progressed = true;
 }
 
 void Admission::onPendingEnded(uint64_t id, End how) {
@@ -174,8 +194,8 @@ std::optional<Admission::TimePoint> Admission::nextSummary() const {
     return *intervalStart_ + limits_.logInterval;
 }
 
-std::optional<std::string> Admission::summaryLine(TimePoint now) {
-    if (!intervalStart_ || now < *intervalStart_ + limits_.logInterval) return std::nullopt;
+std::optional<std::string> Admission::summaryLine(TimePoint now, bool final) {
+    if (!intervalStart_ || (!final && now < *intervalStart_ + limits_.logInterval)) return std::nullopt;
     const AdmissionCounts c = interval_;
     const double seconds = std::chrono::duration<double>(now - *intervalStart_).count();
     // The addresses that failed most this interval (at most three), then reset the interval.
@@ -193,7 +213,7 @@ std::optional<std::string> Admission::summaryLine(TimePoint now) {
     std::string line = head + std::to_string(c.connections) + " connections, " + std::to_string(c.admitted) +
                        " authenticated, " + std::to_string(c.refusedCapacity) + " refused (capacity), " +
                        std::to_string(c.refusedRateLimited) + " refused (rate limit), " + std::to_string(c.evicted) +
-                       " evicted for another source, " + std::to_string(c.timedOut) + " handshakes timed out, " +
+                       " evicted for a newcomer, " + std::to_string(c.timedOut) + " handshakes timed out, " +
                        std::to_string(c.protocolErrors) + " protocol errors, " + std::to_string(c.failedAuth) +
                        " failed authentications";
     if (!failing.empty()) {

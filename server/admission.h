@@ -70,11 +70,18 @@ public:
         std::string text;               ///< when refused: what to tell the peer
     };
     /// A new connection from `source`. Admitted connections count as pending until
-    /// onPendingEnded(). When every pending slot is taken, the newcomer takes the oldest slot of
-    /// a source holding at least two more than the newcomer's — of those, the one that connected
-    /// most often lately (a flooder, not a host starting several clients at once) — so one
-    /// flooding source cannot keep another source out.
+    /// onPendingEnded(). Only idle slots (no onProgress yet) are ever taken from another
+    /// connection, oldest first: a peer that sent a valid Hello never loses its slot to one that
+    /// sent nothing. When the source's slots are all taken, the newcomer takes its source's
+    /// oldest idle slot (so an idle flood from a shared address cannot keep a real client of that
+    /// address out), else it is refused. When every slot is taken, it takes the oldest idle slot
+    /// of a source holding at least two more than the newcomer's — of those, the one that
+    /// connected most often lately (a flooder, not a host starting several clients at once).
     Verdict onConnect(uint64_t id, const std::string& source, TimePoint now);
+
+    /// The pending connection `id` made progress (sent a valid Hello, a whole request): its slot
+    /// is no longer taken for a newcomer. Unknown ids are ignored.
+    void onProgress(uint64_t id);
 
     /// Why a pending connection stopped being pending.
     enum class End { Authenticated, TimedOut, FailedAuth, ProtocolError, Closed, Evicted };
@@ -92,8 +99,9 @@ public:
     std::chrono::milliseconds onAuthFailure(const std::string& source, TimePoint now);
 
     /// One summary line of the interval that ended, or nullopt when nothing worth a line happened
-    /// or the interval has not ended. Call it often (it is O(1) until an interval ends).
-    std::optional<std::string> summaryLine(TimePoint now);
+    /// or the interval has not ended (`final`: ends it now, at shutdown). Call it often (it is
+    /// O(1) until an interval ends).
+    std::optional<std::string> summaryLine(TimePoint now, bool final = false);
     /// The end of the current interval (for a timer), nullopt when nothing is counted.
     std::optional<TimePoint> nextSummary() const;
 
@@ -113,7 +121,10 @@ private:
     };
     struct Pending {
         std::string source;
+        bool progressed = false;
     };
+    /// The oldest pending connection of `s` without progress, if any.
+    std::optional<uint64_t> oldestIdle(const Source& s) const;
     Source& source(const std::string& key, TimePoint now);
     void refill(Source& s, TimePoint now) const;
     void count(uint64_t AdmissionCounts::*field);

@@ -71,7 +71,8 @@ void Peers::admit(asio::ip::tcp::socket sock) {
             if (p.session.id() == *v.evict) {
                 if (auto owned = ownerOf(*conn)) {
                     owned->send(proto::Reject{proto::RejectReason::Capacity,
-                                              "handshake slot given to another address; retry later"});
+                                              "handshake slot given to a newer connection (this one had "
+                                              "sent nothing yet); retry later"});
                     owned->closeAfterFlush(std::chrono::milliseconds(200));
                 }
                 break;
@@ -201,6 +202,7 @@ void Peers::handshake(net::Connection& c, Pending& p, const proto::Message& m) {
     switch (step.action) {
         case HandshakeStep::Action::Ignore: return;  // its refusal is on the way
         case HandshakeStep::Action::Challenge:
+            admission_.onProgress(s.id());  // a valid Hello: its slot is no longer taken for an idle newcomer
             c.expectOnly(proto::MessageType::Auth, proto::payloadLimit(proto::MessageType::Auth));
             c.send(proto::Challenge{s.nonce()});
             return;

@@ -160,10 +160,18 @@ TEST(Admission, FloodOfIdleAndReconnectingSocketsDoesNotKeepRealClientsOut) {
 TEST(Admission, RefusalForCapacityIsToldAsCapacity) {
     Server srv;
     srv.start(1, 1000, {"--max-pending-per-source", "1", "--handshake-timeout-ms", "30000"});
-    Socket holder = connectFrom("127.0.0.3", srv.port);  // an idle handshake holds the address's budget
+    // A handshake that sent its Hello holds the address's budget (an idle one would give its slot
+    // to the newcomer: server/admission.h).
+    Socket holder = connectFrom("127.0.0.3", srv.port);
     ASSERT_TRUE(holder.valid());
+    proto::Hello hello;
+    hello.clientName = "holder";
+    ASSERT_TRUE(holder.send(hello));
+    proto::Message challenge;
+    ASSERT_EQ(holder.receive(challenge, 10s), Socket::Got::Message);
+    ASSERT_TRUE(std::holds_alternative<proto::Challenge>(challenge));
     bool told = false;
-    for (int i = 0; i < 50 && !told; ++i) {  // until the master has accepted the holder
+    for (int i = 0; i < 50 && !told; ++i) {
         Socket s = connectFrom("127.0.0.3", srv.port);
         proto::Message m;
         if (s.receive(m, 10s) == Socket::Got::Message && std::holds_alternative<proto::Reject>(m)) {

@@ -25,7 +25,10 @@ AdmissionLimits small() {
 TEST(Admission, OneSourceCannotTakeMoreThanItsBudget) {
     Admission a(small());
     const TP t0{};
-    for (uint64_t id = 1; id <= 3; ++id) EXPECT_EQ(a.onConnect(id, "10.0.0.9", t0).decision, AdmissionDecision::Admit);
+    for (uint64_t id = 1; id <= 3; ++id) {
+        EXPECT_EQ(a.onConnect(id, "10.0.0.9", t0).decision, AdmissionDecision::Admit);
+        a.onProgress(id);  // each sent its Hello: none is taken for a newcomer
+    }
     const auto v = a.onConnect(4, "10.0.0.9", t0);
     EXPECT_EQ(v.decision, AdmissionDecision::RefuseCapacity);
     EXPECT_NE(v.text.find("retry"), std::string::npos);
@@ -34,6 +37,45 @@ TEST(Admission, OneSourceCannotTakeMoreThanItsBudget) {
     a.onPendingEnded(1, Admission::End::TimedOut);
     EXPECT_EQ(a.onConnect(6, "10.0.0.9", t0).decision, AdmissionDecision::Admit);
     EXPECT_EQ(a.pendingFrom("10.0.0.9"), 3u);
+}
+
+TEST(Admission, AnIdleFloodFromAClientsOwnAddressDoesNotKeepItOut) {
+    Admission a(small());
+    const TP t0{};
+    // A flood of idle sockets holds every slot of the address a real client shares (NAT).
+    for (uint64_t id = 1; id <= 3; ++id) ASSERT_EQ(a.onConnect(id, "10.0.0.9", t0).decision, AdmissionDecision::Admit);
+    // The real client takes the oldest idle slot of its address, and keeps it once its Hello came.
+    const auto real = a.onConnect(100, "10.0.0.9", t0);
+    ASSERT_EQ(real.decision, AdmissionDecision::Admit);
+    EXPECT_EQ(real.evict, std::optional<uint64_t>(1));
+    a.onProgress(100);
+    for (uint64_t id = 4; id <= 40; ++id) {
+        const auto v = a.onConnect(id, "10.0.0.9", t0);
+        ASSERT_EQ(v.decision, AdmissionDecision::Admit);
+        ASSERT_TRUE(v.evict.has_value());
+        ASSERT_NE(*v.evict, 100u) << "a peer that sent its Hello lost its slot to one that sent nothing";
+    }
+    EXPECT_EQ(a.pendingFrom("10.0.0.9"), 3u);
+}
+
+TEST(Admission, APeerThatSentItsHelloIsNeverEvictedForAnotherSource) {
+    Admission a(small());
+    const TP t0{};
+    for (uint64_t id = 1; id <= 3; ++id) ASSERT_EQ(a.onConnect(id, "10.0.0.8", t0).decision, AdmissionDecision::Admit);
+    for (uint64_t id = 4; id <= 6; ++id) ASSERT_EQ(a.onConnect(id, "10.0.0.9", t0).decision, AdmissionDecision::Admit);
+    a.onProgress(1);
+    a.onProgress(4);
+    const auto v = a.onConnect(7, "10.0.0.1", t0);
+    ASSERT_EQ(v.decision, AdmissionDecision::Admit);
+    ASSERT_TRUE(v.evict.has_value());
+    EXPECT_TRUE(*v.evict == 2 || *v.evict == 5) << *v.evict;  // the oldest idle, not the oldest
+    // When every slot that could be taken has made progress, the newcomer is refused instead.
+    Admission b(small());
+    for (uint64_t id = 1; id <= 6; ++id) {
+        ASSERT_EQ(b.onConnect(id, id <= 3 ? "10.0.0.8" : "10.0.0.9", t0).decision, AdmissionDecision::Admit);
+        b.onProgress(id);
+    }
+    EXPECT_EQ(b.onConnect(7, "10.0.0.1", t0).decision, AdmissionDecision::RefuseCapacity);
 }
 
 TEST(Admission, ANewSourceTakesTheOldestSlotOfTheBiggestWhenAllAreTaken) {
@@ -59,17 +101,18 @@ TEST(Admission, TheFloodingSourceLosesItsSlotsNotAHostStartingSeveralClients) {
     l.maxPendingPerSource = 4;
     Admission a(l);
     TP t{};
-    // A flooder connects many times (refused at its budget), holding 3 slots; a host starting
-    // three clients at once holds 3 too.
+    // A flooder connects many times (each newcomer at its budget takes its own oldest idle
+    // slot), holding 3 slots; a host starting three clients at once holds 3 too.
     uint64_t id = 1;
-    for (int i = 0; i < 50; ++i) a.onConnect(id++, "10.0.0.9", t);  // 4 admitted, 46 refused
-    a.onPendingEnded(1, Admission::End::TimedOut);                   // the flooder holds 2, 3, 4
+    for (int i = 0; i < 50; ++i) a.onConnect(id++, "10.0.0.9", t);  // it holds 47, 48, 49, 50
+    EXPECT_EQ(a.pendingFrom("10.0.0.9"), 4u);
+    a.onPendingEnded(47, Admission::End::TimedOut);                  // the flooder holds 48, 49, 50
     for (uint64_t c = 100; c < 103; ++c) ASSERT_EQ(a.onConnect(c, "10.0.0.5", t).decision, AdmissionDecision::Admit);
     ASSERT_EQ(a.pending(), 6u);
     const auto v = a.onConnect(200, "10.0.0.1", t);
     ASSERT_EQ(v.decision, AdmissionDecision::Admit);
     ASSERT_TRUE(v.evict.has_value());
-    EXPECT_EQ(*v.evict, 2u);  // the flooder's oldest, not 100
+    EXPECT_EQ(*v.evict, 48u);  // the flooder's oldest, not 100
 }
 
 TEST(Admission, EvenlySpreadSlotsAreNotTakenFromOthers) {
@@ -125,7 +168,7 @@ TEST(Admission, SummaryIsOneLinePerIntervalAndOnlyWhenSomethingHappened) {
     Admission a(small());
     TP t{};
     EXPECT_FALSE(a.nextSummary());
-    for (uint64_t id = 1; id <= 50; ++id) a.onConnect(id, "10.0.0.9", t);  // 3 admitted, 47 refused
+    for (uint64_t id = 1; id <= 50; ++id) a.onConnect(id, "10.0.0.9", t);  // each past 3 takes its own oldest
     a.onAuthFailure("10.0.0.9", t);
     EXPECT_FALSE(a.summaryLine(t + 5s));  // the interval has not ended
     ASSERT_TRUE(a.nextSummary());
@@ -133,7 +176,7 @@ TEST(Admission, SummaryIsOneLinePerIntervalAndOnlyWhenSomethingHappened) {
     auto line = a.summaryLine(t + 10s);
     ASSERT_TRUE(line);
     EXPECT_NE(line->find("50 connections"), std::string::npos) << *line;
-    EXPECT_NE(line->find("47 refused (capacity)"), std::string::npos) << *line;
+    EXPECT_NE(line->find("47 evicted for a newcomer"), std::string::npos) << *line;
     EXPECT_NE(line->find("1 failed authentications (most from 10.0.0.9: 1)"), std::string::npos) << *line;
     EXPECT_EQ(line->find('\n'), std::string::npos);
     EXPECT_FALSE(a.summaryLine(t + 30s));  // a new interval starts with the next event
