@@ -151,9 +151,17 @@ constexpr int kMaxJsonDepth = 256;
 // One pass over the JSON text in [p, p + n), ignoring brackets inside strings: its nesting
 // depth and the characters of string values that are data: URIs (tinygltf decodes those into
 // buffers and images before anything else could look at them).
+// What one JSON object of the scene file costs once parsed, charged to the budget before parsing:
+// tinygltf's DOM entry and its typed copy (a tinygltf::Node with its strings, maps and `extras`
+// Value is ~0.5 KiB), then our instance and transform. Issue-sized measure: a million-node file
+// (44 MB of JSON) took 1.8 GB in the master, ~1.8 KiB a node; 1 KiB is a floor of that.
+constexpr uint64_t kBytesPerJsonObject = 1024;
+
 struct JsonScan {
     int depth = 0;
     uint64_t dataUriChars = 0;
+    /// JSON objects inside each top-level member ("nodes", "accessors"...), in file order.
+    std::vector<std::pair<std::string, uint64_t>> objectsIn;
 };
 
 JsonScan scanJson(const unsigned char* p, size_t n) {
@@ -161,6 +169,7 @@ JsonScan scanJson(const unsigned char* p, size_t n) {
     int depth = 0;
     bool inString = false;
     size_t stringStart = 0;
+    std::string member;  // the top-level member being scanned (the last string at depth 1)
     for (size_t i = 0; i < n; ++i) {
         unsigned char c = p[i];
         if (inString) {
@@ -170,12 +179,17 @@ JsonScan scanJson(const unsigned char* p, size_t n) {
                 inString = false;
                 if (i - stringStart >= 5 && std::memcmp(p + stringStart, "data:", 5) == 0)
                     scan.dataUriChars += i - stringStart;
+                if (depth == 1) member.assign(reinterpret_cast<const char*>(p + stringStart), std::min<size_t>(i - stringStart, 64));
             }
         } else if (c == '"') {
             inString = true;
             stringStart = i + 1;
         } else if (c == '[' || c == '{') {
             scan.depth = std::max(scan.depth, ++depth);
+            if (c == '{' && depth >= 3) {
+                if (scan.objectsIn.empty() || scan.objectsIn.back().first != member) scan.objectsIn.emplace_back(member, 0);
+                ++scan.objectsIn.back().second;
+            }
         } else if (c == ']' || c == '}') {
             --depth;
         }
@@ -1072,6 +1086,12 @@ Scene loadGltfBytes(const std::vector<uint8_t>& bytes, SceneFiles& files) {
             throw SceneError(fileName, "JSON", "nesting deeper than " + std::to_string(kMaxJsonDepth) + " levels");
         // Base64 decodes 4 characters into 3 bytes: charge what the data: URIs will become.
         files.charge(scan.dataUriChars / 4 * 3, "data: URIs");
+        // Every object (node, accessor, material…) before tinygltf parses it: a file of a
+        // million tiny nodes is refused here, naming them, not after gigabytes of parsing.
+        for (const auto& [member, objects] : scan.objectsIn)
+            files.charge(objects * kBytesPerJsonObject,
+                         printableText(member, 40) + " (" + std::to_string(objects) + " JSON objects at " +
+                             std::to_string(kBytesPerJsonObject) + " bytes each once parsed)");
     }
     try {
         if (binary) {

@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -248,6 +249,34 @@ TEST(SceneFiles, LargeDataUriIsChargedBeforeDecoding) {
     SceneOverrides light;
     light.light = PointLightOverride{};
     EXPECT_NO_THROW(loadScene(path, light, enough));
+}
+
+// A glTF of `count` empty nodes: ~20 bytes of JSON each, far more once parsed.
+std::string gltfOfNodes(size_t count) {
+    std::string json = R"({"asset":{"version":"2.0"},"nodes":[)";
+    json.reserve(json.size() + count * 13 + 8);
+    for (size_t i = 0; i < count; ++i) json += i ? R"(,{"name":"n"})" : R"({"name":"n"})";
+    return json + "]}";
+}
+
+TEST(SceneFiles, NodeCountsAreChargedBeforeParsing) {
+    Sandbox box;
+    // 100 k nodes: 1.3 MB of JSON that fit a 32 MiB budget as bytes but not once parsed.
+    const std::string path = box.write(box.scene() / "nodes.gltf", gltfOfNodes(100000));
+    SceneInputPolicy small;
+    small.maxSceneBytes = 32u << 20;
+    std::string err = loadError(path, small);
+    EXPECT_TRUE(contains(err, "--max-scene-bytes")) << err;
+    EXPECT_TRUE(contains(err, "nodes (100000 JSON objects")) << err;
+    // A million nodes (13 MB) against the default budget: refused before tinygltf parses them.
+    const std::string million = box.write(box.scene() / "million.gltf", gltfOfNodes(1000000));
+    const auto t0 = std::chrono::steady_clock::now();
+    err = loadError(million);
+    EXPECT_TRUE(contains(err, "nodes (1000000 JSON objects")) << err;
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
+    // A few thousand nodes are well within it (refused only for holding no triangles).
+    err = loadError(box.write(box.scene() / "few.gltf", gltfOfNodes(2000)));
+    EXPECT_FALSE(contains(err, "--max-scene-bytes")) << err;
 }
 
 // CRC-32 (ISO-HDLC), for the PNG chunk below.
