@@ -6,7 +6,8 @@
 #                          [--timeout SECONDS]
 #
 # 1. Docker engine: uses the running dockerd, or starts one (root) and stops it at the end. Prints
-#    "skipped: no Docker engine (…)" and exits 0 only when none runs and none can be started.
+#    "skipped: no Docker engine (…)" and exits 77 (ctest's "skipped") when none runs and none can
+#    be started: never 0, so a caller cannot mistake a skip for a pass (.ci/run fails on it).
 # 2. Base image: debian:12 as present, else made by deploy/docker-base.sh (debootstrap).
 # 3. Image: deploy/Dockerfile, every stage (compile included). With --programs BUILD_DIR the
 #    programs built there (same Debian 12 packages, e.g. by CI's first stage) are put on the
@@ -21,7 +22,8 @@
 # Everything it started (containers, volumes, networks, stack, swarm, the test image's tag,
 # dockerd) is removed on exit; debian:12, rtpm:runtime-base and the layer cache stay for the next
 # run. Every wait is
-# bounded; the whole run is bounded by --timeout (default 1500 s). Exit status 0 = passed.
+# bounded; the whole run is bounded by --timeout (default 1500 s). Exit status 0 = passed,
+# 77 = skipped (no Docker engine), anything else = failed.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -80,7 +82,7 @@ cleanup() {
         for ((i = 0; i < 100; i++)); do kill -0 "$started_dockerd" 2>/dev/null || break; sleep 0.1; done
     fi
     rm -rf "$work"
-    if ((status != 0)); then
+    if ((status != 0 && !skipped)); then
         echo "compose-test: exit status $status" >&2
     elif ((!skipped)); then
         say "passed"
@@ -98,7 +100,7 @@ fi
 skip() {
     echo "skipped: no Docker engine ($1)"
     skipped=1
-    exit 0
+    exit 77
 }
 command -v docker >/dev/null || skip "no docker command, and not root to install docker.io"
 if ! docker info >/dev/null 2>&1; then
