@@ -59,6 +59,25 @@ double tokenEntropyBits(std::string_view token) {
     return perChar * n;
 }
 
+double tokenStepEntropyBits(std::string_view token) {
+    if (token.size() < 2) return 0.0;
+    // 0-9 then a-z (case folded) are one alphabet, so 0123456789abcdef is one run of step 1.
+    auto position = [](unsigned char c) -> int {
+        if (c >= '0' && c <= '9') return c - '0';
+        if (c >= 'a' && c <= 'z') return 10 + (c - 'a');
+        if (c >= 'A' && c <= 'Z') return 10 + (c - 'A');
+        return 100 + c;
+    };
+    size_t counts[1024] = {};  // steps lie in [-355, 355]
+    for (size_t i = 1; i < token.size(); ++i)
+        ++counts[size_t(position(uint8_t(token[i])) - position(uint8_t(token[i - 1])) + 512)];
+    const double n = double(token.size() - 1);
+    double perStep = 0.0;
+    for (size_t c : counts)
+        if (c) perStep -= (double(c) / n) * std::log2(double(c) / n);
+    return perStep * n;
+}
+
 std::optional<std::string> tokenWeakness(std::string_view token) {
     const std::string advice = "; generate one with `openssl rand -hex 16`";
     if (token.size() < kMinTokenChars)
@@ -71,6 +90,13 @@ std::optional<std::string> tokenWeakness(std::string_view token) {
         char buf[160];
         std::snprintf(buf, sizeof buf, "the token is too predictable (about %.0f bits by its character frequencies, "
                       "at least %.0f are required)", bits, kMinTokenBits);
+        return buf + advice;
+    }
+    const double stepBits = tokenStepEntropyBits(token);
+    if (stepBits < kMinTokenStepBits) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf, "the token is too predictable: a run or a repeated sequence (about %.0f bits "
+                      "by the steps between its characters, at least %.0f are required)", stepBits, kMinTokenStepBits);
         return buf + advice;
     }
     return std::nullopt;

@@ -28,16 +28,24 @@ Mac authMac(std::string_view token, const Nonce& nonce, const Hello& hello);
 /// Constant-time equality (CRYPTO_memcmp): the time does not depend on where the MACs differ.
 bool macEquals(const Mac& a, const Mac& b);
 
-/// Minimum strength of a cluster token: at least kMinTokenChars characters and at least
-/// kMinTokenBits bits by a character-frequency (Shannon) estimate, so short, repetitive or
-/// dictionary-short tokens are refused. `openssl rand -hex 16` (32 hex digits) gives ≈ 118 bits
-/// by this estimate (128 bits of real entropy).
+/// Minimum strength of a token (the cluster's and the viewer's): at least kMinTokenChars
+/// characters, at least kMinTokenBits bits by a character-frequency (Shannon) estimate, so short,
+/// repetitive or dictionary-short tokens are refused, and at least kMinTokenStepBits by the same
+/// estimate over the steps between neighbouring characters, so runs (abcdefghijklmnop,
+/// 0123456789abcdef, ponm…, aceg…) and repeated runs are refused although every character
+/// differs. `openssl rand -hex 16` (32 hex digits) gives ≈ 118 and ≥ 96 bits by these estimates
+/// (128 bits of real entropy); 16 distinct random characters give 64 and ≈ 45–59.
 inline constexpr size_t kMinTokenChars = 16;
 inline constexpr double kMinTokenBits = 64.0;
+inline constexpr double kMinTokenStepBits = 32.0;
 
 /// Estimated entropy of `token` in bits: length × the Shannon entropy of its character
 /// frequencies. An upper bound for random tokens, an overestimate for words; a filter, not proof.
 double tokenEntropyBits(std::string_view token);
+
+/// The same estimate over the token's steps: the differences between the positions of
+/// neighbouring characters in 0–9a–z (case folded; other bytes by their code). 0 for any run.
+double tokenStepEntropyBits(std::string_view token);
 
 /// Why `token` is too weak (a sentence for the user), or nullopt when it is acceptable.
 std::optional<std::string> tokenWeakness(std::string_view token);

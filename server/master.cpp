@@ -47,6 +47,13 @@ MasterOptions validated(MasterOptions o) {
         throw std::invalid_argument("no token: pass --token or set RTPM_TOKEN (or --insecure-no-token)");
     if (!o.insecureNoToken)
         if (auto weak = proto::tokenWeakness(o.token)) throw std::invalid_argument("refusing the token: " + *weak);
+    if (!o.http.empty() && o.viewerToken.empty() && o.token.empty())
+        throw std::invalid_argument(
+            "--http with --insecure-no-token needs --viewer-token: without one anyone who reaches the HTTP port "
+            "could drive the master (generate one with `openssl rand -hex 16`)");
+    if (!o.viewerToken.empty())
+        if (auto weak = proto::tokenWeakness(o.viewerToken))
+            throw std::invalid_argument("refusing --viewer-token: " + *weak);
     return o;
 }
 

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -16,6 +17,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "common/core/printable_text.h"
 #include "common/image/tone_map.h"
 #include "server/viewer/jpeg_encoder.h"
 #include "server/viewer/web_assets.h"
@@ -56,6 +58,8 @@ struct DisplayKey {
 struct Viewer {
     bool helloed = false;
     bool control = false;
+    bool failing = false;  // sent a wrong token: answered after the failure delay, ignored meanwhile
+    std::shared_ptr<asio::steady_timer> delay;
     DisplayKey key;
     bool awaitingAck = false;
     uint64_t lastSent = UINT64_MAX;
@@ -83,6 +87,29 @@ std::string errorJson(const std::string& message) {
     return nlohmann::json{{"type", "error"}, {"message", message}}.dump();
 }
 
+std::string lowered(std::string s) {
+    for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return s;
+}
+
+/// Refusals at the WebSocket upgrade, counted for the summary line instead of a line each.
+struct UpgradeRefusals {
+    uint64_t origin = 0;     // Origin not allowed
+    uint64_t full = 0;       // maxViewers viewers already
+    std::string lastOrigin;  // escaped and bounded (printableText): a peer's bytes
+    bool any() const { return origin || full; }
+    std::string text(int maxViewers) const {
+        std::string t;
+        if (origin)
+            t += std::to_string(origin) + " WebSocket upgrades refused for their Origin (last \"" + lastOrigin +
+                 "\"; allow one with --viewer-origin)";
+        if (full)
+            t += std::string(t.empty() ? "" : ", ") + std::to_string(full) + " viewers refused: " +
+                 std::to_string(maxViewers) + " (--max-viewers) already watching";
+        return t;
+    }
+};
+
 }  // namespace
 
 struct ViewerServer::Impl {
@@ -92,6 +119,25 @@ struct ViewerServer::Impl {
     asio::executor_work_guard<asio::io_context::executor_type> guard{io.get_executor()};
     std::unique_ptr<WsEndpoint> ws;
     std::thread thread;
+    std::function<void(const std::string&)> log;
+
+    // Viewer thread only: the HTTP port's admission, under the cluster port's rules
+    // (server/admission.h): every TCP connection holds a pending slot from accept until its
+    // WebSocket said hello with the token, or it is gone; a budget per address and in all, a
+    // deadline, failed tokens delayed and limited per address, one summary line per interval.
+    struct Conn {
+        std::string source;  // Admission::sourceKey of the peer's address
+        std::string origin;  // http://<the local address it reached>:<port>
+        Clock::time_point deadline;
+        bool pending = true;  // holds an admission slot
+    };
+    std::map<ConnId, Conn> conns;
+    Admission admission{opt.admission};
+    asio::steady_timer deadlineTimer{io}, logTimer{io};
+    bool deadlineArmed = false, logArmed = false;
+    UpgradeRefusals refusedInterval, refusedTotal;
+    size_t viewersHelloed = 0;
+    std::vector<std::string> allowedOrigins;  // lowered, without a trailing '/'
 
     // Viewer thread only.
     std::map<ConnId, Viewer> viewers;
@@ -128,13 +174,26 @@ struct ViewerServer::Impl {
     double lagSum = 0.0, latencySum = 0.0;
 
     Impl(ViewerOptions o, CommandHandler handler) : opt(std::move(o)), onCommand(std::move(handler)), jpeg(opt.jpegQuality) {
+        log = opt.log ? opt.log : [](const std::string& line) { std::fprintf(stderr, "rtpm-server: %s\n", line.c_str()); };
+        for (std::string origin : opt.allowedOrigins) {
+            origin = lowered(origin);
+            while (!origin.empty() && origin.back() == '/') origin.pop_back();
+            if (origin.rfind("http://", 0) != 0 && origin.rfind("https://", 0) != 0)
+                throw std::invalid_argument("--viewer-origin must be http://HOST[:PORT] or https://HOST[:PORT], got '" +
+                                            printableText(origin) + "'");
+            allowedOrigins.push_back(origin);
+        }
         WsEndpoint::Handlers h;
-        h.http = [this](const std::string& method, const std::string& path) { return onHttp(method, path); };
-        h.validate = [this](const std::string& path, const std::string& origin, const std::string& host) {
-            return validate(path, origin, host);
+        h.accept = [this](ConnId id, const WsEndpoint::Peer& peer) { return onAccept(id, peer); };
+        h.http = [this](ConnId id, const std::string& method, const std::string& path) {
+            admission.onProgress(id);  // a whole request: its slot is not taken for an idle newcomer
+            return onHttp(method, path);
+        };
+        h.validate = [this](ConnId id, const std::string& path, const std::string& origin) {
+            return validate(id, path, origin);
         };
         h.open = [this](ConnId id) { viewers.emplace(id, Viewer{}); };
-        h.close = [this](ConnId id) { onClose(id); };
+        h.close = [this](ConnId id) { onGone(id); };
         h.message = [this](ConnId id, std::string&& payload, bool binary) { onMessage(id, payload, binary); };
         try {
             ws = std::make_unique<WsEndpoint>(io, opt.host, opt.port, kMaxViewerMessageBytes, 1024, std::move(h));
@@ -146,6 +205,125 @@ struct ViewerServer::Impl {
             std::lock_guard lock(mu);
             viewerThreadCpu = threadCpuSeconds();
         });
+    }
+
+    // ---- admission ---------------------------------------------------------------------------
+
+    bool onAccept(ConnId id, const WsEndpoint::Peer& peer) {
+        if (stopping) return false;
+        const auto now = Clock::now();
+        const std::string source = Admission::sourceKey(peer.remote);
+        const Admission::Verdict v = admission.onConnect(id, source, now);
+        armLog();
+        if (v.decision != AdmissionDecision::Admit) return false;
+        if (v.evict) {
+            // Admission ended its slot already; the socket goes now.
+            if (auto e = conns.find(*v.evict); e != conns.end()) e->second.pending = false;
+            ws->drop(*v.evict);
+        }
+        Conn c;
+        c.source = source;
+        const bool v6 = peer.local.find(':') != std::string::npos;
+        c.origin = "http://" + (v6 ? "[" + peer.local + "]" : peer.local) + ":" + std::to_string(ws->port());
+        c.deadline = now + opt.handshakeTimeout;
+        conns[id] = std::move(c);
+        armDeadline();
+        return true;
+    }
+
+    void endPending(ConnId id, Admission::End how) {
+        auto it = conns.find(id);
+        if (it == conns.end() || !it->second.pending) return;
+        it->second.pending = false;
+        admission.onPendingEnded(id, how);
+    }
+
+    void onGone(ConnId id) {
+        endPending(id, Admission::End::Closed);
+        conns.erase(id);
+        onClose(id);
+    }
+
+    /// Every 100 ms while a connection is pending: reaps finished HTTP requests (websocketpp ends
+    /// those silently) and drops connections past their deadline.
+    void armDeadline() {
+        if (deadlineArmed || stopping) return;
+        deadlineArmed = true;
+        deadlineTimer.expires_after(std::chrono::milliseconds(100));
+        deadlineTimer.async_wait([this](const asio::error_code& e) {
+            deadlineArmed = false;
+            if (e || stopping) return;
+            ws->sweep();
+            const auto now = Clock::now();
+            bool any = false;
+            for (auto& [id, c] : conns) {
+                if (!c.pending) continue;
+                if (now < c.deadline) {
+                    any = true;
+                    continue;
+                }
+                c.pending = false;
+                admission.onPendingEnded(id, Admission::End::TimedOut);
+                ws->drop(id);
+            }
+            armLog();
+            if (any) armDeadline();
+        });
+    }
+
+    void armLog() {
+        if (logArmed || stopping) return;
+        const auto next = admission.nextSummary();
+        if (!next) return;
+        logArmed = true;
+        logTimer.expires_at(*next);
+        logTimer.async_wait([this](const asio::error_code& e) {
+            logArmed = false;
+            if (e) return;
+            logSummary();
+            armLog();
+        });
+    }
+
+    // One line per interval at most, whatever a flood does (peer bytes escaped and bounded).
+    void logSummary(bool final = false) {
+        const auto line = admission.summaryLine(Clock::now(), final);
+        const std::string refusals = refusedInterval.text(opt.maxViewers);
+        refusedInterval = UpgradeRefusals{};
+        if (line) log("viewer port: " + *line + (refusals.empty() ? "" : "; " + refusals));
+        else if (!refusals.empty()) log("viewer port: " + refusals);
+    }
+
+    void logRunTotals() {
+        const AdmissionCounts& t = admission.totals();
+        if (!t.any() && !refusedTotal.any()) return;
+        std::string line = "viewer port over the run: " + std::to_string(t.connections) + " connections, " +
+                           std::to_string(t.admitted) + " viewers, " + std::to_string(t.refusedCapacity) +
+                           " refused (capacity), " + std::to_string(t.refusedRateLimited) + " refused (rate limit), " +
+                           std::to_string(t.evicted) + " evicted for a newcomer, " + std::to_string(t.timedOut) +
+                           " timed out, " + std::to_string(t.failedAuth) + " failed tokens";
+        if (refusedTotal.any()) line += "; " + refusedTotal.text(opt.maxViewers);
+        log(line);
+    }
+
+    bool originAllowed(const std::string& origin, const Conn& c) const {
+        const std::string o = lowered(origin);
+        if (o == c.origin) return true;
+        const bool loopback = c.origin.rfind("http://127.", 0) == 0 || c.origin.rfind("http://[::1]:", 0) == 0;
+        if (loopback && o == "http://localhost:" + std::to_string(ws->port())) return true;
+        return std::find(allowedOrigins.begin(), allowedOrigins.end(), o) != allowedOrigins.end();
+    }
+
+    void refuseUpgrade(bool forOrigin, const std::string& origin) {
+        for (UpgradeRefusals* r : {&refusedInterval, &refusedTotal}) {
+            if (forOrigin) {
+                ++r->origin;
+                r->lastOrigin = printableText(origin);
+            } else {
+                ++r->full;
+            }
+        }
+        armLog();
     }
 
     // ---- HTTP ------------------------------------------------------------------------------
@@ -174,19 +352,25 @@ struct ViewerServer::Impl {
         return r;
     }
 
-    int validate(const std::string& path, const std::string& origin, const std::string& host) {
+    int validate(ConnId id, const std::string& path, const std::string& origin) {
         if (stopping) return 503;
         if (path != "/ws") return 404;
-        if (viewers.size() >= size_t(std::max(1, opt.maxViewers))) {
-            std::fprintf(stderr, "rtpm-server: viewer refused: %zu viewers already connected\n", viewers.size());
+        auto c = conns.find(id);
+        if (c == conns.end() || !c->second.pending) return 503;  // its time is up
+        // Only viewers that said hello count: sockets that never do time out instead.
+        if (viewersHelloed >= size_t(std::max(1, opt.maxViewers))) {
+            refuseUpgrade(false, origin);
             return 503;
         }
-        // A page from another origin must not drive the master (cross-site WebSocket hijacking).
-        if (!origin.empty() && origin != "http://" + host) {
-            std::fprintf(stderr, "rtpm-server: viewer refused: origin %s is not http://%s\n", origin.c_str(), host.c_str());
+        // A page from another origin must not drive the master (cross-site WebSocket hijacking,
+        // DNS rebinding: such a page chooses the Host header, so only the address the connection
+        // reached and the --viewer-origin list are trusted). Non-browser clients send no Origin.
+        if (!origin.empty() && !originAllowed(origin, c->second)) {
+            refuseUpgrade(true, origin);
             return 403;
         }
-        return 0;
+        return 0;  // no progress yet: a WebSocket that never says hello stays evictable
+
     }
 
     // ---- WebSocket ---------------------------------------------------------------------------
@@ -194,6 +378,8 @@ struct ViewerServer::Impl {
     void onClose(ConnId h) {
         auto it = viewers.find(h);
         if (it == viewers.end()) return;
+        if (it->second.helloed) --viewersHelloed;
+        if (it->second.delay) it->second.delay->cancel();
         viewers.erase(it);
         refreshWanted();
     }
@@ -239,6 +425,7 @@ struct ViewerServer::Impl {
         auto it = viewers.find(h);
         if (it == viewers.end()) return;
         Viewer& v = it->second;
+        if (v.failing) return;  // its refusal is on the way
         if (binary) {
             sendText(h, errorJson("controls are JSON text messages"));
             return;
@@ -254,20 +441,7 @@ struct ViewerServer::Impl {
                 sendText(h, errorJson("hello sent twice"));
                 return;
             }
-            const bool tokenOk = opt.token.empty() || sameToken(hello->token, opt.token);
-            if (!tokenOk && !opt.publicView) {
-                sendText(h, errorJson("wrong or missing token: start the page with the cluster or viewer token"));
-                ws->close(h, 1008, "token");  // 1008: policy violation
-                return;
-            }
-            v.helloed = true;
-            v.control = tokenOk;
-            sendText(h, nlohmann::json{{"type", "hello"}, {"control", v.control}}.dump());
-            if (!scene.empty()) sendText(h, scene);
-            if (!status.empty()) sendText(h, status);
-            refreshWanted();
-            trySendFrame(h, v);
-            encodePending();
+            onHello(h, v, hello->token);
             return;
         }
         if (!v.helloed) {
@@ -305,6 +479,58 @@ struct ViewerServer::Impl {
                 if (viewers.count(h)) sendText(h, json);
             });
         });
+    }
+
+    // The token is checked as the cluster port checks its MAC: a source out of allowance is
+    // refused unevaluated, a wrong token is answered after the failure delay (holding the slot)
+    // and counted against the source. A missing token with publicView is a watcher, not a guess.
+    void onHello(ConnId h, Viewer& v, const std::string& token) {
+        auto c = conns.find(h);
+        if (c == conns.end() || !c->second.pending) return;  // its time is up
+        if (opt.token.empty()) return admitViewer(h, v, true);
+        if (token.empty() && opt.publicView) return admitViewer(h, v, false);
+        const auto now = Clock::now();
+        if (auto limited = admission.refuseAttempt(c->second.source, now)) {
+            armLog();
+            sendText(h, errorJson(*limited));
+            endPending(h, Admission::End::Closed);
+            ws->close(h, 1008, "rate limited");  // 1008: policy violation
+            return;
+        }
+        if (sameToken(token, opt.token)) return admitViewer(h, v, true);
+        v.failing = true;
+        v.delay = std::make_shared<asio::steady_timer>(io, admission.onAuthFailure(c->second.source, now));
+        armLog();
+        v.delay->async_wait([this, h](const asio::error_code& e) {
+            auto it = viewers.find(h);
+            if (e || it == viewers.end()) return;
+            it->second.failing = false;
+            if (opt.publicView) return admitViewer(h, it->second, false);
+            sendText(h, errorJson("wrong or missing token: start the page with the cluster or viewer token"));
+            endPending(h, Admission::End::FailedAuth);
+            ws->close(h, 1008, "token");
+        });
+    }
+
+    void admitViewer(ConnId h, Viewer& v, bool control) {
+        if (viewersHelloed >= size_t(std::max(1, opt.maxViewers))) {
+            refuseUpgrade(false, "");
+            sendText(h, errorJson("the viewer has its maximum of " + std::to_string(opt.maxViewers) +
+                                  " viewers (--max-viewers); retry later"));
+            endPending(h, Admission::End::Closed);
+            ws->close(h, 1013, "full");  // 1013: try again later
+            return;
+        }
+        endPending(h, Admission::End::Authenticated);
+        ++viewersHelloed;
+        v.helloed = true;
+        v.control = control;
+        sendText(h, nlohmann::json{{"type", "hello"}, {"control", v.control}}.dump());
+        if (!scene.empty()) sendText(h, scene);
+        if (!status.empty()) sendText(h, status);
+        refreshWanted();
+        trySendFrame(h, v);
+        encodePending();
     }
 
     void noteShown(uint64_t frame) {
@@ -419,7 +645,7 @@ struct ViewerServer::Impl {
                 jpeg.encodeInto(p.rgb, p.width, p.height, e.message, 8);
                 e.frame = p.frame;
             } catch (const std::exception& ex) {
-                std::fprintf(stderr, "rtpm-server: viewer: %s\n", ex.what());
+                log(std::string("viewer: ") + ex.what());
                 e.frame = UINT64_MAX;
             }
             std::lock_guard lock(mu);
@@ -437,7 +663,13 @@ struct ViewerServer::Impl {
     void stopOnThread() {
         if (stopping) return;
         stopping = true;
+        deadlineTimer.cancel();
+        logTimer.cancel();
+        logSummary(true);
+        logRunTotals();
         ws->shutdown();
+        for (const auto& [id, c] : conns)  // not viewers: nothing to say goodbye to
+            if (c.pending) ws->drop(id);
         guard.reset();
         // A viewer that never answers the close handshake must not hold the process.
         stopTimer.expires_after(std::chrono::milliseconds(1500));

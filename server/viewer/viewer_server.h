@@ -1,24 +1,49 @@
 // The browser viewer's HTTP and WebSocket server (websocketpp on standalone Asio), on its own thread.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "common/image/frame_image.h"
+#include "server/admission.h"
 #include "server/viewer/viewer_command.h"
 
 namespace rtpm::server {
+
+/// Limits of the HTTP port before a connection is a viewer (see ViewerServer): every TCP
+/// connection, page requests included, holds a pending slot until its WebSocket presented the
+/// token; a page load is four short requests, so a host needs few slots at once.
+inline AdmissionLimits defaultViewerAdmission() {
+    AdmissionLimits a;
+    a.maxPending = 32;
+    a.maxPendingPerSource = 8;
+    return a;
+}
 
 struct ViewerOptions {
     std::string host = "127.0.0.1";  ///< address the HTTP port binds to
     uint16_t port = 0;               ///< 0 = any free port
     std::string token;               ///< controls need it (the viewer or the cluster token); "" = none needed
     bool publicView = false;         ///< viewers without the token may watch (no controls)
-    int maxViewers = 8;              ///< WebSocket viewers at once; more are refused at the handshake
+    int maxViewers = 8;              ///< viewers that said hello, at once; more are refused
     int jpegQuality = 85;
     double maxFps = 30.0;            ///< frames sent to viewers per second at most (0 = every frame)
+    /// Budgets of connections that are not (yet) viewers, failed-token allowance, log interval.
+    AdmissionLimits admission = defaultViewerAdmission();
+    /// A connection must be a viewer (WebSocket open and hello with the token answered) within
+    /// this, or be done: an idle socket, a slow request or a WebSocket that never says hello is
+    /// closed then.
+    std::chrono::milliseconds handshakeTimeout{5000};
+    /// Origins (scheme://host[:port], as browsers send them) whose pages may open the WebSocket,
+    /// besides http://<the address the connection reached>:<port> (and http://localhost:<port>
+    /// on loopback). The Host header is never trusted: a rebinding page controls it.
+    std::vector<std::string> allowedOrigins;
+    /// Where log lines go ("" prefix-free text, one line each); default: stderr as "rtpm-server: …".
+    std::function<void(const std::string&)> log;
 };
 
 /// Lag and cost figures, for the summary line and tests.

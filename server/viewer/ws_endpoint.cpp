@@ -38,6 +38,46 @@ struct WsEndpoint::Impl {
         byId.erase(id);
         if (h.close) h.close(id);
     }
+
+    // A new TCP connection (websocketpp's pre-init: accepted, nothing read yet).
+    void accepted(Hdl hdl) {
+        sweep();
+        asio::error_code ec;
+        WsServer::connection_ptr c = ws.get_con_from_hdl(hdl, ec);
+        if (ec || !c) return;
+        asio::ip::tcp::socket& sock = c->get_raw_socket();
+        Peer peer;
+        const auto remote = sock.remote_endpoint(ec);
+        if (!ec) peer.remote = remote.address().to_string();
+        const auto local = sock.local_endpoint(ec);
+        if (!ec) peer.local = local.address().to_string();
+        const ConnId id = nextId++;
+        if (!peer.remote.empty() && h.accept(id, peer)) {
+            byId.emplace(id, hdl);
+            byHdl.emplace(hdl, id);
+            return;
+        }
+        // Refused: a bare answer if the fresh socket's buffer takes it, then both ways shut, so
+        // websocketpp's first read ends the connection (a flood costs one small write each).
+        static const char kRefused[] =
+            "HTTP/1.1 503 Service Unavailable\r\nConnection: close\r\nContent-Length: 0\r\n\r\n";
+        sock.non_blocking(true, ec);
+        sock.write_some(asio::buffer(kRefused, sizeof kRefused - 1), ec);
+        sock.shutdown(asio::ip::tcp::socket::shutdown_both, ec);
+    }
+
+    void sweep() {
+        for (auto it = byId.begin(); it != byId.end();) {
+            if (!it->second.expired()) {
+                ++it;
+                continue;
+            }
+            const ConnId id = it->first;
+            byHdl.erase(it->second);
+            it = byId.erase(it);
+            if (h.close) h.close(id);
+        }
+    }
 };
 
 WsEndpoint::WsEndpoint(asio::io_context& io, const std::string& host, uint16_t port, size_t maxMessageBytes,
@@ -57,23 +97,25 @@ WsEndpoint::WsEndpoint(asio::io_context& io, const std::string& host, uint16_t p
         WsServer::connection_ptr c = m.ws.get_con_from_hdl(hdl);
         std::string path = c->get_resource();
         path = path.substr(0, path.find_first_of("?#"));
-        HttpReply r = m.h.http(c->get_request().get_method(), path);
+        auto it = m.byHdl.find(hdl);
+        HttpReply r = m.h.http(it == m.byHdl.end() ? 0 : it->second, c->get_request().get_method(), path);
         for (const auto& [k, v] : r.headers) c->append_header(k, v);
         c->set_body(std::move(r.body));
         c->set_status(static_cast<websocketpp::http::status_code::value>(r.status));
     });
+    ws.set_tcp_pre_init_handler([&m](Hdl hdl) { m.accepted(hdl); });
     ws.set_validate_handler([&m](Hdl hdl) {
         WsServer::connection_ptr c = m.ws.get_con_from_hdl(hdl);
-        const int status = m.h.validate(c->get_resource(), c->get_request_header("Origin"), c->get_request_header("Host"));
+        auto it = m.byHdl.find(hdl);
+        if (it == m.byHdl.end()) return false;
+        const int status = m.h.validate(it->second, c->get_resource(), c->get_request_header("Origin"));
         if (status == 0) return true;
         c->set_status(static_cast<websocketpp::http::status_code::value>(status));
         return false;
     });
     ws.set_open_handler([&m](Hdl hdl) {
-        const ConnId id = m.nextId++;
-        m.byId.emplace(id, hdl);
-        m.byHdl.emplace(hdl, id);
-        if (m.h.open) m.h.open(id);
+        auto it = m.byHdl.find(hdl);
+        if (it != m.byHdl.end() && m.h.open) m.h.open(it->second);
     });
     ws.set_close_handler([&m](Hdl hdl) { m.forget(hdl); });
     ws.set_fail_handler([&m](Hdl hdl) { m.forget(hdl); });
@@ -116,6 +158,17 @@ void WsEndpoint::close(ConnId id, uint16_t code, const std::string& reason) {
     asio::error_code ec;
     c->close(code, reason, ec);
 }
+
+void WsEndpoint::drop(ConnId id) {
+    auto c = impl_->con(id);
+    if (!c) return;
+    asio::error_code ec;
+    c->get_raw_socket().shutdown(asio::ip::tcp::socket::shutdown_both, ec);
+}
+
+void WsEndpoint::sweep() { impl_->sweep(); }
+
+size_t WsEndpoint::connections() const { return impl_->byId.size(); }
 
 void WsEndpoint::shutdown() {
     asio::error_code ec;

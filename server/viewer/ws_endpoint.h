@@ -15,7 +15,8 @@
 namespace rtpm::server {
 
 /// HTTP requests and WebSocket connections on one io_context (the caller's; every handler runs
-/// on the thread that runs it). Connections are named by ids that are never reused.
+/// on the thread that runs it). Every accepted TCP connection gets an id, never reused, that
+/// names it from `accept` to `close` (plain HTTP requests included).
 class WsEndpoint {
 public:
     using ConnId = uint64_t;
@@ -24,11 +25,21 @@ public:
         std::vector<std::pair<std::string, std::string>> headers;
         std::string body;
     };
+    /// Addresses of an accepted connection (Asio's to_string() forms; empty if already gone).
+    struct Peer {
+        std::string remote;  ///< the peer's IP address
+        std::string local;   ///< the local IP address the peer connected to
+    };
     struct Handlers {
-        /// A plain HTTP request (method, path without the query).
-        std::function<HttpReply(const std::string& method, const std::string& path)> http;
+        /// A new TCP connection, before any of its bytes are read: true keeps it, false closes it
+        /// at once (answered with a bare 503 if the socket takes it without blocking).
+        std::function<bool(ConnId, const Peer&)> accept;
+        /// A plain HTTP request (method, path without the query), read whole.
+        std::function<HttpReply(ConnId, const std::string& method, const std::string& path)> http;
         /// A WebSocket upgrade: 0 accepts, else the HTTP status to refuse with.
-        std::function<int(const std::string& path, const std::string& origin, const std::string& host)> validate;
+        std::function<int(ConnId, const std::string& path, const std::string& origin)> validate;
+        /// open: the WebSocket handshake completed. close: the connection is gone (any kind;
+        /// called once for every accepted id, at the latest by the next sweep()).
         std::function<void(ConnId)> open, close;
         std::function<void(ConnId, std::string&& payload, bool binary)> message;
     };
@@ -45,7 +56,16 @@ public:
     bool send(ConnId id, const char* data, size_t size, bool binary);
     /// Bytes queued and not yet written to the socket (0 when gone).
     size_t buffered(ConnId id) const;
+    /// Starts the WebSocket close handshake (an open WebSocket only).
     void close(ConnId id, uint16_t code, const std::string& reason);
+    /// Ends any connection at once, whatever it is doing (its socket is shut down both ways):
+    /// for deadlines and evictions, where a peer cannot be trusted to take part in a close.
+    void drop(ConnId id);
+    /// Calls `close` for connections websocketpp has finished with without telling (plain HTTP
+    /// requests end that way). O(connections); the endpoint also sweeps at every accept.
+    void sweep();
+    /// Connections accepted and not yet gone.
+    size_t connections() const;
     /// Stops accepting and starts the close handshake of every connection.
     void shutdown();
 

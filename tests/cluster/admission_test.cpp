@@ -10,6 +10,7 @@
 #include <atomic>
 #include <deque>
 #include <cstring>
+#include <filesystem>
 #include <mutex>
 #include <thread>
 
@@ -154,6 +155,84 @@ TEST(Admission, FloodOfIdleAndReconnectingSocketsDoesNotKeepRealClientsOut) {
     std::printf("flood: %llu connections from 10 addresses; %d of %d real clients joined; server stderr %zu lines; %s",
                 (unsigned long long)floodConnections.load(), joined, kClients, countLines(err),
                 err.substr(totals, err.find('\n', totals) - totals + 1).c_str());
+}
+
+/// The viewer's port a server printed ("viewer: http://HOST:PORT/"), 0 until it did.
+uint16_t viewerPortOf(Child& server) {
+    const std::string out = server.out();
+    const size_t at = out.find("viewer: http://127.0.0.1:");
+    return at == std::string::npos ? 0 : uint16_t(std::atoi(out.c_str() + at + 25));
+}
+
+// Before (issue 26): ~1 020 idle HTTP connections took the master's 1 024 descriptors; the cluster
+// port logged thousands of "accept failed: Too many open files" and 2 runs in 7 wrote no image.
+// Here the master has 256 descriptors and 20 addresses keep 400 idle sockets on the HTTP port.
+TEST(ViewerPort, IdleHttpFloodNeitherExhaustsDescriptorsNorStopsTheClusterPort) {
+    TempDir dir;
+    Child server({"/usr/bin/prlimit", "--nofile=256:256", binaryPath("server/rtpm-server"), "--port", "0",
+                  "--port-file", dir.file("port"), "--http", "127.0.0.1:0", "--scene", "RING", "--width", "48",
+                  "--height", "36", "-M", "3", "-P", "500", "--frames", "4", "--encoding", "float32", "--out",
+                  dir.file("out.exr"), "--quiet"},
+                 dir.file("server"), {"RTPM_TOKEN=" + kToken});
+    const uint16_t port = waitForPortFile(dir.file("port"), server, 60s);
+    ASSERT_NE(port, 0) << server.logs();
+    uint16_t http = 0;
+    ASSERT_TRUE(waitUntil([&] { return (http = viewerPortOf(server)) != 0; }, 10s)) << server.logs();
+    std::atomic<bool> stop{false};
+    std::atomic<uint64_t> floodConnections{0};
+    std::vector<std::thread> flood;
+    for (int a = 0; a < 20; ++a)
+        flood.emplace_back([&, a] {
+            const std::string from = "127.0.1." + std::to_string(2 + a);
+            std::deque<Socket> idle;
+            const auto end = Clock::now() + 120s;
+            while (!stop && Clock::now() < end) {
+                Socket s = connectFrom(from, http);
+                if (!s.valid()) continue;
+                ++floodConnections;
+                if (idle.size() >= 20) idle.pop_front();
+                idle.push_back(std::move(s));
+                std::this_thread::sleep_for(2ms);
+            }
+        });
+    ASSERT_TRUE(waitUntil([&] { return floodConnections > 1000 || server.poll(); }, 60s)) << server.logs();
+    Child client({binaryPath("client/rtpm-client"), "--server", "127.0.0.1:" + std::to_string(port), "--token", kToken,
+                  "--threads", "1", "--connect-timeout", "60"},
+                 dir.file("client"));
+    auto st = server.wait(120s);
+    stop = true;
+    for (auto& t : flood) t.join();
+    ASSERT_TRUE(st) << "server did not finish under the flood\n" << server.logs();
+    EXPECT_TRUE(st->exited && st->code == 0) << server.logs();
+    EXPECT_TRUE(std::filesystem::exists(dir.file("out.exr"))) << server.logs();
+    const std::string err = server.err();
+    EXPECT_EQ(err.find("Too many open files"), std::string::npos) << err.substr(0, 4000);
+    EXPECT_NE(err.find("viewer port over the run"), std::string::npos) << err;
+    EXPECT_LT(countLines(err), 40u) << err.substr(0, 4000);
+    std::printf("viewer port flood: %llu connections from 20 addresses, server exit %d, stderr %zu lines\n",
+                (unsigned long long)floodConnections.load(), st->exited ? st->code : -st->signal, countLines(err));
+}
+
+// Before (issue 26): --insecure-no-token with --http gave anyone full control; --viewer-token x
+// was accepted; runs like abcdefghijklmnop passed the strength check.
+TEST(ViewerPort, OpenOrWeakViewerTokensAreRefusedAtStart) {
+    auto refusal = [](std::vector<std::string> flags) {
+        TempDir dir;
+        std::vector<std::string> argv{binaryPath("server/rtpm-server"), "--port", "0", "--http", "127.0.0.1:0",
+                                      "--frames", "1", "--scene", "RING", "--width", "16", "--height", "12",
+                                      "--out", dir.file("out.exr")};
+        argv.insert(argv.end(), flags.begin(), flags.end());
+        Child server(argv, dir.file("server"));
+        auto st = server.wait(60s);
+        EXPECT_TRUE(st && st->exited && st->code == 1) << server.logs();
+        return server.err();
+    };
+    EXPECT_NE(refusal({"--insecure-no-token"}).find("--http with --insecure-no-token needs --viewer-token"),
+              std::string::npos);
+    EXPECT_NE(refusal({"--token", kToken, "--viewer-token", "x"}).find("refusing --viewer-token"), std::string::npos);
+    EXPECT_NE(refusal({"--token", kToken, "--viewer-token", "abcdefghijklmnop"}).find("run"), std::string::npos);
+    EXPECT_NE(refusal({"--insecure-no-token", "--viewer-token", "0123456789abcdef"}).find("refusing --viewer-token"),
+              std::string::npos);
 }
 
 // A peer turned away for capacity is told so (the client retries on Capacity, not on BadToken).

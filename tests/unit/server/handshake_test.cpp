@@ -158,5 +158,20 @@ TEST(TokenStrength, ShortOrRepetitiveTokensAreRefusedRandomOnesAccepted) {
     EXPECT_EQ(proto::tokenEntropyBits("aaaa"), 0.0);
 }
 
+TEST(TokenStrength, RunsAndRepeatedRunsAreRefusedThoughEveryCharacterDiffers) {
+    for (const char* run : {"abcdefghijklmnop", "0123456789abcdef", "ABCDEFGHIJKLMNOP", "ponmlkjihgfedcba",
+                            "acegikmoqsuwy024", "0123456789abcdef0123456789abcdef",
+                            "abcdefghijklmnopqrstuvwxyz012345"}) {
+        auto weak = proto::tokenWeakness(run);
+        ASSERT_TRUE(weak.has_value()) << run;
+        EXPECT_NE(weak->find("run"), std::string::npos) << *weak;
+    }
+    EXPECT_EQ(proto::tokenStepEntropyBits("abcdefghijklmnop"), 0.0);
+    // Random tokens pass: 32 hex digits, and 16 distinct characters of a larger alphabet.
+    EXPECT_FALSE(proto::tokenWeakness("3e8a1f5c90d27b64e1c8a3f05d9b27e6").has_value());
+    EXPECT_FALSE(proto::tokenWeakness("aZ3$kq9!Lm2@xW7#").has_value());
+    EXPECT_GT(proto::tokenStepEntropyBits(kToken), 90.0);
+}
+
 }  // namespace
 }  // namespace rtpm::server
