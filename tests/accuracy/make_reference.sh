@@ -21,4 +21,16 @@ trap 'rm -rf "$tmp"' EXIT
 oiiotool "$tmp/ring.exr" \
     --ch caustic.R,caustic.G,caustic.B,caustic_filtered.R,caustic_filtered.G,caustic_filtered.B \
     -d half --compression zip -o "$out"
-ls -l "$out"
+# Its provenance beside it (tests/unit/image/reference_provenance_test.cpp checks the hash).
+commit=$(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo unknown)
+git -C "$root" diff --quiet HEAD 2>/dev/null || commit="$commit with uncommitted changes"
+cat >"$out.provenance" <<PROVENANCE
+# Provenance of $(basename "$out") (tests/unit/image/reference_provenance_test.cpp checks the hash).
+file: $(basename "$out")
+sha256: $(sha256sum "$out" | cut -d' ' -f1)
+made: $(date -u +%F) by tests/accuracy/make_reference.sh at $commit
+command: rtpm-render --estimator knn --scene RING --width 160 --height 120 --interleave 3 --filter 3 --photons 200000 --frames 40 --k 256 --cap 0, then oiiotool keeping caustic.RGB and caustic_filtered.RGB as half floats, zip
+what: RING's caustic converged by rtpm itself (100x the photons of the test's render, k = 256): it shares the k-NN estimator's blur, so errors against it under-report; not an analytic reference
+used by: tests/accuracy/ring_reference_test.cpp
+PROVENANCE
+ls -l "$out" "$out.provenance"
