@@ -1,8 +1,10 @@
-// Soak (label `soak`, issue 13): a service cluster on loopback under a bounded flood of hostile
-// peers (garbage bytes, tokenless Hellos, Hello then garbage, oversized and stalled announcements,
-// idle sockets) while one client is killed and restarted periodically. Frames must keep flowing
-// in every period, the master's resident memory and open descriptors must stay flat (sampled
-// from /proc), and the image written at SIGTERM must be complete and finite.
+// Soak (label `soak`, issues 13 and 26): a service cluster on loopback under a bounded flood of
+// hostile peers on the cluster port (garbage bytes, tokenless Hellos, Hello then garbage,
+// oversized and stalled announcements, idle sockets) and on the viewer's HTTP port (idle and slow
+// requests, forged Origins, wrong tokens, WebSockets that never say hello) while one client is
+// killed and restarted periodically. Frames must keep flowing in every period, the master's
+// resident memory, open descriptors and log must stay flat (sampled from /proc), a viewer with
+// the token must still get frames, and the image written at SIGTERM must be complete and finite.
 // Duration: RTPM_SOAK_SECONDS (default 150); every loop is bounded by it.
 #include <gtest/gtest.h>
 
@@ -22,6 +24,7 @@
 #include "common/image/image_io.h"
 #include "proto/messages.h"
 #include "tests/support/cluster_util.h"
+#include "tests/support/ws_client.h"
 
 namespace rtpm::test {
 namespace {
@@ -131,6 +134,63 @@ private:
     std::thread thread_;
 };
 
+/// Hostile peers of the viewer's HTTP port, one kind after another from two addresses, until
+/// `stop`: at most kIdle sockets held open at once, ≤ 50 peers a second (about 8: each wrong
+/// token is answered after 0.5 s).
+class ViewerFlood {
+public:
+    static constexpr size_t kIdle = 16;
+    explicit ViewerFlood(uint16_t port) : port_(port), thread_([this] { run(); }) {}
+    ~ViewerFlood() {
+        stop_ = true;
+        thread_.join();
+    }
+    uint64_t peers() const { return peers_; }
+
+private:
+    void run() {
+        std::deque<RawHttp> idle;
+        const std::string forged = "Origin: http://x\nrtpm-server: client 1 (forged) joined\x1b[2J" + std::string(8000, 'A') + "\r\n";
+        for (uint64_t i = 0; !stop_; ++i) {
+            RawHttp c(port_, i % 2 ? "127.0.0.7" : "127.0.0.8");
+            ++peers_;
+            if (c.valid()) {
+                switch (i % 5) {
+                    case 0: break;                                    // connects and says nothing
+                    case 1: c.sendRaw("GET / HTTP/1.1\r\nHost: x\r\nX-Slow: "); break;  // never ends
+                    case 2: c.request("/ws", true, forged, 1s); break;  // refused for its Origin
+                    case 3:                                          // a wrong token
+                        if (c.request("/ws", true, "", 1s) == 101) {
+                            c.sendText(R"({"type":"hello","token":"0f9e8d7c6b5a4f3e2d1c0b9a8f7e6d5c"})");
+                            c.readText(1s);
+                        }
+                        break;
+                    case 4: c.request("/ws", true, "", 1s); break;   // a WebSocket that never says hello
+                }
+                if (i % 5 != 2 && i % 5 != 3) {
+                    idle.push_back(std::move(c));
+                    if (idle.size() > kIdle) idle.pop_front();
+                }
+            }
+            std::this_thread::sleep_for(20ms);
+        }
+    }
+    uint16_t port_;
+    std::atomic<bool> stop_{false};
+    std::atomic<uint64_t> peers_{0};
+    std::thread thread_;
+};
+
+/// A viewer with the token: hello answered with controls, then a frame (binary) within `timeout`.
+bool viewerGetsAFrame(uint16_t port, std::chrono::milliseconds timeout) {
+    RawHttp v(port, "127.0.0.9");
+    if (v.request("/ws", true, "") != 101) return false;
+    v.sendText(R"({"type":"hello","token":")" + kToken + R"("})");
+    auto hello = v.readText(5s);
+    if (!hello || hello->find(R"("control":true)") == std::string::npos) return false;
+    return v.readBinary(timeout);
+}
+
 TEST(Soak, ClusterUnderHostileFloodWithAClientRestartedPeriodically) {
     const int seconds = soakSeconds();
     const auto period = 15s;
@@ -138,10 +198,17 @@ TEST(Soak, ClusterUnderHostileFloodWithAClientRestartedPeriodically) {
     const std::string out = dir.file("soak.exr");
     Child server({binaryPath("server/rtpm-server"), "--port", "0", "--port-file", dir.file("port"), "--min-clients",
                   "1", "--encoding", "float32", "--scene", "RING", "--width", "96", "--height", "72", "-M", "3",
-                  "-P", "2000", "--frames", "0", "--out", out},
+                  "-P", "2000", "--frames", "0", "--http", "127.0.0.1:0", "--out", out},
                  dir.file("server"), {"RTPM_TOKEN=" + kToken});
     const uint16_t port = waitForPortFile(dir.file("port"), server, 30s);
     ASSERT_NE(port, 0) << server.logs();
+    uint16_t http = 0;
+    ASSERT_TRUE(waitUntil([&] {
+        const std::string o = server.out();
+        const size_t at = o.find("viewer: http://127.0.0.1:");
+        if (at != std::string::npos) http = uint16_t(std::atoi(o.c_str() + at + 25));
+        return http != 0;
+    }, 30s)) << server.logs();
     auto client = [&](const std::string& name, int generation) {
         return std::make_unique<Child>(
             std::vector<std::string>{binaryPath("client/rtpm-client"), "--server", "127.0.0.1:" + std::to_string(port),
@@ -161,10 +228,11 @@ TEST(Soak, ClusterUnderHostileFloodWithAClientRestartedPeriodically) {
     std::vector<Sample> samples;
     std::vector<size_t> framesPerPeriod;
     const auto start = Clock::now();
-    uint64_t floodPeers = 0;
+    uint64_t floodPeers = 0, viewerFloodPeers = 0;
     const int fdBefore = openFds(server.pid());
     {
         Flood flood(port);
+        ViewerFlood viewerFlood(http);
         auto nextRestart = start + period;
         size_t framesAtPeriodStart = framesShown(server.out());
         while (Clock::now() - start < std::chrono::seconds(seconds) && !server.poll()) {
@@ -182,6 +250,9 @@ TEST(Soak, ClusterUnderHostileFloodWithAClientRestartedPeriodically) {
             }
         }
         floodPeers = flood.peers();
+        viewerFloodPeers = viewerFlood.peers();
+        // A viewer with the token gets in and gets frames while the flood runs.
+        EXPECT_TRUE(viewerGetsAFrame(http, 10s)) << server.logs();
     }
     ASSERT_FALSE(server.poll()) << "the master ended during the soak\n" << server.logs();
     ASSERT_GE(samples.size(), 20u);
@@ -197,12 +268,19 @@ TEST(Soak, ClusterUnderHostileFloodWithAClientRestartedPeriodically) {
     const long rssLate = window(0.7, 1.01, [](const Sample& s) { return s.rss; });
     const long fdEarly = window(0.15, 0.4, [](const Sample& s) { return long(s.fds); });
     const long fdLate = window(0.7, 1.01, [](const Sample& s) { return long(s.fds); });
-    std::printf("soak: %d s, %llu hostile peers, %d client restarts, frames per %lld s period:", seconds,
-                (unsigned long long)floodPeers, generation, (long long)period.count());
+    std::printf("soak: %d s, %llu hostile peers on the cluster port and %llu on the viewer's, %d client restarts, "
+                "frames per %lld s period:", seconds, (unsigned long long)floodPeers,
+                (unsigned long long)viewerFloodPeers, generation, (long long)period.count());
     for (size_t f : framesPerPeriod) std::printf(" %zu", f);
     std::printf("\nsoak: master RSS max %ld KiB early, %ld KiB late; open fds max %ld early, %ld late\n", rssEarly,
                 rssLate, fdEarly, fdLate);
     EXPECT_GT(floodPeers, uint64_t(seconds) * 10) << "the flood did not run";
+    EXPECT_GT(viewerFloodPeers, uint64_t(seconds) * 4) << "the viewer flood did not run";  // a wrong token waits 0.5 s
+    // The log: summary lines (one per 10 s and port at most), never a line per hostile peer.
+    const std::string err = server.err();
+    const size_t errLines = size_t(std::count(err.begin(), err.end(), '\n'));
+    EXPECT_LE(errLines, size_t(seconds) / 5 + 4 * size_t(generation) + 20) << err.substr(0, 4000);
+    for (char ch : err) ASSERT_TRUE(ch == '\n' || (uint8_t(ch) >= 0x20 && ch != 0x7f)) << "control byte in the log";
     EXPECT_LE(rssLate, rssEarly + rssEarly / 4 + 16 * 1024) << "master memory grows under the flood";
     EXPECT_LE(fdLate, fdEarly + 4) << "master descriptors grow under the flood";
     ASSERT_FALSE(framesPerPeriod.empty());

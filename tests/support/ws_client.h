@@ -123,6 +123,31 @@ public:
         }
     }
 
+    /// Whether a WebSocket binary message arrives within `timeout` (text messages are skipped).
+    bool readBinary(std::chrono::milliseconds timeout) {
+        const auto end = std::chrono::steady_clock::now() + timeout;
+        for (;;) {
+            while (buf_.size() < 2)
+                if (!fill(end)) return false;
+            const unsigned op = uint8_t(buf_[0]) & 0x0f;
+            uint64_t len = uint8_t(buf_[1]) & 0x7f;
+            size_t at = 2;
+            if (len >= 126) {
+                const size_t n = len == 126 ? 2 : 8;
+                while (buf_.size() < 2 + n)
+                    if (!fill(end)) return false;
+                len = 0;
+                for (size_t i = 0; i < n; ++i) len = (len << 8) | uint8_t(buf_[2 + i]);
+                at += n;
+            }
+            while (buf_.size() < at + len)
+                if (!fill(end)) return false;
+            buf_.erase(0, at + size_t(len));
+            if (op == 0x2) return true;
+            if (op == 0x8) return false;
+        }
+    }
+
     /// Whether the server closed the connection within `timeout` (anything it sends is read).
     bool closedWithin(std::chrono::milliseconds timeout) {
         const auto end = std::chrono::steady_clock::now() + timeout;
