@@ -46,11 +46,17 @@ struct WsEndpoint::Impl {
         WsServer::connection_ptr c = ws.get_con_from_hdl(hdl, ec);
         if (ec || !c) return;
         asio::ip::tcp::socket& sock = c->get_raw_socket();
+        // An IPv4 peer of a dual-stack socket as IPv4: the form a browser names in its Origin.
+        auto text = [](const asio::ip::address& a) {
+            if (a.is_v6() && a.to_v6().is_v4_mapped())
+                return asio::ip::make_address_v4(asio::ip::v4_mapped, a.to_v6()).to_string();
+            return a.to_string();
+        };
         Peer peer;
         const auto remote = sock.remote_endpoint(ec);
-        if (!ec) peer.remote = remote.address().to_string();
+        if (!ec) peer.remote = text(remote.address());
         const auto local = sock.local_endpoint(ec);
-        if (!ec) peer.local = local.address().to_string();
+        if (!ec) peer.local = text(local.address());
         const ConnId id = nextId++;
         if (!peer.remote.empty() && h.accept(id, peer)) {
             byId.emplace(id, hdl);

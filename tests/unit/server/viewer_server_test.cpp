@@ -205,6 +205,15 @@ TEST(ViewerServer, OriginMustBeTheServedAddressNotTheHostHeader) {
     EXPECT_EQ(upgrade("http://127.0.0.1:1", "127.0.0.1:1"), 403);
 }
 
+TEST(ViewerServer, AnIpv4PageOfADualStackPortIsItsOwnOrigin) {
+    ViewerOptions o = options();
+    o.host = "::";  // IPv6 any: IPv4 peers arrive as ::ffff:a.b.c.d
+    ViewerServer v(o, {});
+    const std::string port = std::to_string(v.port());
+    RawHttp c(v.port());
+    EXPECT_EQ(c.request("/ws", true, "Origin: http://127.0.0.1:" + port + "\r\n"), 101);
+}
+
 TEST(ViewerServer, ViewerOriginAddsAllowedOrigins) {
     ViewerOptions o = options();
     o.allowedOrigins = {"http://Render-Box.example:8080/"};
