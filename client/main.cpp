@@ -7,9 +7,11 @@
 #include <unistd.h>
 
 #include "client/worker.h"
+#include "common/core/console.h"
 #include "proto/messages.h"
 
 int main(int argc, char** argv) {
+    rtpm::lineBufferConsole();
     using namespace rtpm::client;
     WorkerOptions o;
     std::string server;

@@ -17,13 +17,13 @@ build=(
     libopenexr-dev libstb-dev
     libasio-dev libwebsocketpp-dev libturbojpeg0-dev
     libtinygltf-dev nlohmann-json3-dev libtinyobjloader-dev
-    libcli11-dev libspdlog-dev libfmt-dev
+    libcli11-dev
     libzstd-dev
     libssl-dev  # libcrypto: HMAC-SHA256 and nonces of the cluster handshake (proto/auth.h)
 )
 runtime=(
     libembree3-3 libtbb12 libopenexr-3-1-30 libstb0 libtinyobjloader2rc10 libzstd1
-    libspdlog1.10 libfmt9 libturbojpeg0 libssl3
+    libturbojpeg0 libssl3
 )
 dev=(
     "${build[@]}" git

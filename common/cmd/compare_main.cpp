@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "common/core/console.h"
 #include "common/image/error_metrics.h"
 #include "common/image/image_io.h"
 
@@ -124,6 +125,7 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    rtpm::lineBufferConsole();
     try {
         return run(argc, argv);
     } catch (const std::exception& e) {
