@@ -16,11 +16,13 @@ namespace rtpm::server {
 
 /// Limits of the HTTP port before a connection is a viewer (see ViewerServer): every TCP
 /// connection, page requests included, holds a pending slot until its WebSocket presented the
-/// token; a page load is four short requests, so a host needs few slots at once.
+/// token. A page load is four short requests and a WebSocket, and a browser opens up to six
+/// connections to a host at once (more with several tabs): 16 an address, as on the cluster
+/// port, and 64 in all keep the port under ~70 descriptors with --max-viewers 8.
 inline AdmissionLimits defaultViewerAdmission() {
     AdmissionLimits a;
-    a.maxPending = 32;
-    a.maxPendingPerSource = 8;
+    a.maxPending = 64;
+    a.maxPendingPerSource = 16;
     return a;
 }
 
