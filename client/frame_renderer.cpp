@@ -189,7 +189,7 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
         const Group& g = *groups_[gi];
         const bool empty = g.job->photons().stats(g.sets.front()).batches == 0;
         const bool shoot = fb.mode != proto::FrameMode::Walkthrough || empty;
-        FrameStats st = groups_[gi]->job->renderFrame(camera, shoot, results[gi]);
+        FrameStats st = groups_[gi]->job->renderFrame(camera, shoot, results[gi], fb.passBatches);
         photonMs += st.shootSeconds * 1e3;
         renderMs += st.eyeSeconds * 1e3;
         shot += st.pathsThisFrame;
@@ -214,6 +214,10 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
         fd.pixelCount = uint32_t(sp->pixels.size());
         fd.pixels = std::move(enc.bytes);
         fd.passes = sp->passes;
+        fd.ownWeights = sp->ownWeights;
+        fd.errorSigma = sp->error.sigma;
+        fd.errorRadiance = sp->error.radiance;
+        fd.errorPixels = uint32_t(sp->error.pixels);
     });
     encodeMs = msSince(te);
 

@@ -103,7 +103,7 @@ void putPayload(Writer& w, const Settings& m) {
     w.u32(m.areaLightSamples);
     w.u8(m.gatherVisibility ? 1 : 0);
     w.u8(static_cast<uint8_t>(m.estimator));
-    w.f32(m.progressiveAlpha);
+    w.f32(m.progressiveGamma);
 }
 void putPayload(Writer& w, const FrameBegin& m) {
     w.u64(m.frame);
@@ -112,6 +112,7 @@ void putPayload(Writer& w, const FrameBegin& m) {
     putCamera(w, m.camera);
     w.u8(static_cast<uint8_t>(m.mode));
     putSets(w, m.sets);
+    w.u32(m.passBatches);
 }
 void putPayload(Writer& w, const FrameData& m) {
     w.u64(m.frame);
@@ -120,6 +121,10 @@ void putPayload(Writer& w, const FrameData& m) {
     w.u32(m.pixelCount);
     w.bytes(m.pixels);
     w.u32(m.passes);
+    w.bytes(m.ownWeights);
+    w.f64(m.errorSigma);
+    w.f64(m.errorRadiance);
+    w.u32(m.errorPixels);
 }
 void putPayload(Writer& w, const Edit& m) {
     w.u32(m.sceneVersion);
@@ -332,9 +337,9 @@ void get(Reader& r, Settings& m) {
     r.u32(m.areaLightSamples);
     getBool(r, m.gatherVisibility, "settings.gatherVisibility");
     getEnum8(r, m.estimator, kMaxCausticEstimator, "settings.estimator");
-    r.f32Finite(m.progressiveAlpha, "settings.progressiveAlpha");
-    if (r.ok() && !(m.progressiveAlpha > 0.0f && m.progressiveAlpha < 1.0f))
-        r.fail(ErrorCode::BadValue, "settings.progressiveAlpha not in (0, 1)");
+    r.f32Finite(m.progressiveGamma, "settings.progressiveGamma");
+    if (r.ok() && !(m.progressiveGamma > 0.0f && m.progressiveGamma <= 16.0f))
+        r.fail(ErrorCode::BadValue, "settings.progressiveGamma not in (0, 16]");
     inRange(r, m.photonMaxDepth, 0, kMaxDepthLimit, "settings.photonMaxDepth");
     inRange(r, m.areaLightSamples, 1, kMaxAreaLightSamples, "settings.areaLightSamples");
     inRange(r, m.width, 1, kMaxImageSide, "settings.width");
@@ -356,6 +361,8 @@ void get(Reader& r, FrameBegin& m) {
     getCamera(r, m.camera);
     getEnum8(r, m.mode, kMaxFrameMode, "frameBegin.mode");
     getSets(r, m.sets, "frameBegin.sets");
+    r.u32(m.passBatches);
+    inRange(r, m.passBatches, 1, kMaxPassBatches, "frameBegin.passBatches");
 }
 void get(Reader& r, FrameData& m) {
     r.u64(m.frame);
@@ -374,6 +381,20 @@ void get(Reader& r, FrameData& m) {
     std::span<const uint8_t> v;
     if (r.view(v, len, "frameData.pixels")) m.pixels.assign(v.begin(), v.end());
     r.u32(m.passes);
+    uint32_t weights = 0;
+    if (!r.count(weights, m.pixelCount, 1, "frameData.ownWeights")) return;
+    if (weights != 0 && weights != m.pixelCount) {
+        r.fail(ErrorCode::BadValue, "frameData.ownWeights: " + std::to_string(weights) +
+                                        " bytes for " + std::to_string(m.pixelCount) + " pixels");
+        return;
+    }
+    if (r.view(v, weights, "frameData.ownWeights")) m.ownWeights.assign(v.begin(), v.end());
+    r.f64Finite(m.errorSigma, "frameData.errorSigma");
+    r.f64Finite(m.errorRadiance, "frameData.errorRadiance");
+    r.u32(m.errorPixels);
+    if (r.ok() && (m.errorSigma < 0.0 || m.errorRadiance < 0.0))
+        r.fail(ErrorCode::BadValue, "frameData.error figures must be >= 0");
+    inRange(r, m.errorPixels, 0, m.pixelCount, "frameData.errorPixels");
 }
 void get(Reader& r, Edit& m) {
     r.u32(m.sceneVersion);

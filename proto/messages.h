@@ -30,6 +30,7 @@ inline constexpr uint32_t kMaxDepthLimit = 1024;     ///< Settings.maxDepth
 inline constexpr uint32_t kMaxDiffuseBounces = 16;   ///< Settings.diffuseBounces
 inline constexpr uint32_t kMaxEditsPerScene = 65536; ///< Scene.edits
 inline constexpr uint32_t kMaxAreaLightSamples = 1024; ///< Settings.areaLightSamples
+inline constexpr uint32_t kMaxPassBatches = 1024;     ///< FrameBegin.passBatches
 
 /// Three floats; the protocol's own vector type (proto/ does not depend on GLM).
 struct Vec3f {
@@ -177,7 +178,7 @@ struct Settings {
     bool gatherVisibility = false;   ///< PhotonSettings::gatherVisibility (u8 0/1)
     // Appended in version 2: the caustic estimator (DESIGN §9).
     CausticEstimator estimator = CausticEstimator::Progressive;  ///< PhotonSettings::estimator
-    float progressiveAlpha = 0.5f;   ///< PhotonSettings::progressiveAlpha, finite, in (0, 1)
+    float progressiveGamma = 1.5f;   ///< PhotonSettings::progressiveGamma, finite, in (0, 16] (version 4; was α)
     bool operator==(const Settings&) const = default;
 };
 
@@ -196,6 +197,9 @@ struct FrameBegin {
     CameraState camera;
     FrameMode mode = FrameMode::Interaction;
     std::vector<uint32_t> sets;  ///< distinct, each < kMaxSets
+    /// Batches each progressive pass of this frame shoots, in [1, kMaxPassBatches] (version 4:
+    /// still views grow their passes to the master's frame-time budget).
+    uint32_t passBatches = 1;
     bool operator==(const FrameBegin&) const = default;
 };
 
@@ -211,6 +215,13 @@ struct FrameData {
     /// Progressive passes of the set's current progression (0 = a restart or the knn estimator);
     /// the master weighs the set's own caustic against the box filter by it (version 2).
     uint32_t passes = 0;
+    // Appended in version 4: the progressive estimator's per-pixel own weights and error figures.
+    /// Empty, or one byte per pixel: the weight in 255ths of the pixel's own caustic against the
+    /// box filter (common/render/progressive.h).
+    std::vector<uint8_t> ownWeights;
+    double errorSigma = 0.0;     ///< Σ σ over the set's caustic region (finite, ≥ 0)
+    double errorRadiance = 0.0;  ///< Σ radiance over the same pixels (finite, ≥ 0)
+    uint32_t errorPixels = 0;    ///< pixels in it, ≤ pixelCount
     bool operator==(const FrameData&) const = default;
 };
 

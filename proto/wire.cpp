@@ -155,6 +155,15 @@ bool Reader::f32Finite(float& v, const char* field) {
     return true;
 }
 
+bool Reader::f64Finite(double& v, const char* field) {
+    if (!f64(v)) return false;
+    if (!std::isfinite(v)) {
+        v = 0.0;
+        return fail(ErrorCode::NonFinite, std::string(field) + " is not finite");
+    }
+    return true;
+}
+
 bool Reader::view(std::span<const uint8_t>& out, size_t n, const char* field) {
     out = {};
     if (!need(n, field)) return false;

@@ -15,7 +15,7 @@ namespace rtpm::proto {
 /// 'R','T','P','M' on the wire (little-endian u32 0x4D505452).
 inline constexpr uint32_t kMagic = 0x4D505452u;
 /// Bumped on any change of a message layout; peers must match exactly (PROTOCOL.md §2).
-inline constexpr uint16_t kProtocolVersion = 3;
+inline constexpr uint16_t kProtocolVersion = 4;
 /// Size of the fixed header that precedes every payload.
 inline constexpr size_t kHeaderBytes = 16;
 
@@ -159,6 +159,8 @@ public:
     bool f64(double& v);
     /// A float that must be finite; `field` names it in the error.
     bool f32Finite(float& v, const char* field);
+    /// A double that must be finite; `field` names it in the error.
+    bool f64Finite(double& v, const char* field);
     /// u32 length then bytes; length ≤ maxBytes and ≤ bytes left, checked before allocating.
     bool str(std::string& s, size_t maxBytes, const char* field);
     bool bytes(std::vector<uint8_t>& b, size_t maxBytes, const char* field);

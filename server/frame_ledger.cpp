@@ -18,11 +18,13 @@ void FrameLedger::start(TimePoint now) {
     startTime_ = now;
 }
 
-void FrameLedger::began(uint64_t frame, proto::FrameMode mode, uint32_t epoch, std::vector<ClientId> owners) {
+void FrameLedger::began(uint64_t frame, proto::FrameMode mode, uint32_t epoch, std::vector<ClientId> owners,
+                        uint32_t passBatches) {
     FrameInfo& info = frames_[frame];
     info.mode = mode;
     info.epoch = epoch;
     info.owners = std::move(owners);
+    info.passBatches = passBatches;
 }
 
 void FrameLedger::addData(proto::FrameData&& fd, size_t wireBytes) {
@@ -79,10 +81,19 @@ std::pair<OutputJob, ViewerFrame> FrameLedger::retire(const RetiredFrame& r, Tim
     job.deadlineHit = r.deadlineHit;
     job.owners = std::move(info.owners);
     uint32_t passes = UINT32_MAX;
-    for (const proto::FrameData& d : info.data) passes = std::min(passes, d.passes);
+    CausticErrorSums error;
+    for (const proto::FrameData& d : info.data) {
+        passes = std::min(passes, d.passes);
+        error.sigma += d.errorSigma;
+        error.radiance += d.errorRadiance;
+        error.pixels += d.errorPixels;
+    }
+    // Only a frame every set arrived for says how the whole image stands.
+    job.errorEstimate = r.missing.empty() ? causticErrorEstimate(error) : 0.0;
     job.data = std::move(info.data);
     ViewerFrame shown{r.frame,        info.epoch, info.mode,  job.fps,    job.photonsPerSet, info.slowestStats,
-                      info.slowest,   job.arrived, job.owners, passes == UINT32_MAX ? 0u : passes};
+                      info.slowest,   job.arrived, job.owners, passes == UINT32_MAX ? 0u : passes,
+                      job.errorEstimate, info.passBatches};
     ++counts_.framesShown;
     if (!r.missing.empty()) ++counts_.framesIncomplete;
     counts_.seconds = std::chrono::duration<double>(now - startTime_).count();

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "common/render/progressive.h"
 #include "proto/messages.h"
 #include "server/assignment.h"
 #include "server/frame_assembler.h"
@@ -36,7 +37,8 @@ public:
     bool started() const { return started_; }
 
     /// Frame `frame` began in `mode` of `epoch`, set s asked of owners[s].
-    void began(uint64_t frame, proto::FrameMode mode, uint32_t epoch, std::vector<ClientId> owners);
+    void began(uint64_t frame, proto::FrameMode mode, uint32_t epoch, std::vector<ClientId> owners,
+               uint32_t passBatches);
     /// Data of a frame in flight (already checked).
     void addData(proto::FrameData&& data, size_t wireBytes);
     /// Accepted Stats of `client` (named `name` in logs). Returns the mode of the frame.
@@ -63,6 +65,7 @@ private:
         std::string slowest = "-";
         proto::Stats slowestStats;
         std::vector<ClientId> owners;  // who was asked for each set
+        uint32_t passBatches = 1;
         std::vector<proto::FrameData> data;
     };
 

@@ -32,6 +32,7 @@ FrameLoop::FrameLoop(asio::io_context& io, const MasterOptions& options, Peers& 
               options.settings.photons.estimator == CausticEstimatorKind::Progressive),
       deadlines_(options.deadline),
       assembler_(setCount(), deadlines_.forFrame(true)),
+      passBudget_(options.frameBudgetMs * 1e-3),
       deadlineTimer_(io) {}
 
 std::vector<uint32_t> FrameLoop::clientJoined(ClientId id) {
@@ -140,7 +141,7 @@ void FrameLoop::end(int exitCode, proto::ByeReason reason, const std::string& te
 void FrameLoop::finishStopped() {
     const bool unlimited = opt_.frames == 0;
     if (opt_.out.empty() || ledger_.counts().framesShown == 0) {
-        end(unlimited ? 0 : 130, proto::ByeReason::Shutdown, "server stopped");
+        end(unlimited || targetReached_ ? 0 : 130, proto::ByeReason::Shutdown, "server stopped");
         return;
     }
     state_ = State::Ending;
@@ -152,7 +153,7 @@ void FrameLoop::finishStopped() {
             FrameCounts& counts = ledger_.counts();
             counts.imageWriteFailed |= failed;
             deadlineTimer_.cancel();
-            listener_.finished(counts.imageWriteFailed ? kExitImageNotWritten : unlimited ? 0 : 130,
+            listener_.finished(counts.imageWriteFailed ? kExitImageNotWritten : unlimited || targetReached_ ? 0 : 130,
                                proto::ByeReason::Shutdown, "server stopped");
         });
     });
@@ -207,10 +208,12 @@ void FrameLoop::beginFrame(TimePoint now) {
     FramePlan plan = policy_.plan(f, start->sceneChanged, registry.joinOrder(),
                                   [this](ClientId id) { return assembler_.outstanding(id); }, start->cameraMoved,
                                   start->still);
+    // A still view's passes grow to the frame-time budget; any other frame shoots one batch.
+    const uint32_t passBatches = plan.mode == proto::FrameMode::Converging ? passBudget_.batches() : 1u;
     for (auto& [id, sets] : plan.sets)
-        registry.find(id)->connection->send(
-            proto::FrameBegin{f, plan.epoch, start->sceneVersion, start->camera, plan.mode, std::move(sets)});
-    ledger_.began(f, plan.mode, plan.epoch, plan.owners);
+        registry.find(id)->connection->send(proto::FrameBegin{f, plan.epoch, start->sceneVersion, start->camera,
+                                                              plan.mode, std::move(sets), passBatches});
+    ledger_.began(f, plan.mode, plan.epoch, plan.owners, passBatches);
     // A frame whose cost the last ones do not predict waits the ceiling, and so does the last
     // frame of a finite run (it is the image written: nothing rendered may be cut short).
     const bool last = opt_.frames > 0 && f + 1 == static_cast<uint64_t>(opt_.frames);
@@ -225,6 +228,16 @@ void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
     if (!opt_.out.empty() && opt_.saveEvery > 0 && r.frame > 0 && r.frame % uint64_t(opt_.saveEvery) == 0)
         job.saveAs = numberedPath(opt_.out, r.frame, ".exr");
     if (!r.deadlineHit && !r.arrived.empty()) deadlines_.completed(r.waited, frameCost(shown.mode));
+    passBudget_.record(shown.mode == proto::FrameMode::Converging, double(job.slowestMs) * 1e-3);
+    if (opt_.targetError > 0.0 && shown.mode == proto::FrameMode::Converging && job.errorEstimate > 0.0 &&
+        job.errorEstimate <= opt_.targetError && !targetReached_ && state_ == State::Running) {
+        // No new frame begins; the frames in flight finish and the last one shown is written
+        // (finishStopped), as after a signal, but the run counts as complete.
+        targetReached_ = true;
+        state_ = State::Stopping;
+        std::fprintf(stderr, "rtpm-server: frame %llu reached the target error (estimated %.4f <= %g)\n",
+                     (unsigned long long)r.frame, job.errorEstimate, opt_.targetError);
+    }
     if (r.deadlineHit) {
         std::string late;
         for (ClientId c : r.late) late += " " + std::to_string(c);

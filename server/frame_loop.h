@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common/core/interleave.h"
+#include "common/render/pass_budget.h"
 #include "proto/messages.h"
 #include "server/client_registry.h"
 #include "server/deadline.h"
@@ -96,6 +97,8 @@ private:
     FrameDeadline deadlines_;
     FrameAssembler assembler_;
     FrameLedger ledger_;
+    PassBudget passBudget_;
+    bool targetReached_ = false;  // the estimated caustic error reached --target-error
     asio::steady_timer deadlineTimer_;
     std::chrono::milliseconds lastDeadline_{0};  // of the newest frame begun (told to evicted clients)
     uint64_t nextFrame_ = 0;

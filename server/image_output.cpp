@@ -105,8 +105,10 @@ OutputResult ImageOutput::process(OutputJob& job) {
                                                                    ": bad pixel payload: " + errors[i]);
             continue;
         }
-        // The set's own caustic gets weight w(passes) against the box filter (frame_image.h).
-        image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set], causticOwnWeight(d.passes, opt_.filter));
+        // Each pixel's own caustic gets the weight its client chose against the box filter
+        // (progressive.h); none for knn (the decoder checked the count).
+        if (d.ownWeights.empty()) image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set]);
+        else image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set], d.ownWeights);
     }
     image_.filterAndCompose(opt_.filter);
     result.masterMs = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
@@ -120,10 +122,11 @@ OutputResult ImageOutput::process(OutputJob& job) {
     }
     if (!opt_.quiet) {
         std::printf("frame %5llu  %7.2f fps  %-11s  photons/set %10.0f  sets %3zu/%-3u  %8.2f MB  "
-                    "slowest %s %.1f ms  master %.2f ms%s\n",
+                    "slowest %s %.1f ms  master %.2f ms%s%s\n",
                     (unsigned long long)job.frame, job.fps, proto::frameModeName(job.mode), job.photonsPerSet,
                     job.arrived, job.setCount, double(job.bytes) / 1e6, job.slowest.c_str(), job.slowestMs,
-                    result.masterMs, job.deadlineHit ? "  (deadline)" : "");
+                    result.masterMs, job.deadlineHit ? "  (deadline)" : "",
+                    job.errorEstimate > 0.0 ? ("  est. error " + std::to_string(job.errorEstimate).substr(0, 6)).c_str() : "");
         std::fflush(stdout);
     }
     if (csv_) {

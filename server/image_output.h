@@ -48,6 +48,7 @@ struct OutputJob {
     std::vector<proto::FrameData> data;
     std::string saveAs;  ///< also write this frame to this EXR path (PNG beside it); empty = no
     bool last = false;   ///< write opt.out after this frame
+    double errorEstimate = 0.0;  ///< progressive: the caustic's estimated relative error (0 = none)
 };
 
 /// What the output stage found.

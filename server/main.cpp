@@ -32,6 +32,8 @@ int run(int argc, char** argv) {
     addRenderFlags(app, rs, o.sceneName, plain, noDefaultLight);
     SceneInputPolicy sceneInput;
     addSceneInputFlags(app, sceneInput);
+    ConvergenceFlags convergence;
+    addConvergenceFlags(app, convergence);
     auto* framesOpt = app.add_option("--frames", o.frames,
                                      "frames to render; the last one is written to --out; 0 = until SIGINT/SIGTERM "
                                      "(the default with --http)")
@@ -95,6 +97,8 @@ int run(int argc, char** argv) {
         return app.exit(e);
     }
     rs.photons.selective = !plain;
+    o.frameBudgetMs = convergence.frameBudgetMs;
+    o.targetError = convergence.targetError;
     if (!o.http.empty() && framesOpt->count() == 0) o.frames = 0;
     if (o.maxViewers < 1) throw std::invalid_argument("--max-viewers must be >= 1");
     if (!(o.viewerFps >= 0.0 && o.viewerFps <= 1000.0))

@@ -59,6 +59,10 @@ struct MasterOptions {
     std::vector<ScriptEdit> script;
     std::string scriptFile;
     bool quiet = false;                ///< no per-frame line on stdout
+    /// Progressive still views: the frame time their passes grow to (ms; 0 = one batch per pass)
+    /// and the estimated caustic error that ends the run (0 = off).
+    double frameBudgetMs = 200.0;
+    double targetError = 0.0;
 
     // Browser viewer (DESIGN §10).
     std::string http;                  ///< HOST:PORT of the viewer's HTTP port; empty = no viewer

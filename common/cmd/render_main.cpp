@@ -14,6 +14,7 @@
 #include "common/scene/gltf_export.h"
 #include "common/image/image_io.h"
 #include "common/render/render_flags.h"
+#include "common/render/pass_budget.h"
 #include "common/render/render_job.h"
 #include "common/scene/scene_loader.h"
 
@@ -37,6 +38,7 @@ struct Options {
     float exposure = 0.0f;
     bool exposureSet = false;
     SceneInputPolicy sceneInput;
+    ConvergenceFlags convergence;
 };
 
 
@@ -48,6 +50,7 @@ int run(int argc, char** argv) {
                  "caustic_filtered.*) and a tone-mapped PNG beside it."};
     addRenderFlags(app, rs, o.scene, o.plain, o.noDefaultLight);
     addSceneInputFlags(app, o.sceneInput);
+    addConvergenceFlags(app, o.convergence);
     app.add_option("--frames", o.frames,
                    "frames to render; every frame adds one photon batch per set until the cap "
                    "(accumulation), the last frame is written")
@@ -130,27 +133,32 @@ int run(int argc, char** argv) {
                 rs.width, rs.height, rs.interleave, setCount, rs.filterSize(), rs.photons.photonsPerBatch,
                 rs.photons.k, rs.photons.selective ? "SPT" : "plain shooting", rs.photons.diffuseBounces,
                 causticEstimatorName(rs.photons.estimator));
-    std::printf("%5s %-11s %9s %9s %9s %9s %11s %11s %7s\n", "frame", "mode", "shoot_ms", "eye_ms", "filter_ms",
-                "total_ms", "photons", "paths", "yield");
+    std::printf("%5s %-11s %9s %9s %9s %9s %11s %11s %7s %7s %9s\n", "frame", "mode", "shoot_ms", "eye_ms",
+                "filter_ms", "total_ms", "photons", "paths", "yield", "batches", "est_error");
+    PassBudget budget(o.convergence.frameBudgetMs * 1e-3);
     for (int f = 0; f < o.frames; ++f) {
         auto tf = std::chrono::steady_clock::now();
-        FrameStats st = job.renderFrame(camera, true, pixels);
+        const uint32_t passBatches = budget.batches();
+        FrameStats st = job.renderFrame(camera, true, pixels, passBatches);
         auto tfilter = std::chrono::steady_clock::now();
         for (const SetPixels& sp : pixels)
-            image.scatter(pattern, sp.set, sp.pixels, causticOwnWeight(sp.passes, rs.filterSize()));
+            scatterSet(image, pattern, sp);
         image.filterAndCompose(rs.filterSize());
         auto tend = std::chrono::steady_clock::now();
         double filterMs = std::chrono::duration<double, std::milli>(tend - tfilter).count();
         double totalMs = std::chrono::duration<double, std::milli>(tend - tf).count();
+        budget.record(st.converging, totalMs * 1e-3);
+        const double estimate = causticErrorEstimate(st.error);
         uint64_t productive = 0;
         for (uint32_t s : sets) productive += job.photons().stats(s).productivePaths;
         double yield = st.pathsTraced ? double(productive) / double(st.pathsTraced) : 0.0;
         const char* mode = st.converging         ? "converging"
                            : st.pathsThisFrame ? (f == 0 ? "interaction" : "accumulate")
                                                : "walkthrough";
-        std::printf("%5d %-11s %9.1f %9.1f %9.2f %9.1f %11llu %11llu %6.1f%%\n", f, mode, st.shootSeconds * 1e3,
-                    st.eyeSeconds * 1e3, filterMs, totalMs, (unsigned long long)st.photonsStored,
-                    (unsigned long long)st.pathsTraced, yield * 100.0);
+        std::printf("%5d %-11s %9.1f %9.1f %9.2f %9.1f %11llu %11llu %6.1f%% %7u %9.4f\n", f, mode,
+                    st.shootSeconds * 1e3, st.eyeSeconds * 1e3, filterMs, totalMs,
+                    (unsigned long long)st.photonsStored, (unsigned long long)st.pathsTraced, yield * 100.0,
+                    st.converging ? passBatches : 1u, estimate);
         if (csv)
             std::fprintf(csv, "%d,%s,%.3f,%.3f,%.3f,%.3f,%llu,%llu\n", f, mode, st.shootSeconds * 1e3,
                          st.eyeSeconds * 1e3, filterMs, totalMs, (unsigned long long)st.photonsStored,
@@ -163,6 +171,12 @@ int run(int argc, char** argv) {
         }
         if (st.eye.nonFinite) std::fprintf(stderr, "warning: %llu non-finite pixel values replaced by 0\n",
                                            (unsigned long long)st.eye.nonFinite);
+        if (o.convergence.targetError > 0.0 && st.converging && estimate > 0.0 &&
+            estimate <= o.convergence.targetError) {
+            std::printf("target error reached at frame %d (estimated %.4f <= %g)\n", f, estimate,
+                        o.convergence.targetError);
+            break;
+        }
     }
     if (csv) std::fclose(csv);
 

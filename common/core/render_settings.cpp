@@ -62,8 +62,8 @@ void validateSettings(const RenderSettings& s) {
     require(p.maxDepth >= 1 && p.maxDepth <= 64, "photon path depth must be in [1, 64]");
     require(p.estimator == CausticEstimatorKind::Progressive || p.estimator == CausticEstimatorKind::Knn,
             "estimator must be progressive or knn");
-    require(p.progressiveAlpha > 0.0f && p.progressiveAlpha < 1.0f,
-            "progressive alpha must be in (0, 1), got " + std::to_string(p.progressiveAlpha));
+    require(p.progressiveGamma > 0.0f && p.progressiveGamma <= kMaxProgressiveGamma,
+            "progressive confidence width must be in (0, 16], got " + std::to_string(p.progressiveGamma));
 }
 
 }  // namespace rtpm

@@ -51,6 +51,14 @@ std::optional<PhotonTree> parsePhotonTree(std::string_view name);
 const char* photonTreeName(PhotonTree tree);
 
 /// Photon shooting and density-estimation settings (DESIGN §5, paper §5.1/§5.4).
+/// Upper bound of a progressive pass's batches (render/pass_budget.h; a pass of 1 024 batches of
+/// the default 20 000 paths traces 20 M paths per set; the wire's FrameBegin.passBatches has the
+/// same limit).
+inline constexpr uint32_t kMaxPassBatches = 1024;
+
+/// Upper bound of PhotonSettings::progressiveGamma (wire and flag limit alike).
+inline constexpr float kMaxProgressiveGamma = 16.0f;
+
 struct PhotonSettings {
     /// P: light paths traced per interleaving set per batch (pilots + refinements with SPT).
     uint32_t photonsPerBatch = 20000;
@@ -91,13 +99,12 @@ struct PhotonSettings {
     bool gatherVisibility = false;
     /// Caustic estimator (CausticEstimatorKind): progressive by default, knn for the paper.
     CausticEstimatorKind estimator = CausticEstimatorKind::Progressive;
-    /// Progressive: fraction α of a pass's new photons kept in a pixel's count (Hachisuka &
-    /// Jensen 2009: R² shrinks by (N + αM)/(N + M)); in (0, 1). Smaller shrinks faster (less
-    /// bias, more noise). 0.5 rather than their 0.7: caustic error is bias-dominated at fold
-    /// lines (irradiance ~ 1/√distance, so the L1 error there falls only as R^½); on the curved-
-    /// mirror reference α = 0.5 gave 0.032 rel. MAE after 32 frames, 0.7 gave 0.037, 0.3 gave
-    /// 0.033 (tests/bench/RESULTS.md, "Convergence").
-    float progressiveAlpha = 0.5f;
+    /// Progressive: half-width Γ of the confidence intervals (in standard deviations) by which
+    /// each pixel chooses its gather disc (common/render/progressive.h); in (0, 16]. Larger takes
+    /// wider discs (less noise, more blur). On the curved-mirror reference (defaults, 32 frames)
+    /// Γ = 1 gave 0.038 rel. MAE with 12 % too much energy in the first frame (noise), 1.5 0.041,
+    /// 2 0.044 (tests/bench/RESULTS.md, "Convergence").
+    float progressiveGamma = 1.5f;
 };
 
 /// Image, interleaving, filter, eye-pass and photon settings of one rendering job.

@@ -7,13 +7,6 @@
 
 namespace rtpm {
 
-float causticOwnWeight(uint32_t passes, int filterSize) {
-    if (passes == 0) return 0.0f;
-    const double f2 = double(std::max(filterSize, 1)) * double(std::max(filterSize, 1));
-    if (f2 <= 1.0) return 1.0f;
-    return static_cast<float>(double(passes) / (double(passes) + f2));
-}
-
 FrameImage::FrameImage(int width, int height) : width_(width), height_(height) {
     RTPM_CHECK(width > 0 && height > 0);
     const size_t n = size_t(width) * size_t(height) * 3;
@@ -26,8 +19,20 @@ FrameImage::FrameImage(int width, int height) : width_(width), height_(height) {
 
 void FrameImage::scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
                          float ownWeight) {
-    RTPM_CHECK(pattern.width == width_ && pattern.height == height_);
     RTPM_CHECK(ownWeight >= 0.0f && ownWeight <= 1.0f);
+    scatterImpl(pattern, set, pixels, [&](size_t) { return ownWeight; });
+}
+
+void FrameImage::scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
+                         std::span<const uint8_t> ownWeights) {
+    RTPM_CHECK(ownWeights.size() == pixels.size());
+    scatterImpl(pattern, set, pixels, [&](size_t i) { return float(ownWeights[i]) * (1.0f / 255.0f); });
+}
+
+template <class Weight>
+void FrameImage::scatterImpl(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
+                             Weight&& weight) {
+    RTPM_CHECK(pattern.width == width_ && pattern.height == height_);
     RTPM_CHECK(pixels.size() == size_t(pattern.pixelCount(set)));
     const int cols = pattern.setColumns(set);
     const int rows = pattern.setRows(set);
@@ -38,7 +43,7 @@ void FrameImage::scatter(const Interleave& pattern, int set, std::span<const Pix
         for (int c = 0; c < cols; ++c) {
             const PixelRadiance& p = pixels[size_t(r) * size_t(cols) + size_t(c)];
             const size_t o = (rowBase + size_t(x0 + c * pattern.m)) * 3;
-            ownWeight_[o / 3] = ownWeight;
+            ownWeight_[o / 3] = weight(size_t(r) * size_t(cols) + size_t(c));
             for (int k = 0; k < 3; ++k) {
                 direct_[o + k] = p.direct[k];
                 caustic_[o + k] = p.caustic[k];

@@ -11,13 +11,6 @@
 
 namespace rtpm {
 
-/// The weight a pixel's own caustic estimate gets against the F×F box-filtered one after `passes`
-/// progressive passes of its set: w = t / (t + F²) (0 at a restart: the paper's filtered image;
-/// 1/2 once the pixel has gathered F² batches of its own, as many as the filter window averages
-/// at a restart; → 1, so the filter's blur fades out like 1/t, faster than the estimate's own
-/// error). F ≤ 1 (no filter) gives 1 once t ≥ 1. Pure.
-float causticOwnWeight(uint32_t passes, int filterSize);
-
 /// The master's (and the single-process renderer's) image buffers, RGB float row-major.
 /// final = direct + box-filtered caustic (paper §4.1). Not thread-safe.
 class FrameImage {
@@ -27,9 +20,13 @@ public:
     /// Writes the pixels of `set` (row-major within the set, as renderSet produces them) into
     /// the direct and caustic buffers. Precondition (checked): pixels.size() == pixelCount(set).
     /// `ownWeight` in [0, 1] is the weight the set's own caustic values get against the
-    /// box-filtered ones when composing (causticOwnWeight; 0: the paper's image).
+    /// box-filtered ones when composing (0: the paper's image).
     void scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
                  float ownWeight = 0.0f);
+    /// The same with one own weight per pixel of the set, in 255ths (size pixels.size(); the
+    /// progressive estimator's choice, progressive.h).
+    void scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
+                 std::span<const uint8_t> ownWeights);
     /// Box-filters the caustic buffer with an f × f window (DESIGN §4) into filtered B, then
     /// composes, per pixel with its set's own weight w: shown = w·caustic + (1 − w)·B (exactly
     /// B where w = 0), causticFiltered = shown, final = direct + shown.
@@ -44,6 +41,10 @@ public:
     const std::vector<float>& final() const { return final_; }
 
 private:
+    template <class Weight>
+    void scatterImpl(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
+                     Weight&& weight);
+
     int width_;
     int height_;
     std::vector<float> direct_, caustic_, causticFiltered_, final_;

@@ -21,6 +21,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <numbers>
+#include <vector>
 
 #include "common/photon/kd_tree.h"
 #include "common/photon/knn.h"
@@ -175,6 +176,34 @@ private:
     Vec3 normal_;
     float radius2_;
     const Visible& visible_;
+};
+
+/// Radius search policy that lists every front-facing, visible photon strictly within
+/// sqrt(radius2): its squared distance and decoded stored power (progressive.h bins them).
+struct FoundPhoton {
+    float dist2 = 0.0f;
+    Vec3 power{0.0f};  ///< decoded stored power (units of the map's powerUnit, one batch)
+};
+template <class Index, class Visible>
+class RadiusList {
+public:
+    RadiusList(const Index& index, Vec3 normal, float radius2, const Visible& visible,
+               std::vector<FoundPhoton>& out)
+        : index_(index), normal_(normal), radius2_(radius2), visible_(visible), out_(out) {}
+    float worstDist2() const { return radius2_; }
+    void add(float dist2, uint32_t i) {
+        if (!(dist2 < radius2_)) return;
+        if (arrivesFromBehind(index_.photonIncoming(i), normal_)) return;
+        if (!visible_(index_.photon(i))) return;
+        out_.push_back(FoundPhoton{dist2, decodeRgb9e5(index_.photonPower(i))});
+    }
+
+private:
+    const Index& index_;
+    Vec3 normal_;
+    float radius2_;
+    const Visible& visible_;
+    std::vector<FoundPhoton>& out_;
 };
 
 /// The estimate above with every found photon counted (no visibility test).

@@ -182,6 +182,7 @@ struct PhotonMaps::SetState {
     std::optional<PhotonIndex> index;  // created at the first batch after a reset
     PhotonOccupancy occupancy{0.0f};   // of `index`'s photons, radius rMax (with `index`)
     std::optional<KdTree> pass;        // the last progressive pass's photons alone
+    uint32_t passBatches = 0;          // batches in `pass`
     std::vector<Photon> pending;       // passes' photons not yet in `index` (flushPasses)
     PhotonSetStats stats;
     std::vector<LightSequence> lights;
@@ -355,19 +356,24 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     insertBatch(*st, traceBatch(scene, *st));
 }
 
-void PhotonMaps::shootPass(const EmbreeScene& scene, uint32_t set) {
+void PhotonMaps::shootPass(const EmbreeScene& scene, uint32_t set, uint32_t batches) {
     SetState* st = find(set);
-    RTPM_CHECK(st != nullptr);
+    RTPM_CHECK(st != nullptr && batches >= 1);
     std::vector<Photon> batch = traceBatch(scene, *st);
+    for (uint32_t b = 1; b < batches; ++b) {
+        std::vector<Photon> more = traceBatch(scene, *st);
+        batch.insert(batch.end(), more.begin(), more.end());
+    }
     st->pass.emplace(scene.bounds());
     st->pass->build(batch);
+    st->passBatches = batches;
     st->stats.passes += 1;
     // Kept for the map, not inserted now: an insertion moves the map's leaf-ordered photon array
     // (O(stored)), which would make a still frame's cost grow with the map. Bounded by the cap.
     const uint64_t cap = settings_.capPhotons;
     if (!st->capped && (cap == 0 || st->stats.photonsStored + st->pending.size() < cap)) {
         st->pending.insert(st->pending.end(), batch.begin(), batch.end());
-        st->stats.pendingBatches += 1;
+        st->stats.pendingBatches += batches;
     }
 }
 
@@ -572,6 +578,38 @@ void PhotonMaps::gatherMapGroup(const EmbreeScene& scene, uint32_t set, std::spa
     gatherGroup(*st, queries, out, hint);
     const float scale = powerUnit_ / static_cast<float>(st->stats.batches);
     for (DensityGather& g : out) g.power *= scale;
+}
+
+uint32_t PhotonMaps::passBatches(uint32_t set) const {
+    const SetState* st = find(set);
+    return st && st->pass ? st->passBatches : 0;
+}
+
+uint32_t PhotonMaps::gatherPassPhotons(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
+                                       Vec3 normal, float radius2, std::vector<FoundPhoton>& out) const {
+    const SetState* st = find(set);
+    if (!st || !st->pass || st->pass->empty() || !(radius2 > 0.0f)) return passBatches(set);
+    const size_t first = out.size();
+    const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
+    RadiusList<KdTree, VisibleFrom> list(*st->pass, normal, radius2, visible, out);
+    st->pass->search(hit.position, list);
+    for (size_t i = first; i < out.size(); ++i) out[i].power *= powerUnit_;
+    return st->passBatches;
+}
+
+uint32_t PhotonMaps::gatherMapPhotons(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
+                                      Vec3 normal, float radius2, std::vector<FoundPhoton>& out) const {
+    const SetState* st = find(set);
+    if (!st || st->stats.batches == 0 || !st->index) return 0;
+    if (!(radius2 > 0.0f) || !st->occupancy.mayHaveWithin(hit.position)) return st->stats.batches;
+    const size_t first = out.size();
+    const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
+    st->index->visit([&](const auto& index) {
+        RadiusList<std::decay_t<decltype(index)>, VisibleFrom> list(index, normal, radius2, visible, out);
+        index.search(hit.position, list);
+    });
+    for (size_t i = first; i < out.size(); ++i) out[i].power *= powerUnit_;
+    return st->stats.batches;
 }
 
 PassGather PhotonMaps::gatherPass(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,

@@ -85,7 +85,9 @@ public:
     /// previous pass. Unless the set is capped, the batch is also kept for the map (up to the
     /// cap) and inserted by the next flushPasses, so a pass costs the batch's tracing and an
     /// O(b log b) build, independent of the map's size.
-    void shootPass(const EmbreeScene& scene, uint32_t set);
+    /// `batches` > 1 makes one pass of that many consecutive batches (the same photons the
+    /// batches would shoot one by one; a still view's growing passes).
+    void shootPass(const EmbreeScene& scene, uint32_t set, uint32_t batches = 1);
     /// Inserts the photons of the passes since the last flush into `set`'s map as that many
     /// batches (the map then holds what batch-by-batch shooting would have stored, in another
     /// order). Call when a progression ends, before the map answers a query (a restart);
@@ -131,6 +133,20 @@ public:
     /// Cost O(log b + found), independent of the map's size. Thread-safe.
     PassGather gatherPass(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
                           Vec3 normal, float radius2) const;
+
+    /// Every photon of the last pass strictly within sqrt(radius2) of `hit` arriving from the
+    /// front of `normal` (and visible, with gatherVisibility), appended to `out`: squared
+    /// distance and power in W (one batch). Returns the pass's batch count (0: no pass).
+    /// Cost O(log b + found). Thread-safe.
+    uint32_t gatherPassPhotons(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
+                               float radius2, std::vector<FoundPhoton>& out) const;
+    /// The same over `set`'s accumulated map (any index variant); powers in W per batch of the
+    /// map (sum them and divide by the returned batch count for the flux of one batch).
+    uint32_t gatherMapPhotons(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
+                              float radius2, std::vector<FoundPhoton>& out) const;
+
+    /// Batches in `set`'s last progressive pass (0 before its first pass).
+    uint32_t passBatches(uint32_t set) const;
 
     const PhotonSettings& settings() const { return settings_; }
     /// Changes k (no reset needed: the stored photons do not depend on k).

@@ -1,4 +1,5 @@
-// ProgressiveSet: restart from the accumulated map's k-NN gather, then SPPM passes per eye hit.
+// ProgressiveSet: photons binned into a radius ladder per eye hit; the disc shown is chosen per
+// frame by the intersection-of-confidence-intervals rule (progressive.h).
 #include "common/render/progressive.h"
 
 #include <tbb/blocked_range.h>
@@ -6,11 +7,90 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
+#include <limits>
 
 #include "common/core/check.h"
 #include "common/core/math.h"
 
 namespace rtpm {
+
+namespace {
+
+double luminance(Vec3 c) { return 0.2126 * double(c.x) + 0.7152 * double(c.y) + 0.0722 * double(c.z); }
+double luminance(const glm::dvec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
+
+// r_j² of ring j's outer disc.
+double disc2(double outer2, int j) { return outer2 * std::pow(kBinRatio2, double(j)); }
+
+// The ring a photon at squared distance d2 (< outer2) falls into: r_{j+1}² ≤ d2 < r_j².
+int ringOf(float d2, float outer2) {
+    if (!(d2 > 0.0f)) return kRadiusBins - 1;
+    // log2(outer2/d2) / log2(1/kBinRatio2) = log2(outer2/d2) / 0.8
+    const float j = std::floor(std::log2(outer2 / d2) * 1.25f);
+    return j >= float(kRadiusBins - 1) ? kRadiusBins - 1 : std::max(0, int(j));
+}
+
+// The photons of one gather, reused per thread.
+thread_local std::vector<FoundPhoton> found;
+
+}  // namespace
+
+void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const double (&noiseScale)[2],
+                            Choice (&out)[2]) {
+    // E_j ∝ P_j / kBinRatio2^j (the common factor π R₀² B cancels in every comparison), and
+    // σ_j ≈ E_j / √n_j. The walk starts at the smallest disc holding kMinPhotons (a disc with
+    // fewer says too little about its noise to be compared).
+    glm::dvec3 power(0.0);
+    double count = 0.0;
+    double lo[2], hi[2];
+    bool open[2] = {true, true}, any = false;
+    for (int i = 0; i < 2; ++i) {
+        lo[i] = -std::numeric_limits<double>::infinity();
+        hi[i] = std::numeric_limits<double>::infinity();
+        out[i] = Choice{active, glm::dvec3(0.0), 0.0};
+    }
+    double scale = std::pow(kBinRatio2, -double(kRadiusBins - 1));
+    for (int j = kRadiusBins - 1; j >= active && (open[0] || open[1]); --j, scale *= kBinRatio2) {
+        power += glm::dvec3(rings.power[3 * j], rings.power[3 * j + 1], rings.power[3 * j + 2]);
+        count += rings.count[j];
+        if (!any && count < kMinPhotons && j > active) continue;
+        const double e = luminance(power) * scale;
+        const double sd = count > 0.0 ? e / std::sqrt(count) : 0.0;
+        for (int i = 0; i < 2; ++i) {
+            if (!open[i]) continue;
+            const double lo2 = std::max(lo[i], e - gamma * noiseScale[i] * sd);
+            const double hi2 = std::min(hi[i], e + gamma * noiseScale[i] * sd);
+            if (any && lo2 > hi2) {
+                open[i] = false;
+                continue;
+            }
+            lo[i] = lo2;
+            hi[i] = hi2;
+            out[i] = Choice{j, power, count};
+        }
+        any = true;
+    }
+}
+
+void ProgressiveSet::addPhotons(HitState& s, std::span<const FoundPhoton> photons, double weight) {
+    // One pass's photons are summed per ring first, then added to the ring totals: the totals
+    // take one addition per pass, not per photon, so float sums stay accurate over many passes.
+    Rings local;
+    const float w = float(weight);
+    for (const FoundPhoton& p : photons) {
+        const int j = ringOf(p.dist2, s.outer2);
+        const Vec3 pw = p.power * w;
+        local.power[3 * j] += pw.x;
+        local.power[3 * j + 1] += pw.y;
+        local.power[3 * j + 2] += pw.z;
+        local.count[j] += 1.0f;
+    }
+    for (int j = s.active; j < kRadiusBins; ++j) {
+        for (int c = 0; c < 3; ++c) s.rings.power[3 * j + c] += local.power[3 * j + c];
+        s.rings.count[j] += local.count[j];
+    }
+}
 
 void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set,
                              const Camera& camera, EyeRecords records, std::span<PixelRadiance> out) {
@@ -18,15 +98,16 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
     records_ = std::move(records);
     camera_ = camera;
     passes_ = 0;
-    alpha_ = maps.settings().progressiveAlpha;
-    batches0_ = maps.stats(set).batches;
+    batches_ = double(maps.stats(set).batches);
+    gamma_ = maps.settings().progressiveGamma;
     fixedDirect_.resize(out.size());
     for (size_t p = 0; p < out.size(); ++p) fixedDirect_[p] = out[p].direct;
     state_.assign(records_.hits.size(), HitState{});
-    const double rMax2 = double(maps.gatherRadius()) * double(maps.gatherRadius());
-    // Hits in groups of 8 consecutive ones (neighbouring pixels) share their k-NN search
-    // (PhotonMaps::gatherMapGroup); the hint runs through a fixed block of groups, so neither the
-    // groups nor the hints depend on the thread count.
+    const float rMax2 = maps.gatherRadius() * maps.gatherRadius();
+    // The ladder's outer disc is the map's k-NN radius: hits in groups of 8 consecutive ones
+    // (neighbouring pixels) share their k-NN search (PhotonMaps::gatherMapGroup); the hint runs
+    // through a fixed block of groups, so neither the groups nor the hints depend on the thread
+    // count. Then the map's photons within it fill the rings.
     constexpr size_t kGroup = 8, kBlock = 64 * kGroup;
     const size_t hitCount = records_.hits.size();
     tbb::parallel_for(size_t(0), (hitCount + kBlock - 1) / kBlock, [&](size_t block) {
@@ -42,16 +123,15 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
             }
             maps.gatherMapGroup(scene, set, std::span(queries, n), std::span(gathers, n), &hint);
             for (size_t i = 0; i < n; ++i) {
-                const DensityGather& g = gathers[i];
+                const EyeHit& e = records_.hits[h0 + i];
                 HitState& s = state_[h0 + i];
-                s.areaSum = glm::dvec3(records_.hits[h0 + i].areaDirect);
-                if (g.radius2 > 0.0f && finite(g.power)) {
-                    s.radius2 = g.radius2;
-                    s.count = double(g.count) * kRestartCountShare;
-                    s.flux = glm::dvec3(g.power) * double(batches0_);
-                } else {
-                    s.radius2 = rMax2;
-                }
+                s.areaSum = glm::dvec3(e.areaDirect);
+                s.outer2 = gathers[i].radius2 > 0.0f ? gathers[i].radius2 : rMax2;
+                // Just beyond r_k, so that the k-th photon falls inside the ladder.
+                s.outer2 = std::nextafter(s.outer2, std::numeric_limits<float>::infinity());
+                found.clear();
+                maps.gatherMapPhotons(scene, set, e.hit, e.normal, s.outer2, found);
+                addPhotons(s, found, 1.0);
             }
         }
     });
@@ -67,59 +147,122 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
     ++passes_;
     const bool sampleArea = !areaLights.empty();
     std::atomic<uint64_t> rays{0};
-    const double alpha = alpha_;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, records_.hits.size()), [&](const auto& range) {
         uint64_t localRays = 0;
         for (size_t h = range.begin(); h < range.end(); ++h) {
             const EyeHit& e = records_.hits[h];
             HitState& s = state_[h];
-            const PassGather g = maps.gatherPass(scene, set, e.hit, e.normal, float(s.radius2));
-            if (g.count > 0 && finite(g.power)) {
-                const double m = g.count;
-                const double ratio = (s.count + alpha * m) / (s.count + m);
-                s.radius2 *= ratio;
-                s.count += alpha * m;
-                s.flux = (s.flux + glm::dvec3(g.power)) * ratio;
-            }
+            found.clear();
+            const float r2 = float(disc2(s.outer2, s.active));
+            maps.gatherPassPhotons(scene, set, e.hit, e.normal, r2, found);
+            addPhotons(s, found, 1.0);
             if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, passes_, localRays));
         }
         rays += localRays;
     });
+    batches_ += double(maps.passBatches(set));
     shadowRays += rays;
     compose(out, nonFinite);
 }
 
-void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) const {
-    const double samples = double(passes_) + 1.0;      // area-light sample sets per hit
-    const double batches = double(batches0_) + double(passes_);
+void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) {
+    const double samples = double(passes_) + 1.0;  // area-light sample sets per hit
+    const double batches = batches_;
+    const double noiseScale = std::sqrt(filterShare_);
+    const double scales[2] = {noiseScale, 1.0};
+    const double gamma = gamma_;
     std::atomic<uint64_t> bad{0};
+    std::vector<float> sigma(out.size(), 0.0f);
+    ownWeights_.assign(out.size(), 0);
+    const size_t cols = size_t(std::max(columns_, 1));
+    // The world distance between neighbouring pixels of the image (set neighbours are M apart).
+    auto footprint = [&](size_t p) {
+        double best = std::numeric_limits<double>::infinity();
+        if (records_.firstHit[p] == records_.firstHit[p + 1]) return best;
+        const Vec3 x = records_.hits[records_.firstHit[p]].hit.position;
+        for (size_t q : {p + 1, p + cols}) {
+            if (q >= out.size() || (q == p + 1 && q % cols == 0)) continue;
+            if (records_.firstHit[q] == records_.firstHit[q + 1]) continue;
+            best = std::min(best, double(glm::length(records_.hits[records_.firstHit[q]].hit.position - x)));
+        }
+        return best / double(m_);
+    };
     tbb::parallel_for(tbb::blocked_range<size_t>(0, out.size()), [&](const auto& range) {
         for (size_t p = range.begin(); p < range.end(); ++p) {
             glm::dvec3 direct(fixedDirect_[p]);
-            glm::dvec3 caustic(0.0);
+            glm::dvec3 caustic(0.0), own(0.0);
+            double sd = 0.0, ownSd = 0.0;
+            double radius = 0.0;
             for (uint32_t h = records_.firstHit[p]; h < records_.firstHit[p + 1]; ++h) {
                 const EyeHit& e = records_.hits[h];
-                const HitState& s = state_[h];
+                HitState& s = state_[h];
                 const glm::dvec3 throughput(e.throughput);
                 direct += throughput * (s.areaSum / samples);
-                if (batches > 0.0 && s.radius2 > 0.0)
-                    caustic += throughput * glm::dvec3(e.albedo) *
-                               (s.flux / (double(kPi) * double(kPi) * s.radius2 * batches));
+                if (!(batches > 0.0) || !(s.outer2 > 0.0f)) continue;
+                Choice c[2];
+                choose(s.rings, s.active, gamma, scales, c);
+                const glm::dvec3 weight = throughput * glm::dvec3(e.albedo) / double(kPi);
+                for (int i = 0; i < (f_ > 1 ? 2 : 1); ++i) {
+                    const double area = kPi * disc2(s.outer2, c[i].disc) * batches;
+                    const glm::dvec3 value = weight * (c[i].power / area);
+                    const double sdv = c[i].count > 0.0 ? luminance(value) / std::sqrt(c[i].count) : 0.0;
+                    if (i == 0) {
+                        caustic += value;
+                        sd += sdv;
+                    } else {
+                        own += value;
+                        ownSd += sdv;
+                    }
+                }
+                if (h == records_.firstHit[p]) radius = std::sqrt(disc2(s.outer2, c[0].disc));
+                const Choice& shown = c[0];
+                // Rings far outside the shown disc are no longer gathered.
+                s.active = std::max(s.active, shown.disc - kActiveMargin);
+            }
+            if (f_ > 1 && radius > 0.0) {
+                const double half = 0.5 * double(f_) * footprint(p);
+                const double t = radius / half;
+                // In 255ths, as the wire carries it, so one process and a cluster agree.
+                const uint8_t w255 = uint8_t(std::lround(std::clamp((kOwnNone - t) / (kOwnNone - kOwnFull), 0.0, 1.0) * 255.0));
+                const double w = double(w255) / 255.0;
+                ownWeights_[p] = w255;
+                caustic = w * own + (1.0 - w) * caustic;
+                sd = w * ownSd + (1.0 - w) * sd * noiseScale;
+            } else {
+                sd *= noiseScale;
             }
             PixelRadiance& px = out[p];
             px.direct = Vec3(direct);
             px.caustic = Vec3(caustic);
+            sigma[p] = float(sd);
             if (!finite(px.direct)) {
                 px.direct = Vec3(0.0f);
                 ++bad;
             }
             if (!finite(px.caustic)) {
                 px.caustic = Vec3(0.0f);
+                sigma[p] = 0.0f;
                 ++bad;
             }
         }
     });
     nonFinite += bad;
+    // The caustic region as the error metrics define it: pixels above 5 % of the 99th percentile.
+    std::vector<float> lum(out.size());
+    for (size_t p = 0; p < out.size(); ++p) lum[p] = float(luminance(out[p].caustic));
+    error_ = CausticErrorSums{};
+    if (lum.empty()) return;
+    std::vector<float> sorted = lum;
+    const size_t k99 = std::min(sorted.size() - 1, size_t(0.99 * double(sorted.size())));
+    std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(k99), sorted.end());
+    const float threshold = 0.05f * sorted[k99];
+    if (!(threshold > 0.0f)) return;
+    for (size_t p = 0; p < out.size(); ++p)
+        if (lum[p] > threshold) {
+            error_.sigma += double(sigma[p]);
+            error_.radiance += double(lum[p]);
+            ++error_.pixels;
+        }
 }
 
 }  // namespace rtpm

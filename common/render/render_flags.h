@@ -58,16 +58,40 @@ inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string&
     app.add_option_function<std::string>(
            "--estimator",
            [&rs](const std::string& name) { rs.photons.estimator = *parseCausticEstimator(name); },
-           "caustic estimator: progressive (per-pixel progressive photon mapping while the view is "
-           "still; converges, the box filter fades out) or knn (the paper's k nearest photons and "
+           "caustic estimator: progressive (while the view is still, every photon of every pass "
+           "counted, each pixel's gather disc chosen from them; converges) or knn (the paper's k nearest photons and "
            "box filter); default progressive")
         ->check(CLI::IsMember({"progressive", "knn"}));
-    app.add_option("--alpha", rs.photons.progressiveAlpha,
-                   "progressive: share of a pass's new photons kept per pixel, in (0, 1)")
-        ->capture_default_str();
+    app.add_option("--confidence", rs.photons.progressiveGamma,
+                   "progressive: confidence width Γ (standard deviations) by which each pixel "
+                   "chooses its gather disc; larger is smoother, smaller sharper; in (0, 16]")
+        ->capture_default_str()
+        ->check(CLI::Range(1e-3f, kMaxProgressiveGamma));
     app.add_flag("--gather-visibility", rs.photons.gatherVisibility,
                  "count only photons visible from the shaded point (a shadow ray per gathered "
                  "photon): no caustic leaks through thin walls, k more rays per pixel");
+}
+
+/// How a still view converges: the frame-time budget its passes grow to (PassBudget) and the
+/// estimated caustic error at which a still render ends (0: none).
+struct ConvergenceFlags {
+    double frameBudgetMs = 200.0;
+    double targetError = 0.0;
+};
+
+/// Adds --frame-budget-ms and --target-error, bound to `flags`.
+inline void addConvergenceFlags(CLI::App& app, ConvergenceFlags& flags) {
+    app.add_option("--frame-budget-ms", flags.frameBudgetMs,
+                   "progressive: a still view's passes grow (more photon batches per frame) while a "
+                   "frame takes less than half this, so the view keeps 1000/budget updates a second; "
+                   "0 = one batch per pass (the frames then do not depend on the machine's speed)")
+        ->capture_default_str()
+        ->check(CLI::Range(0.0, 60000.0));
+    app.add_option("--target-error", flags.targetError,
+                   "progressive: end a still render once the estimated relative error of the caustic "
+                   "(printed per frame) is at most this, e.g. 0.02; 0 = off")
+        ->capture_default_str()
+        ->check(CLI::Range(0.0, 1.0));
 }
 
 /// Adds the flags that say which files a scene may read and how much it may decode

@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "common/core/check.h"
+
 namespace rtpm {
 
 namespace {
@@ -43,7 +45,9 @@ RenderJob::RenderJob(Scene scene, const RenderSettings& settings, std::vector<ui
 
 RenderJob::~RenderJob() = default;
 
-FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<SetPixels>& out) {
+FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<SetPixels>& out,
+                                  uint32_t passBatches) {
+    RTPM_CHECK(passBatches >= 1);
     FrameStats stats;
     const auto t0 = std::chrono::steady_clock::now();
     uint64_t pathsBefore = 0;
@@ -59,7 +63,7 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
     if (shoot) photons_->prepare(*embree_);
     tbb::parallel_for(size_t(0), sets_.size(), [&](size_t i) {
         if (converge[i])
-            photons_->shootPass(*embree_, sets_[i]);
+            photons_->shootPass(*embree_, sets_[i], passBatches);
         else if (shoot)
             photons_->shootBatch(*embree_, sets_[i]);  // flushes the ended progression's passes
         else
@@ -82,6 +86,9 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
             EyeRecords records;
             renderSet(*embree_, camera, settings_.eye, pattern_, set, nullptr, out[i].pixels,
                       &stats.eye, &records);
+            const double f = double(settings_.filterSize());
+            progressive_[i].setFilterShare(1.0 / (f * f));
+            progressive_[i].setImage(pattern_.m, settings_.filterSize(), pattern_.setColumns(set));
             progressive_[i].restart(*embree_, *photons_, sets_[i], camera, std::move(records),
                                     out[i].pixels);
         } else {
@@ -89,6 +96,15 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
                       &stats.eye);
         }
         out[i].passes = progressive ? progressive_[i].passes() : 0;
+        out[i].ownWeights.clear();
+        out[i].error = CausticErrorSums{};
+        if (progressive) {
+            out[i].ownWeights = progressive_[i].ownWeights();
+            out[i].error = progressive_[i].errorSums();
+        }
+        stats.error.sigma += out[i].error.sigma;
+        stats.error.radiance += out[i].error.radiance;
+        stats.error.pixels += out[i].error.pixels;
         stats.passes = std::max(stats.passes, out[i].passes);
         stats.converging = stats.converging && converge[i];
     }
@@ -101,6 +117,11 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
     stats.pathsThisFrame = stats.pathsTraced - std::min(stats.pathsTraced, pathsBefore);
     stats.walkthrough = !shoot || photons_->walkthrough();
     return stats;
+}
+
+void scatterSet(FrameImage& image, const Interleave& pattern, const SetPixels& pixels) {
+    if (pixels.ownWeights.empty()) image.scatter(pattern, pixels.set, pixels.pixels);
+    else image.scatter(pattern, pixels.set, pixels.pixels, pixels.ownWeights);
 }
 
 void RenderJob::applyEdit(const SceneEdit& edit) {

@@ -11,6 +11,7 @@
 #include "common/scene/scene_edit.h"
 #include "common/render/progressive.h"
 #include "common/trace/eye_pass.h"
+#include "common/image/frame_image.h"
 
 namespace rtpm {
 
@@ -18,10 +19,18 @@ namespace rtpm {
 struct SetPixels {
     int set = 0;
     std::vector<PixelRadiance> pixels;
-    /// Progressive passes of this set's current progression (0: a restart, or the knn
-    /// estimator); the master and rtpm-render weigh the box filter with causticOwnWeight(passes).
+    /// Progressive passes of this set's current progression (0: a restart, or the knn estimator).
     uint32_t passes = 0;
+    /// Progressive estimator: per pixel, the weight of its own caustic against the box filter in
+    /// 255ths (progressive.h); empty for knn (the filter alone).
+    std::vector<uint8_t> ownWeights;
+    /// Progressive estimator: the set's caustic error figures (progressive.h).
+    CausticErrorSums error;
 };
+
+/// Writes one set's pixels into `image` with their own weights (scatterSet is what rtpm-render,
+/// the tests and, from the wire, the master do).
+void scatterSet(FrameImage& image, const Interleave& pattern, const SetPixels& pixels);
 
 /// Figures of one renderFrame call.
 struct FrameStats {
@@ -33,6 +42,9 @@ struct FrameStats {
     bool walkthrough = false;      ///< every owned set reached its cap (no shooting)
     bool converging = false;       ///< a progressive pass (no eye pass), for every owned set
     uint32_t passes = 0;           ///< progressive passes since the restart (largest over sets)
+    /// Progressive: Σ over owned sets of the caustic error figures (progressive.h); the estimated
+    /// relative error of the shown caustic is causticErrorEstimate(error).
+    CausticErrorSums error;
     EyeStats eye;
 };
 
@@ -51,7 +63,9 @@ public:
     /// Progressive estimator: a set whose progression is valid and whose camera equals `camera`
     /// bit for bit (and `shoot`) runs a pass instead (shootPass, no eye pass, DESIGN §9); any
     /// other set restarts its progression from a record-mode eye pass and the accumulated map.
-    FrameStats renderFrame(const Camera& camera, bool shoot, std::vector<SetPixels>& out);
+    /// `passBatches` (≥ 1): batches a progressive pass shoots (PassBudget); other frames shoot one.
+    FrameStats renderFrame(const Camera& camera, bool shoot, std::vector<SetPixels>& out,
+                           uint32_t passBatches = 1);
 
     /// Applies an edit (throws SceneError if the index or a value is invalid; nothing changes then)
     /// and resets the photon maps.

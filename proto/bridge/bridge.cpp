@@ -13,6 +13,7 @@ namespace rtpm::bridge {
 static_assert(sizeof(Vec3) == 3 * sizeof(float), "Vec3 is three packed floats");
 static_assert(sizeof(PixelRadiance) == 6 * sizeof(float), "PixelRadiance is six packed floats");
 static_assert(offsetof(PixelRadiance, caustic) == 3 * sizeof(float), "caustic follows direct");
+static_assert(proto::kMaxPassBatches == kMaxPassBatches, "one limit for a pass's batches");
 
 proto::Vec3f toWire(Vec3 v) { return {v.x, v.y, v.z}; }
 Vec3 fromWire(proto::Vec3f v) { return {v.x, v.y, v.z}; }
@@ -44,7 +45,7 @@ proto::Settings toWire(const RenderSettings& rs, proto::PixelEncoding encoding) 
     s.gatherVisibility = rs.photons.gatherVisibility;
     s.estimator = rs.photons.estimator == CausticEstimatorKind::Knn ? proto::CausticEstimator::Knn
                                                                    : proto::CausticEstimator::Progressive;
-    s.progressiveAlpha = rs.photons.progressiveAlpha;
+    s.progressiveGamma = rs.photons.progressiveGamma;
     return s;
 }
 
@@ -65,7 +66,7 @@ RenderSettings fromWire(const proto::Settings& s) {
     rs.photons.capPhotons = s.capPhotonsPerSet;
     rs.photons.selective = s.spt;
     rs.photons.gatherVisibility = s.gatherVisibility;
-    rs.photons.progressiveAlpha = s.progressiveAlpha;
+    rs.photons.progressiveGamma = s.progressiveGamma;
     switch (s.estimator) {  // the decoder refuses values above kMaxCausticEstimator
         case proto::CausticEstimator::Progressive: rs.photons.estimator = CausticEstimatorKind::Progressive; break;
         case proto::CausticEstimator::Knn: rs.photons.estimator = CausticEstimatorKind::Knn; break;

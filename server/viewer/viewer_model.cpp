@@ -71,6 +71,7 @@ std::string statusJson(const ViewerStatus& st) {
         {"fps", f.fps}, {"photonsPerSet", f.photonsPerSet}, {"cap", st.settings.photons.capPhotons},
         {"M", st.settings.interleave}, {"setsArrived", f.arrived}, {"paused", st.paused},
         {"estimator", causticEstimatorName(st.settings.photons.estimator)}, {"passes", f.passes},
+        {"errorEstimate", f.errorEstimate}, {"passBatches", f.passBatches},
         {"split", {{"photonMs", f.slowest.photonMs}, {"renderMs", f.slowest.renderMs},
                    {"encodeMs", f.slowest.encodeMs}, {"clientMs", f.slowest.frameMs}, {"masterMs", st.masterMs}}},
         {"slowest", f.slowestName}, {"owners", f.owners}, {"clients", clients},

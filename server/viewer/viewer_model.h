@@ -32,6 +32,9 @@ struct ViewerFrame {
     size_t arrived = 0;        ///< sets that arrived
     std::vector<uint32_t> owners;  ///< client asked for each set
     uint32_t passes = 0;  ///< progressive estimator: fewest passes of a set that arrived (0 = knn or a restart)
+    /// Progressive estimator: the caustic's estimated relative error (0 = none: knn, no caustic).
+    double errorEstimate = 0.0;
+    uint32_t passBatches = 1;  ///< batches each pass of this frame shot
 };
 
 /// A client row of the status.

@@ -131,11 +131,13 @@ function onStatus(s) {
   $('photons').textContent = Math.round(s.photonsPerSet).toLocaleString('en');
   $('pause').textContent = s.paused ? 'resume' : 'pause';
   // The estimator's progress: progressive passes since the view or scene last changed (each pass
-  // shrinks every pixel's radius: the caustic converges while nothing moves), or for knn how full
-  // the photon maps are against the cap at which accumulation stops.
+  // adds photons to every pixel's estimate: the caustic converges while nothing moves), the
+  // batches per pass (they grow while the view is still) and the caustic's estimated relative
+  // error; or for knn how full the photon maps are against the cap at which accumulation stops.
   const capped = s.cap > 0 ? `${(100 * Math.min(1, s.photonsPerSet / s.cap)).toFixed(1)} % of the ${s.cap.toLocaleString('en')} photons/set cap` : '';
   $('progress').textContent = s.estimator === 'progressive'
-    ? `estimator progressive: ${s.passes} pass${s.passes === 1 ? '' : 'es'} since the last change${s.mode === 'converging' ? ', converging' : ''}`
+    ? `estimator progressive: ${s.passes} pass${s.passes === 1 ? '' : 'es'} since the last change${s.mode === 'converging' ? `, converging (${s.passBatches} batch${s.passBatches === 1 ? '' : 'es'} a pass)` : ''}` +
+      (s.errorEstimate > 0 ? ` · estimated caustic error ${(100 * s.errorEstimate).toFixed(1)} %` : '')
     : `estimator ${s.estimator || 'knn'}: ${capped}`;
   if (!drag) state.camera = { eye: s.camera.eye, forward: s.camera.forward, up: s.camera.up, yfov: s.camera.yfov };
   state.chart.push(s.split);

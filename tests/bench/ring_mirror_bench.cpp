@@ -2,7 +2,7 @@
 // energy and time per frame for rtpm, and the same error for an outside render (POV-Ray).
 //
 //   ring_mirror_bench [--estimator progressive|knn] [--photons P] [--frames N] [--width W]
-//                     [--height H] [-M m] [-F f] [--alpha a] [--csv FILE]
+//                     [--height H] [-M m] [-F f] [--confidence g] [--no-spt] [--csv FILE]
 //       renders N frames of the still view (tests/support/ring_mirror.h, L S D paths only; with
 //       --seconds S, stops after the frame that reaches S s of wall time) and prints after
 //       frames 1, 2, 4, 8, 16, 32, 48, … and the last: elapsed wall and CPU seconds of the process since
@@ -38,6 +38,7 @@
 #include "common/image/error_metrics.h"
 #include "common/image/frame_image.h"
 #include "common/image/image_io.h"
+#include "common/render/pass_budget.h"
 #include "common/render/render_job.h"
 #include "common/scene/gltf_export.h"
 #include "tests/support/ring_mirror.h"
@@ -58,10 +59,12 @@ struct Options {
     uint32_t photons = 100000;
     int frames = 16;
     int width = 320, height = 240, m = 3, f = 0;
-    float alpha = 0.5f;
+    float gamma = 1.5f;
     double seconds = 0.0;  ///< --seconds: stop after the frame that reaches this wall time
     double mask = 0.97;
     uint32_t k = 64;
+    bool selective = true;  ///< --no-spt: plain shooting
+    double budgetMs = 0.0;  ///< --frame-budget-ms: still passes grow to this frame time (0: one batch)
     std::string csv, compare, reference, out, minus, layer, writeScene;
     std::vector<uint64_t> staticStored;  ///< --static-frame, repeatable
 };
@@ -98,8 +101,9 @@ RenderSettings settingsFor(const Options& o) {
     rs.photons.photonsPerBatch = o.photons;
     rs.photons.maxDepth = 2;  // L S D only: the reference's light transport
     rs.photons.diffuseBounces = 0;
-    rs.photons.progressiveAlpha = o.alpha;
+    rs.photons.progressiveGamma = o.gamma;
     rs.photons.k = o.k;
+    rs.photons.selective = o.selective;
     const auto kind = parseCausticEstimator(o.estimator);
     if (!kind) throw std::invalid_argument("--estimator must be progressive or knn, not " + o.estimator);
     rs.photons.estimator = *kind;
@@ -125,28 +129,36 @@ int converge(const Options& o) {
     std::vector<SetPixels> pixels;
     FILE* csv = o.csv.empty() ? nullptr : std::fopen(o.csv.c_str(), "w");
     if (!o.csv.empty() && !csv) throw std::runtime_error("cannot open " + o.csv);
-    if (csv) std::fprintf(csv, "estimator,photons,frame,wall_s,cpu_s,rel_mae,energy\n");
+    if (csv) std::fprintf(csv, "estimator,photons,frame,wall_s,cpu_s,rel_mae,energy,estimate\n");
     std::printf("%s, P = %u, %dx%d, M = %d, F = %d\n", o.estimator.c_str(), o.photons, rs.width,
                 rs.height, rs.interleave, rs.filterSize());
-    std::printf("%6s %9s %9s %9s %8s %10s\n", "frame", "wall_s", "cpu_s", "rel_mae", "energy", "stored");
+    std::printf("%6s %9s %9s %9s %8s %10s %9s %7s\n", "frame", "wall_s", "cpu_s", "rel_mae", "energy", "stored",
+                "estimate", "batches");
+    PassBudget budget(o.budgetMs * 1e-3);
+    uint64_t batchesShot = 0;
     for (int f = 1; f <= o.frames; ++f) {
-        const FrameStats st = job.renderFrame(camera, true, pixels);
+        const auto tf = std::chrono::steady_clock::now();
+        const uint32_t passBatches = budget.batches();
+        const FrameStats st = job.renderFrame(camera, true, pixels, passBatches);
+        budget.record(st.converging, std::chrono::duration<double>(std::chrono::steady_clock::now() - tf).count());
+        batchesShot += st.converging ? passBatches : 1;
         const bool last = f == o.frames ||
                           (o.seconds > 0.0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= o.seconds);
         for (const SetPixels& sp : pixels)
-            image.scatter(pattern, sp.set, sp.pixels, causticOwnWeight(sp.passes, rs.filterSize()));
+            scatterSet(image, pattern, sp);
         image.filterAndCompose(rs.filterSize());
         const bool report = (f & (f - 1)) == 0 || f % 16 == 0 || last;
         if (!report) continue;
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const double cpu = cpuSeconds() - cpu0;
         const Score s = score(image.causticFiltered(), ref, mask, rs.width, rs.height);
-        std::printf("%6d %9.2f %9.2f %9.4f %8.4f %10llu\n", f, wall, cpu, s.relMae, s.energy,
-                    (unsigned long long)st.photonsStored);
+        const double estimate = causticErrorEstimate(st.error);
+        std::printf("%6d %9.2f %9.2f %9.4f %8.4f %10llu %9.4f %7llu\n", f, wall, cpu, s.relMae, s.energy,
+                    (unsigned long long)st.photonsStored, estimate, (unsigned long long)batchesShot);
         std::fflush(stdout);
         if (csv)
-            std::fprintf(csv, "%s,%u,%d,%.3f,%.3f,%.5f,%.5f\n", o.estimator.c_str(), o.photons, f, wall,
-                         cpu, s.relMae, s.energy);
+            std::fprintf(csv, "%s,%u,%d,%.3f,%.3f,%.5f,%.5f,%.5f\n", o.estimator.c_str(), o.photons, f, wall,
+                         cpu, s.relMae, s.energy, estimate);
         if (last) break;
     }
     if (csv) std::fclose(csv);
@@ -280,7 +292,9 @@ int main(int argc, char** argv) {
             else if (a == "--height") o.height = std::stoi(next());
             else if (a == "-M") o.m = std::stoi(next());
             else if (a == "-F") o.f = std::stoi(next());
-            else if (a == "--alpha") o.alpha = std::stof(next());
+            else if (a == "--confidence") o.gamma = std::stof(next());
+            else if (a == "--no-spt") o.selective = false;
+            else if (a == "--frame-budget-ms") o.budgetMs = std::stod(next());
             else if (a == "--csv") o.csv = next();
             else if (a == "--compare") o.compare = next();
             else if (a == "--reference") o.reference = next();

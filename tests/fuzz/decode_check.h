@@ -46,7 +46,7 @@ inline std::vector<Message> sampleMessages() {
     s.tree = TreeVariant::UniformGrid;
     s.encoding = PixelEncoding::Rgb8;
     s.estimator = CausticEstimator::Knn;
-    s.progressiveAlpha = 0.5f;
+    s.progressiveGamma = 1.5f;
     out.push_back(s);
     out.push_back(FrameBegin{42, 2, 7, cam, FrameMode::Walkthrough, {1, 2, 3}});
     out.push_back(FrameBegin{43, 2, 7, cam, FrameMode::Converging, {4}});

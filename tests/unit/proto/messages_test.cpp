@@ -52,20 +52,20 @@ TEST(Messages, TruncationAtEveryByteIsAnErrorNotACrash) {
 }
 
 TEST(Messages, HelloGoldenBytes) {
-    auto bytes = encode(Hello{3, 8, "c1"});
+    auto bytes = encode(Hello{4, 8, "c1"});
     EXPECT_EQ(hex(bytes),
               "5254504d"   // magic 'RTPM'
-              "0300"       // version 3
+              "0400"       // version 4
               "0100"       // type Hello
               "00000000"   // flags
               "0c000000"   // payload 12 bytes
-              "0300"       // protocolVersion 3
+              "0400"       // protocolVersion 4
               "08000000"   // cores 8
               "020000006331");  // "c1"
 }
 
 TEST(Messages, HeartbeatIsABareHeaderAndRefusesAnyPayload) {
-    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0300" "0d00" "00000000" "00000000");
+    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0400" "0d00" "00000000" "00000000");
     EXPECT_FALSE(decodePayload(MessageType::Heartbeat, std::vector<uint8_t>{0}).ok());
 }
 
@@ -81,11 +81,11 @@ TEST(Messages, OnlyBusyRefusalsAreTransient) {
 TEST(Messages, ChallengeAndAuthGoldenBytes) {
     Challenge c;
     for (size_t i = 0; i < c.nonce.size(); ++i) c.nonce[i] = uint8_t(i);
-    EXPECT_EQ(hex(encode(c)), "5254504d03000b0000000000" "20000000"  // type 11, payload 32
+    EXPECT_EQ(hex(encode(c)), "5254504d04000b0000000000" "20000000"  // type 11, payload 32
                               "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f");
     Auth a;
     a.mac.fill(0xab);
-    EXPECT_EQ(hex(encode(a)).substr(0, 32), "5254504d03000c000000000020000000");  // type 12, payload 32
+    EXPECT_EQ(hex(encode(a)).substr(0, 32), "5254504d04000c000000000020000000");  // type 12, payload 32
 }
 
 TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
@@ -134,7 +134,7 @@ TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
 TEST(Messages, FrameBeginGoldenBytes) {
     FrameBegin fb{5, 2, 3, {{1, 2, 3}, {0, 0, -1}, {0, 1, 0}, 0.5f}, FrameMode::Accumulate, {0, 7}};
     EXPECT_EQ(hex(encode(fb)),
-              "5254504d03000600" "00000000" "45000000"  // header v3, type 6, payload 69 bytes
+              "5254504d04000600" "00000000" "49000000"  // header v4, type 6, payload 73 bytes
               "0500000000000000"                        // frame 5
               "02000000" "03000000"                     // epoch 2, sceneVersion 3
               "0000803f" "00000040" "00004040"          // position (1, 2, 3)
@@ -142,7 +142,8 @@ TEST(Messages, FrameBeginGoldenBytes) {
               "00000000" "0000803f" "00000000"          // up (0, 1, 0)
               "0000003f"                                // yfov 0.5
               "01"                                      // mode Accumulate
-              "02000000" "00000000" "07000000");        // sets [0, 7]
+              "02000000" "00000000" "07000000"          // sets [0, 7]
+              "01000000");                              // passBatches 1
 }
 
 TEST(Messages, FrameDataClaimingTwoBillionPixelsInTenBytesIsRejected) {
@@ -166,6 +167,46 @@ TEST(Messages, FrameDataClaimingTwoBillionPixelsInTenBytesIsRejected) {
     v.u32(0x7FFFFFFFu);
     for (int i = 0; i < 24; ++i) v.u8(0);
     EXPECT_EQ(decodePayload(MessageType::FrameData, v.data()).error().code, ErrorCode::LengthTooLarge);
+}
+
+// Version 4: the own weights are absent or one byte per pixel, the error figures finite and ≥ 0,
+// passBatches within [1, kMaxPassBatches].
+TEST(Messages, ProgressiveFieldsAreValidated) {
+    auto reject = [](const Message& m, ErrorCode code) {
+        auto r = decodeMessage(encode(m));
+        ASSERT_FALSE(r.ok()) << "type " << static_cast<int>(typeOf(m));
+        EXPECT_EQ(r.error().code, code) << r.error().message;
+    };
+    FrameData fd;
+    fd.frame = 1;
+    fd.set = 0;
+    fd.encoding = PixelEncoding::Float32;
+    fd.pixelCount = 2;
+    fd.pixels.assign(48, 0);
+    fd.ownWeights = {0, 255};
+    fd.errorSigma = 0.5;
+    fd.errorRadiance = 10.0;
+    fd.errorPixels = 2;
+    auto back = decodeMessage(encode(fd));
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    EXPECT_EQ(std::get<FrameData>(*back), fd);
+    FrameData bad = fd;
+    bad.ownWeights = {7};
+    reject(bad, ErrorCode::BadValue);
+    bad = fd;
+    bad.errorSigma = -1.0;
+    reject(bad, ErrorCode::BadValue);
+    bad = fd;
+    bad.errorRadiance = std::numeric_limits<double>::infinity();
+    reject(bad, ErrorCode::NonFinite);
+    bad = fd;
+    bad.errorPixels = 3;
+    reject(bad, ErrorCode::BadValue);
+    FrameBegin fb{5, 2, 3, {{1, 2, 3}, {0, 0, -1}, {0, 1, 0}, 0.5f}, FrameMode::Converging, {0}};
+    fb.passBatches = 0;
+    reject(fb, ErrorCode::BadValue);
+    fb.passBatches = kMaxPassBatches + 1;
+    reject(fb, ErrorCode::BadValue);
 }
 
 TEST(Messages, HostileSetCountIsRejectedBeforeAllocating) {
@@ -214,9 +255,11 @@ TEST(Messages, FieldValidationRejectsBadValues) {
     s.estimator = static_cast<CausticEstimator>(kMaxCausticEstimator + 1);
     reject(s, ErrorCode::BadEnum);
     s = Settings{};
-    s.progressiveAlpha = 1.0f;
+    s.progressiveGamma = 0.0f;
     reject(s, ErrorCode::BadValue);
-    s.progressiveAlpha = std::numeric_limits<float>::quiet_NaN();
+    s.progressiveGamma = 16.5f;
+    reject(s, ErrorCode::BadValue);
+    s.progressiveGamma = std::numeric_limits<float>::quiet_NaN();
     reject(s, ErrorCode::NonFinite);
     reject(Scene{1, Scene::Source::Builtin, "", {}, {}}, ErrorCode::BadValue);
     reject(Scene{1, Scene::Source::Gltf, "ring", {1}, {}}, ErrorCode::BadValue);

@@ -77,7 +77,7 @@ Frame render(RenderJob& job, int frames) {
         f.nonFinite += f.last.eye.nonFinite;
     }
     for (const SetPixels& sp : pixels)
-        f.image->scatter(pattern, sp.set, sp.pixels, causticOwnWeight(sp.passes, rs.filterSize()));
+        scatterSet(*f.image, pattern, sp);
     f.image->filterAndCompose(rs.filterSize());
     return f;
 }
