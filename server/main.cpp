@@ -85,8 +85,12 @@ int run(int argc, char** argv) {
     app.add_option("--http", o.http,
                    "serve the browser viewer on HOST:PORT (port 0 = any free port; the URL is printed as "
                    "'viewer: http://HOST:PORT/'); e.g. 127.0.0.1:0");
-    app.add_option("--viewer-token", o.viewerToken, "token the viewer's controls need (default: the cluster token)");
+    app.add_option("--viewer-token", o.viewerToken,
+                   "token the viewer's controls need (default: the cluster token; required with --insecure-no-token)");
     app.add_flag("--viewer-public", o.viewerPublic, "viewers without a token may watch (controls still need it)");
+    app.add_option("--viewer-origin", o.viewerOrigins,
+                   "an origin (http://HOST[:PORT]) whose pages may open the viewer besides the address it is served "
+                   "on, e.g. the name or published port a browser uses; repeatable");
     app.add_option("--max-viewers", o.maxViewers, "viewers connected at once")->capture_default_str();
     app.add_option("--viewer-fps", o.viewerFps,
                    "frames per second sent to a viewer at most (0 = every frame the master composes)")

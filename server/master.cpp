@@ -107,6 +107,7 @@ struct Master::Impl final : PeerEvents, FrameLoopListener {
         vo.publicView = opt.viewerPublic;
         vo.maxViewers = opt.maxViewers;
         vo.maxFps = opt.viewerFps;
+        vo.allowedOrigins = opt.viewerOrigins;
         viewer = std::make_unique<ViewerServer>(vo, [this](const ViewerCommand& cmd, bool, ViewerServer::Reply reply) {
             asio::post(io, [this, cmd, reply = std::move(reply)] { onViewerCommand(cmd, reply); });
         });

@@ -69,6 +69,8 @@ struct MasterOptions {
     std::string viewerToken;           ///< controls need this (default: the cluster token)
     bool viewerPublic = false;         ///< viewers without a token may watch (no controls)
     int maxViewers = 8;
+    /// Origins besides the served address whose pages may open the viewer's WebSocket.
+    std::vector<std::string> viewerOrigins;
     double viewerFps = 30.0;           ///< frames sent to each viewer per second at most (0 = every frame)
 };
 
