@@ -75,7 +75,7 @@ struct Server {
                                       dir.file("port"), "--min-clients", std::to_string(minClients), "--scene",
                                       "RING", "--width", "48", "--height", "36", "-M", "3", "-P", "500",
                                       "--frames", std::to_string(frames), "--encoding", "float32", "--out",
-                                      dir.file("out.exr"), "--quiet"};
+                                      dir.file("out.exr"), "--quiet", "--frame-budget-ms", "0"};
         argv.insert(argv.end(), extra.begin(), extra.end());
         child = std::make_unique<Child>(argv, dir.file("server"), std::vector<std::string>{"RTPM_TOKEN=" + kToken});
         port = waitForPortFile(dir.file("port"), *child, 60s);
@@ -542,7 +542,7 @@ TEST(Tls, ClusterOverTlsGivesTheSameImageAndNothingReadableOnTheWire) {
     EXPECT_EQ(wire.find(kToken), std::string::npos);
     // The same image as the single-process renderer, bit for bit (float32 pixels).
     Child render({binaryPath("common/cmd/rtpm-render"), "--scene", "RING", "--width", "48", "--height", "36", "-M",
-                  "3", "-P", "500", "--frames", "3", "--out", srv.dir.file("ref.exr")},
+                  "3", "-P", "500", "--frames", "3", "--frame-budget-ms", "0", "--out", srv.dir.file("ref.exr")},
                  srv.dir.file("render"));
     auto rs = render.wait(120s);
     ASSERT_TRUE(rs && rs->exited && rs->code == 0) << render.logs();

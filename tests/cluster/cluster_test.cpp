@@ -35,7 +35,10 @@ struct RunSettings {
     std::vector<std::string> flags() const {
         std::vector<std::string> f{"--scene", scene, "--width", std::to_string(width), "--height",
                                    std::to_string(height), "-M", std::to_string(m), "--frames",
-                                   std::to_string(frames), "-P", std::to_string(photons)};
+                                   std::to_string(frames), "-P", std::to_string(photons),
+                                   // One batch per pass: with a budget, pass sizes follow each
+                                   // process's own frame times, so the two would differ.
+                                   "--frame-budget-ms", "0"};
         f.insert(f.end(), extra.begin(), extra.end());
         return f;
     }

@@ -26,7 +26,8 @@ const std::string kToken = "9c41e07b2d5a8f36c1b4e9d07a52f8c3";  // `openssl rand
 /// Flags shared by rtpm-server and rtpm-render: a small RING so a frame takes tens of ms.
 std::vector<std::string> sceneFlags(int frames, std::vector<std::string> extra = {}, int photons = 2000) {
     std::vector<std::string> f{"--scene", "RING", "--width", "96", "--height", "72", "-M", "3",
-                               "--frames", std::to_string(frames), "-P", std::to_string(photons)};
+                               "--frames", std::to_string(frames), "-P", std::to_string(photons),
+                               "--frame-budget-ms", "0"};  // one batch per pass: the same in every process
     f.insert(f.end(), extra.begin(), extra.end());
     return f;
 }
