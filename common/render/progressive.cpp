@@ -20,8 +20,15 @@ namespace {
 double luminance(Vec3 c) { return 0.2126 * double(c.x) + 0.7152 * double(c.y) + 0.0722 * double(c.z); }
 double luminance(const glm::dvec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
 
+// kBinRatio2^j for every ring.
+const std::array<double, kRadiusBins> kDiscScale = [] {
+    std::array<double, kRadiusBins> a{};
+    for (int j = 0; j < kRadiusBins; ++j) a[size_t(j)] = std::pow(kBinRatio2, double(j));
+    return a;
+}();
+
 // r_j² of ring j's outer disc.
-double disc2(double outer2, int j) { return outer2 * std::pow(kBinRatio2, double(j)); }
+double disc2(double outer2, int j) { return outer2 * kDiscScale[size_t(j)]; }
 
 // The ring a photon at squared distance d2 (< outer2) falls into: r_{j+1}² ≤ d2 < r_j².
 int ringOf(float d2, float outer2) {
@@ -50,8 +57,8 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
         hi[i] = std::numeric_limits<double>::infinity();
         out[i] = Choice{active, glm::dvec3(0.0), 0.0};
     }
-    double scale = std::pow(kBinRatio2, -double(kRadiusBins - 1));
-    for (int j = kRadiusBins - 1; j >= active && (open[0] || open[1]); --j, scale *= kBinRatio2) {
+    for (int j = kRadiusBins - 1; j >= active && (open[0] || open[1]); --j) {
+        const double scale = 1.0 / kDiscScale[size_t(j)];
         power += glm::dvec3(rings.power[3 * j], rings.power[3 * j + 1], rings.power[3 * j + 2]);
         count += rings.count[j];
         if (!any && count < kMinPhotons && j > active) continue;
