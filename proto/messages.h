@@ -38,7 +38,8 @@ struct Vec3f {
     bool operator==(const Vec3f&) const = default;
 };
 
-/// Pinhole camera, glTF convention (DESIGN §6): world position, unit forward and up, yfov rad.
+/// Pinhole camera, glTF convention (docs/ARCHITECTURE.md §9): world position, unit forward and up,
+/// yfov rad.
 struct CameraState {
     Vec3f position;
     Vec3f forward{0.0f, 0.0f, -1.0f};
@@ -101,8 +102,8 @@ struct Reject {
     bool operator==(const Reject&) const = default;
 };
 
-/// The scene edits (DESIGN §2). Indices refer to the loaded scene's arrays; the receiver checks
-/// them against its scene (the decoder cannot).
+/// The scene edits (docs/ARCHITECTURE.md §2). Indices refer to the loaded scene's arrays; the
+/// receiver checks them against its scene (the decoder cannot).
 struct CameraEdit {
     CameraState camera;
     bool operator==(const CameraEdit&) const = default;
@@ -176,13 +177,13 @@ struct Settings {
     uint32_t photonMaxDepth = 16;    ///< PhotonSettings::maxDepth: ray segments per photon path, ≤ kMaxDepthLimit
     uint32_t areaLightSamples = 4;   ///< EyeSettings::areaLightSamples, in [1, kMaxAreaLightSamples]
     bool gatherVisibility = false;   ///< PhotonSettings::gatherVisibility (u8 0/1)
-    // Appended in version 2: the caustic estimator (DESIGN §9).
+    // Appended in version 2: the caustic estimator (docs/ARCHITECTURE.md §6).
     CausticEstimator estimator = CausticEstimator::Progressive;  ///< PhotonSettings::estimator
     float progressiveGamma = 1.5f;   ///< PhotonSettings::progressiveGamma, finite, in (0, 16] (version 4; was α)
     bool operator==(const Settings&) const = default;
 };
 
-/// Frame mode (DESIGN §2). Append-only ids.
+/// Frame mode (docs/ARCHITECTURE.md §2.1). Append-only ids.
 /// Converging (version 2): camera and scene unchanged since the previous frame with the
 /// progressive estimator; clients run a progressive pass (shooting even when capped).
 enum class FrameMode : uint8_t { Interaction = 0, Accumulate = 1, Walkthrough = 2, Converging = 3 };

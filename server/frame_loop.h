@@ -43,7 +43,7 @@ public:
 class FrameLoop {
 public:
     /// Frames in flight at once (and output jobs queued at once): a client renders frame f+1
-    /// while f travels and is assembled, so neither side idles.
+    /// while f travels and is assembled, so neither side idles (docs/ARCHITECTURE.md §2.2).
     static constexpr size_t kPipeline = 2;
 
     /// Everything passed by reference outlives the loop.

@@ -64,7 +64,7 @@ struct MasterOptions {
     double frameBudgetMs = 200.0;
     double targetError = 0.0;
 
-    // Browser viewer (DESIGN §10).
+    // Browser viewer (docs/ARCHITECTURE.md §10).
     std::string http;                  ///< HOST:PORT of the viewer's HTTP port; empty = no viewer
     std::string viewerToken;           ///< controls need this (default: the cluster token)
     bool viewerPublic = false;         ///< viewers without a token may watch (no controls)
@@ -85,10 +85,10 @@ struct MasterSummary {
     uint64_t peersRejected = 0;     ///< handshakes refused and peers closed for protocol errors
 };
 
-/// The master (DESIGN §1). One io_context thread does all networking; decoding, scattering,
-/// filtering, composing and image output run on a separate assembly thread (and TBB), so a slow
-/// frame never stalls the sockets. Peers that send bad bytes are closed with a log line naming
-/// them; the master keeps serving the others.
+/// The master (docs/ARCHITECTURE.md §1, threads §8). One io_context thread does all networking;
+/// decoding, scattering, filtering, composing and image output run on a separate assembly thread
+/// (and TBB), so a slow frame never stalls the sockets. Peers that send bad bytes are closed with a
+/// log line naming them; the master keeps serving the others.
 class Master {
 public:
     /// `scene` is the scene as loaded (clients of a file scene receive it as .glb).

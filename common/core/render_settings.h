@@ -8,7 +8,7 @@
 
 namespace rtpm {
 
-/// Eye-pass settings (DESIGN §2 step 4).
+/// Eye-pass settings (docs/ARCHITECTURE.md §2 step 4).
 struct EyeSettings {
     int maxDepth = 16;          ///< specular bounces before a path is ended
     int areaLightSamples = 4;   ///< shadow rays per emissive triangle (stratified) for a light
@@ -29,7 +29,7 @@ enum class PhotonTree : uint8_t {
     UniformGrid = 2,
 };
 
-/// How caustic radiance is estimated (DESIGN §9).
+/// How caustic radiance is estimated (docs/ARCHITECTURE.md §6).
 enum class CausticEstimatorKind : uint8_t {
     /// Stochastic progressive photon mapping per pixel (Hachisuka & Jensen 2009) while camera and
     /// scene stay still: every frame gathers a new photon batch within each pixel's shrinking
@@ -50,7 +50,6 @@ std::optional<PhotonTree> parsePhotonTree(std::string_view name);
 /// Inverse of parsePhotonTree.
 const char* photonTreeName(PhotonTree tree);
 
-/// Photon shooting and density-estimation settings (DESIGN §5, paper §5.1/§5.4).
 /// Upper bound of a progressive pass's batches (render/pass_budget.h; a pass of 1 024 batches of
 /// the default 20 000 paths traces 20 M paths per set; the wire's FrameBegin.passBatches has the
 /// same limit).
@@ -59,10 +58,11 @@ inline constexpr uint32_t kMaxPassBatches = 1024;
 /// Upper bound of PhotonSettings::progressiveGamma (wire and flag limit alike).
 inline constexpr float kMaxProgressiveGamma = 16.0f;
 
+/// Photon shooting and density-estimation settings (docs/ARCHITECTURE.md §5, paper §5.1/§5.4).
 struct PhotonSettings {
     /// P: light paths traced per interleaving set per batch (pilots + refinements with SPT).
     uint32_t photonsPerBatch = 20000;
-    /// Selective Photon Tracing (DESIGN §5.1) instead of plain QMC shooting.
+    /// Selective Photon Tracing (docs/ARCHITECTURE.md §5.2) instead of plain QMC shooting.
     bool selective = true;
     /// Diffuse bounces a photon may take before or between specular chains (0 → only L S+ D).
     uint32_t diffuseBounces = 1;
@@ -111,7 +111,7 @@ struct PhotonSettings {
 struct RenderSettings {
     int width = 640;
     int height = 480;
-    int interleave = 3;  ///< M: the image is split into M×M interleaving sets (DESIGN §3)
+    int interleave = 3;  ///< M: M×M interleaving sets (docs/ARCHITECTURE.md §3)
     int filter = 0;      ///< F: caustic box filter size; 0 → F = M (every window holds each set once)
     EyeSettings eye;
     PhotonSettings photons;

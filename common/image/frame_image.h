@@ -27,9 +27,9 @@ public:
     /// progressive estimator's choice, progressive.h).
     void scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
                  std::span<const uint8_t> ownWeights);
-    /// Box-filters the caustic buffer with an f × f window (DESIGN §4) into filtered B, then
-    /// composes, per pixel with its set's own weight w: shown = w·caustic + (1 − w)·B (exactly
-    /// B where w = 0), causticFiltered = shown, final = direct + shown.
+    /// Box-filters the caustic buffer with an f × f window (docs/ARCHITECTURE.md §4) into filtered
+    /// B, then composes, per pixel with its set's own weight w: shown = w·caustic + (1 − w)·B
+    /// (exactly B where w = 0), causticFiltered = shown, final = direct + shown.
     /// Cost: O(W·H) independent of f.
     void filterAndCompose(int f);
 

@@ -1,6 +1,6 @@
 // Per-set photon maps: plain or selective (SPT) batch shooting, power normalisation, accumulation.
 //
-// Power bookkeeping (paper-notes §5.5, §5.7; DESIGN §5). Every light l with a share P_l of the
+// Power bookkeeping (docs/ARCHITECTURE.md §5.2–§5.3). Every light l with a share P_l of the
 // batch is estimated on its own, and every photon carries its own power (W, relative to one
 // batch; the estimate divides by the number of batches; stored divided by the maps' power unit,
 // a power of two near the largest path power, so the RGB9E5 code's fixed range is relative to

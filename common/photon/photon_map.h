@@ -57,7 +57,7 @@ struct PassGather {
 
 /// One caustic photon map per owned interleaving set, grown batch by batch.
 /// Photon powers are stored relative to one batch; `radiance` divides by the batch count
-/// (paper-notes §5.7), so the estimate is consistent at every accumulation stage.
+/// (docs/ARCHITECTURE.md §5.3), so the estimate is consistent at every accumulation stage.
 /// Stored powers are also in units of powerUnit() (not W): the RGB9E5 code has relative
 /// precision only over a fixed range (photon.cpp), and a photon's power in W scales with the
 /// scene (a 1 mm scene with the same irradiance has 10⁻⁶ × the flux). Relative to the unit,
@@ -80,8 +80,8 @@ public:
     /// must not change between batches without a reset. No-op when the set reached its cap.
     /// Cost: O(photonsPerBatch · maxDepth) ray casts + O(stored · log) insertion.
     void shootBatch(const EmbreeScene& scene, uint32_t set);
-    /// A progressive pass of `set` (DESIGN §9): shoots its next batch even when the set is
-    /// capped and keeps the batch alone as the set's pass index (gatherPass), replacing the
+    /// A progressive pass of `set` (docs/ARCHITECTURE.md §6.2): shoots its next batch even when the
+    /// set is capped and keeps the batch alone as the set's pass index (gatherPass), replacing the
     /// previous pass. Unless the set is capped, the batch is also kept for the map (up to the
     /// cap) and inserted by the next flushPasses, so a pass costs the batch's tracing and an
     /// O(b log b) build, independent of the map's size.

@@ -61,8 +61,9 @@ public:
     /// walkthrough forced), then traces the pixels of every owned set into `out` (one entry per
     /// owned set, in ownership order; buffers are reused).
     /// Progressive estimator: a set whose progression is valid and whose camera equals `camera`
-    /// bit for bit (and `shoot`) runs a pass instead (shootPass, no eye pass, DESIGN §9); any
-    /// other set restarts its progression from a record-mode eye pass and the accumulated map.
+    /// bit for bit (and `shoot`) runs a pass instead (shootPass, no eye pass;
+    /// docs/ARCHITECTURE.md §6.2); any other set restarts its progression from a record-mode eye
+    /// pass and the accumulated map.
     /// `passBatches` (≥ 1): batches a progressive pass shoots (PassBudget); other frames shoot one.
     FrameStats renderFrame(const Camera& camera, bool shoot, std::vector<SetPixels>& out,
                            uint32_t passBatches = 1);
