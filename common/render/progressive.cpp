@@ -57,6 +57,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
         hi[i] = std::numeric_limits<double>::infinity();
         out[i] = Choice{active, glm::dvec3(0.0), 0.0};
     }
+    double previous = 0.0;  // E of the last disc walked
     for (int j = kRadiusBins - 1; j >= active && (open[0] || open[1]); --j) {
         const double scale = 1.0 / kDiscScale[size_t(j)];
         power += glm::dvec3(rings.power[3 * j], rings.power[3 * j + 1], rings.power[3 * j + 2]);
@@ -74,8 +75,9 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             }
             lo[i] = lo2;
             hi[i] = hi2;
-            out[i] = Choice{j, power, count};
+            out[i] = Choice{j, power, count, any && e > 0.0 ? std::abs(e - previous) / ((1.0 - kBinRatio2) * e) : 0.0};
         }
+        previous = e;
         any = true;
     }
 }
@@ -212,7 +214,9 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 for (int i = 0; i < (f_ > 1 ? 2 : 1); ++i) {
                     const double area = kPi * disc2(s.outer2, c[i].disc) * batches;
                     const glm::dvec3 value = weight * (c[i].power / area);
-                    const double sdv = c[i].count > 0.0 ? luminance(value) / std::sqrt(c[i].count) : 0.0;
+                    // Noise and the blur the rule saw, added in quadrature.
+                    const double rel = c[i].count > 0.0 ? 1.0 / c[i].count + c[i].drift * c[i].drift : 0.0;
+                    const double sdv = luminance(value) * std::sqrt(rel);
                     if (i == 0) {
                         caustic += value;
                         sd += sdv;

@@ -43,8 +43,11 @@ namespace rtpm {
 inline constexpr int kRadiusBins = 20;
 /// Squared-radius ratio between neighbouring discs (r² halves every 1.25 rings).
 inline constexpr double kBinRatio2 = 0.5743491774985174;  // 2^(−0.8)
-/// The rule starts from the smallest disc holding at least this many photons.
-inline constexpr float kMinPhotons = 8.0f;
+/// The rule starts from the smallest disc holding at least this many photons. Fewer make its
+/// noise figure itself noisy: with 8, sparse regions (RING's floor under one diffuse bounce)
+/// stopped at small discs by chance and showed speckles; on the curved mirror (defaults, 48
+/// frames) 8 gave 0.0316 rel. MAE, 16 0.0311, 32 0.0346 (and a blurrier first frame: 0.108).
+inline constexpr float kMinPhotons = 16.0f;
 /// Rings kept active outside the shown disc (a pass gathers within the outermost active one):
 /// r² 9 × the shown disc's. On the curved mirror (defaults, 48 frames) 4 gave 0.032 rel. MAE,
 /// keeping every ring 0.038: the rule alone still takes discs somewhat too wide at fold lines.
@@ -66,12 +69,12 @@ struct CausticErrorSums {
     uint64_t pixels = 0;    ///< pixels with a caustic estimate
 };
 
-/// Relative error of the shown caustic the figures predict: the mean absolute deviation of a
-/// normal variable, √(2/π) σ, summed over the caustic region and divided by its radiance — the
-/// caustic-region rel. MAE (common/image/error_metrics.h) the noise alone would give. The
-/// rule keeps the blur of the chosen disc within about Γσ, so bias adds little on top
-/// (checked against analytic references: tests/accuracy/error_estimate_test.cpp). 0 when no
-/// pixel has a caustic.
+/// Relative error of the shown caustic the figures predict: per pixel σ is the noise of the
+/// chosen disc and its blur (Choice::drift) in quadrature, and √(2/π) σ (the mean absolute
+/// deviation of a normal variable) summed over the caustic region and divided by its radiance
+/// is the caustic-region rel. MAE (common/image/error_metrics.h) that error would give.
+/// Checked against the curved mirror's analytic error (tests/accuracy/progressive_estimator_test.cpp:
+/// within 1.5× from the 2nd frame). 0 when no pixel has a caustic.
 inline double causticErrorEstimate(const CausticErrorSums& e) {
     return e.radiance > 0.0 ? 0.7978845608028654 * e.sigma / e.radiance : 0.0;
 }
@@ -125,6 +128,10 @@ public:
         int disc = 0;            ///< index into the ladder
         glm::dvec3 power{0.0};   ///< Σ power within it (W, summed over batches)
         double count = 0.0;      ///< photons within it
+        /// The disc's blur relative to E: |E − E'| / (1 − kBinRatio2) / E with E' the estimate of
+        /// the disc admitted just inside it (0 when none). A kernel's bias grows as r², so the
+        /// step from r'² = kBinRatio2 r² to r² shows 1 − kBinRatio2 of disc j's own bias.
+        double drift = 0.0;
     };
     struct Rings {
         std::array<float, kRadiusBins * 3> power{};  ///< Σ power per ring (W summed over batches)

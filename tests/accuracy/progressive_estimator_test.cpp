@@ -113,11 +113,11 @@ TEST(ProgressiveEstimator, EnergyStaysOnTheReceiverAtEveryFrame) {
 }
 
 // The estimator's own figure (causticErrorEstimate) against the analytic error, defaults, from
-// the 10th frame on (the first ones are dominated by blur the noise figure cannot see: it
-// reads 0.6 of the true error at frame 4): within a factor of 1.5 either way.
+// the 2nd frame on: within a factor of 1.5 either way. (Noise alone read 0.47 of the true error:
+// the blur term is what makes it track; the first frame reads 0.68.)
 TEST(ProgressiveEstimator, ItsErrorEstimateTracksTheTrueError) {
     const Convergence run = render(small(), 24);
-    for (size_t f = 9; f < run.relMae.size(); ++f) {
+    for (size_t f = 1; f < run.relMae.size(); ++f) {
         const double ratio = run.estimate[f] / run.relMae[f];
         EXPECT_GT(ratio, 1.0 / 1.5) << "frame " << f + 1 << ": estimate " << run.estimate[f] << ", true "
                                     << run.relMae[f];
