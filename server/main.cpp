@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "common/core/console.h"
 #include "common/render/render_flags.h"
 #include "common/core/strings.h"
 #include "common/scene/scene_loader.h"
@@ -156,6 +157,7 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    rtpm::lineBufferConsole();
     try {
         return run(argc, argv);
     } catch (const rtpm::SceneError& e) {

@@ -9,6 +9,7 @@
 #include <numeric>
 #include <string>
 
+#include "common/core/console.h"
 #include "common/image/frame_image.h"
 #include "common/core/strings.h"
 #include "common/scene/gltf_export.h"
@@ -191,6 +192,7 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    rtpm::lineBufferConsole();
     try {
         return run(argc, argv);
     } catch (const rtpm::SceneError& e) {
