@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "client/worker.h"
+#include "common/cmd/command_line.h"
 #include "common/core/console.h"
 #include "proto/messages.h"
 
@@ -20,19 +21,29 @@ int main(int argc, char** argv) {
     o.name += "/" + std::to_string(getpid());
 
     CLI::App app{"rtpm-client: render worker of the rtpm cluster. Connects to rtpm-server, renders the "
-                 "interleaving sets it is given on every core and streams their pixels back.\n"
-                 "Exit codes: 0 the master said the run is complete, 1 startup/connect failure, 2 refused by "
-                 "the master, 3 the master stopped, closed the connection or fell silent (and did not take the "
-                 "client back within --rejoin-timeout), 4 protocol error, 7 evicted (and not taken back within "
-                 "--rejoin-timeout), 128+N stopped by signal N."};
-    auto* serverOpt = app.add_option("--server", server, "server address host:port ([v6]:port for IPv6)");
+                 "interleaving sets it is given on every core and streams their pixels back.",
+                 "rtpm-client"};
+    rtpm::addStandardFlags(app, rtpm::proto::kProtocolVersion,
+                     {{kExitOk, "the master said the run is complete"},
+                      {kExitStartup, "start-up failure: no master reachable within --connect-timeout, internal error"},
+                      {kExitServerGone, "the master stopped, closed the connection or fell silent, and did not take "
+                                        "the client back within --rejoin-timeout"},
+                      {kExitProtocolError, "the master sent something unusable (protocol error)"},
+                      {kExitRejected, "refused by the master: token or version at once, capacity once the "
+                                      "connect window ran out"},
+                      {kExitEvicted, "evicted, and not taken back within --rejoin-timeout"},
+                      {130, "stopped by SIGINT (128 + N for signal N; SIGTERM 143), after saying Bye"}});
+    auto* serverOpt = app.add_option("--server", server,
+                                     "server address HOST:PORT ([v6]:PORT for IPv6); HOST alone uses port " +
+                                         std::to_string(rtpm::proto::kDefaultPort));
     auto* portFileOpt = app.add_option("--port-file", o.portFile,
                                        "read the port from this file (rtpm-server --port-file); host from --host");
     app.add_option("--host", o.host, "server host when --port-file gives the port")->capture_default_str();
     app.add_option("--token", o.token, "shared secret (default: environment variable RTPM_TOKEN)");
     app.add_option("--name", o.name, "client name shown in the server's logs")->capture_default_str();
-    app.add_option("--threads", o.threads, "render threads (0 = all cores)")->capture_default_str()->check(
-        CLI::NonNegativeNumber);
+    app.add_option("--threads", o.threads, "render threads (0 = all cores)")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 4096));
     app.add_option("--connect-timeout", o.connectTimeoutSeconds,
                    "seconds to keep retrying the connection (backoff 100 ms to 2 s)")
         ->capture_default_str()
@@ -51,34 +62,25 @@ int main(int argc, char** argv) {
     app.add_flag("--tls", o.tls, "connect over TLS and verify the server's certificate for the host name");
     app.add_option("--tls-ca", o.tlsCa, "PEM file of the CA to trust with --tls (default: the system's)");
     serverOpt->excludes(portFileOpt);
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
-        return app.exit(e);
-    }
-    if (serverOpt->count() == 0 && portFileOpt->count() == 0) {
-        std::fprintf(stderr, "rtpm-client: give --server host:port or --port-file FILE\n");
-        return kExitStartup;
-    }
-    if (serverOpt->count() && !parseHostPort(server, o.host, o.port)) {
-        std::fprintf(stderr, "rtpm-client: --server \"%s\" is not host:port with a port in 1..65535\n",
-                     server.c_str());
-        return kExitStartup;
-    }
-    if (o.idleTimeoutSeconds > 0 && o.idleTimeoutSeconds < 2.0) {
-        std::fprintf(stderr, "rtpm-client: --idle-timeout must be 0 (never) or >= 2 s: the master's heartbeat "
-                             "comes every second\n");
-        return kExitStartup;
-    }
+    if (auto code = rtpm::parseCommandLine(app, argc, argv)) return *code;
+    if (serverOpt->count() == 0 && portFileOpt->count() == 0)
+        return rtpm::reportUsageError("rtpm-client", rtpm::UsageError("give --server HOST[:PORT] or --port-file FILE"));
+    if (serverOpt->count() && !parseHostPort(server, o.host, o.port))
+        return rtpm::reportUsageError(
+            "rtpm-client", rtpm::UsageError("--server \"" + server + "\" is not HOST[:PORT] with a port in 1..65535"));
+    if (o.idleTimeoutSeconds > 0 && o.idleTimeoutSeconds < 2.0)
+        return rtpm::reportUsageError("rtpm-client",
+                                      rtpm::UsageError("--idle-timeout must be 0 (never) or >= 2 s: the master's "
+                                                       "heartbeat comes every second"));
     if (o.token.empty())
         if (const char* env = std::getenv("RTPM_TOKEN")) o.token = env;
     if (o.token.empty())
         std::fprintf(stderr, "rtpm-client: warning: no token (--token or RTPM_TOKEN); only a server started "
                              "with --insecure-no-token accepts this client\n");
-    if (o.token.size() > rtpm::proto::kMaxTokenBytes) {
-        std::fprintf(stderr, "rtpm-client: the token is longer than %zu bytes\n", rtpm::proto::kMaxTokenBytes);
-        return kExitStartup;
-    }
+    if (o.token.size() > rtpm::proto::kMaxTokenBytes)
+        return rtpm::reportUsageError("rtpm-client", rtpm::UsageError("the token is longer than " +
+                                                                      std::to_string(rtpm::proto::kMaxTokenBytes) +
+                                                                      " bytes"));
     if (o.name.size() > rtpm::proto::kMaxNameBytes) o.name.resize(rtpm::proto::kMaxNameBytes);
     return Worker(o).run();
 }

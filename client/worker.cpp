@@ -36,6 +36,8 @@ using asio::ip::tcp;
 
 constexpr auto kFirstBackoff = std::chrono::milliseconds(100);
 constexpr auto kMaxBackoff = std::chrono::milliseconds(2000);
+/// How often a client that cannot reach its master says whom it is waiting for.
+constexpr auto kWaitNoticeInterval = std::chrono::seconds(5);
 /// One connection attempt may not take longer than this (a silent host drops SYNs).
 constexpr auto kAttemptTimeout = std::chrono::seconds(5);
 /// After a Bye is queued the socket is closed when it is written, or after this at the latest.
@@ -65,14 +67,15 @@ bool parseHostPort(const std::string& text, std::string& host, uint16_t& port) {
     std::string h, p;
     if (!text.empty() && text.front() == '[') {
         const size_t close = text.find(']');
-        if (close == std::string::npos || close + 1 >= text.size() || text[close + 1] != ':') return false;
+        if (close == std::string::npos) return false;
         h = text.substr(1, close - 1);
-        p = text.substr(close + 2);
+        if (close + 1 == text.size()) p = std::to_string(proto::kDefaultPort);
+        else if (text[close + 1] == ':') p = text.substr(close + 2);
+        else return false;
     } else {
         const size_t colon = text.rfind(':');
-        if (colon == std::string::npos) return false;
         h = text.substr(0, colon);
-        p = text.substr(colon + 1);
+        p = colon == std::string::npos ? std::to_string(proto::kDefaultPort) : text.substr(colon + 1);
     }
     if (h.empty() || p.empty() || p.size() > 5 || !std::all_of(p.begin(), p.end(), ::isdigit)) return false;
     const unsigned long v = std::stoul(p);
@@ -127,6 +130,7 @@ struct Worker::Impl : net::ConnectionHandler {
 
     int run() {
         deadline = Clock::now() + seconds(opt.connectTimeoutSeconds);
+        nextWaitNotice = {};
         // As PID 1 in a container SIGTERM would otherwise be ignored; leave with a Bye instead.
         signals.async_wait([this](const asio::error_code& e, int sig) {
             if (e) return;
@@ -206,6 +210,19 @@ struct Worker::Impl : net::ConnectionHandler {
     }
 
     void scheduleRetry() {
+        // Says whom it waits for and why, at the first failed attempt and every few seconds after,
+        // so a client started before its master is not silent for the whole window.
+        const auto now = Clock::now();
+        if (now >= nextWaitNotice && deadline > now) {
+            nextWaitNotice = now + kWaitNoticeInterval;
+            const double left = std::chrono::duration<double>(deadline - now).count();
+            if (port == 0 && opt.port == 0)
+                std::fprintf(stderr, "rtpm-client: waiting for the server at %s, port from %s (%s); retrying for %.0f s "
+                             "more\n", opt.host.c_str(), opt.portFile.c_str(), lastError.c_str(), left);
+            else
+                std::fprintf(stderr, "rtpm-client: waiting for the server at %s (%s); retrying for %.0f s more\n",
+                             addrText().c_str(), lastError.c_str(), left);
+        }
         const auto wait = std::min<Clock::duration>(backoff, std::max<Clock::duration>(deadline - Clock::now(), {}));
         backoff = std::min<Clock::duration>(backoff * 2, kMaxBackoff);
         retryTimer.expires_after(wait);
@@ -392,7 +409,10 @@ struct Worker::Impl : net::ConnectionHandler {
             }
         }
         if (!lossCode || hadWelcome) lossCode = code;
-        if (hadWelcome) deadline = Clock::now() + seconds(opt.rejoinTimeoutSeconds);
+        if (hadWelcome) {
+            deadline = Clock::now() + seconds(opt.rejoinTimeoutSeconds);
+            nextWaitNotice = {};
+        }
         if (Clock::now() >= deadline) {
             std::fprintf(stderr, "rtpm-client: %s; not rejoining (--rejoin-timeout %.1f s)\n", what.c_str(),
                          opt.rejoinTimeoutSeconds);
@@ -578,6 +598,7 @@ struct Worker::Impl : net::ConnectionHandler {
     std::optional<int> lossCode;
 
     Clock::time_point deadline;  ///< of the current connect or rejoin window
+    Clock::time_point nextWaitNotice;  ///< the next "waiting for the server" line is due then
     Clock::duration backoff = kFirstBackoff;
     int attempts = 0;
     uint16_t port = 0;

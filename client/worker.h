@@ -9,7 +9,8 @@ namespace rtpm::client {
 /// Process exit codes of rtpm-client (also returned by Worker::run); deploy/MULTI-HOST.md §10.
 inline constexpr int kExitOk = 0;             ///< the master said the run is complete (Bye{Normal})
 inline constexpr int kExitStartup = 1;        ///< bad flags, no master reachable in time, internal error
-inline constexpr int kExitRejected = 2;       ///< refused: token, version (at once), capacity (once retries ran out)
+inline constexpr int kExitUsage = 2;          ///< the command line cannot be used (as every rtpm program)
+inline constexpr int kExitRejected = 5;       ///< refused: token, version (at once), capacity (once retries ran out)
 inline constexpr int kExitServerGone = 3;     ///< the master stopped (Bye{Shutdown}), closed or reset the
                                               ///< connection, or fell silent past the idle timeout, and did
                                               ///< not take the client back within the rejoin timeout
@@ -17,7 +18,6 @@ inline constexpr int kExitProtocolError = 4;  ///< the master sent something unu
 inline constexpr int kExitEvicted = 7;        ///< evicted (Bye{Timeout}: late or frozen) and not taken back
                                               ///< within the rejoin timeout
 // SIGINT / SIGTERM: the client says Bye{Shutdown} and exits with 128 + the signal number.
-// (Codes 5 and 6 are rtpm-server's: image not written, no complete frame.)
 
 /// How to reach the server and what to tell it.
 struct WorkerOptions {
@@ -39,8 +39,9 @@ struct WorkerOptions {
     std::string tlsCa;         ///< PEM file of the CA(s) to trust; empty = the system's store
 };
 
-/// Parses "host:port", "[v6addr]:port" into `host` and `port`. Returns false (and leaves the
-/// outputs unchanged) if the port is missing, not a number or outside 1..65535.
+/// Parses "host:port", "[v6addr]:port", "host" or "[v6addr]" (port proto::kDefaultPort) into `host`
+/// and `port`. Returns false (and leaves the outputs unchanged) if the host is empty or the port
+/// is not a number in 1..65535.
 bool parseHostPort(const std::string& text, std::string& host, uint16_t& port);
 
 /// The render worker. run() connects (retrying with exponential backoff from 100 ms to 2 s until

@@ -16,6 +16,8 @@ namespace rtpm::proto {
 inline constexpr uint32_t kMagic = 0x4D505452u;
 /// Bumped on any change of a message layout; peers must match exactly (PROTOCOL.md §2).
 inline constexpr uint16_t kProtocolVersion = 4;
+/// The master's TCP port when none is given (rtpm-server --port, rtpm-client --server HOST).
+inline constexpr uint16_t kDefaultPort = 7411;
 /// Size of the fixed header that precedes every payload.
 inline constexpr size_t kHeaderBytes = 16;
 

@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "proto/net/listen_address.h"
+
 namespace rtpm::server {
 
 namespace {
@@ -27,11 +29,13 @@ std::unique_ptr<asio::ssl::context> makeTls(const std::string& cert, const std::
 Acceptor::Acceptor(asio::io_context& io, const std::string& address, uint16_t port, const std::string& tlsCert,
                    const std::string& tlsKey, OnSocket onSocket)
     : tls_(makeTls(tlsCert, tlsKey)), acceptor_(io), onSocket_(std::move(onSocket)) {
-    asio::ip::tcp::endpoint ep(asio::ip::make_address(address), port);
-    acceptor_.open(ep.protocol());
-    acceptor_.set_option(asio::socket_base::reuse_address(true));
-    acceptor_.bind(ep);
-    acceptor_.listen();
+    const asio::ip::tcp::endpoint ep = net::listenEndpoint("--listen", address, port);
+    asio::error_code ec;
+    acceptor_.open(ep.protocol(), ec);
+    if (!ec) acceptor_.set_option(asio::socket_base::reuse_address(true), ec);
+    if (!ec) acceptor_.bind(ep, ec);
+    if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
+    if (ec) throw std::runtime_error(net::listenErrorText("--port " + std::to_string(port), ep, ec));
 }
 
 void Acceptor::start() {

@@ -21,7 +21,7 @@ public:
     using OnSocket = std::function<void(asio::ip::tcp::socket)>;
 
     /// Throws std::invalid_argument for a bad certificate or key (or only one of them) and
-    /// std::system_error when it cannot listen.
+    /// std::runtime_error when it cannot listen (naming the address and the fix: listen_address.h).
     Acceptor(asio::io_context& io, const std::string& address, uint16_t port, const std::string& tlsCert,
              const std::string& tlsKey, OnSocket onSocket);
 

@@ -225,6 +225,9 @@ void FrameLoop::beginFrame(TimePoint now) {
 void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
     auto [job, shown] = ledger_.retire(r, now, setCount());
     job.last = r.frame + 1 == static_cast<uint64_t>(opt_.frames);
+    job.shown = ledger_.counts().framesShown;
+    job.elapsedSeconds = ledger_.counts().seconds;
+    job.settings = control_.settings();
     if (!opt_.out.empty() && opt_.saveEvery > 0 && r.frame > 0 && r.frame % uint64_t(opt_.saveEvery) == 0)
         job.saveAs = numberedPath(opt_.out, r.frame, ".exr");
     if (!r.deadlineHit && !r.arrived.empty()) deadlines_.completed(r.waited, frameCost(shown.mode));

@@ -3,13 +3,17 @@
 
 #include <tbb/parallel_for.h>
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <stdexcept>
 
+#include "common/core/output_file.h"
 #include "common/image/image_io.h"
+#include "common/render/image_metadata.h"
 #include "proto/bridge/bridge.h"
 #include "proto/pixel_codec.h"
 
@@ -20,10 +24,13 @@ ImageOutput::ImageOutput(ImageOutputOptions options)
       pattern_{opt_.width, opt_.height, opt_.interleave},
       image_(opt_.width, opt_.height),
       radiance_(size_t(opt_.interleave) * size_t(opt_.interleave)) {
+    settings_.width = opt_.width;
+    settings_.height = opt_.height;
+    settings_.interleave = opt_.interleave;
     if (!opt_.csv.empty()) {
         const bool fresh = !std::filesystem::exists(opt_.csv);
         csv_ = std::fopen(opt_.csv.c_str(), "a");
-        if (!csv_) throw std::runtime_error("cannot open " + opt_.csv);
+        if (!csv_) throw OutputError("--csv " + opt_.csv + ": cannot open: " + std::strerror(errno));
         if (fresh)
             std::fprintf(csv_, "frame,fps,photons_per_set,mode,bytes,slowest_client,slowest_ms,sets_arrived,"
                                "sets_total,deadline_hit,master_ms,slowest_photon_ms,slowest_eye_ms,"
@@ -112,6 +119,9 @@ OutputResult ImageOutput::process(OutputJob& job) {
     }
     image_.filterAndCompose(opt_.filter);
     result.masterMs = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    shown_ = job.shown;
+    photonsStored_ = uint64_t(std::llround(job.photonsPerSet * double(job.setCount)));
+    settings_ = job.settings;
     if (opt_.onComposed) opt_.onComposed(job.frame, image_);
     try {
         if (!job.saveAs.empty()) writeImages(job.saveAs);
@@ -121,6 +131,7 @@ OutputResult ImageOutput::process(OutputJob& job) {
         result.writeFailed = true;
     }
     if (!opt_.quiet) {
+        progress_.clear();
         std::printf("frame %5llu  %7.2f fps  %-11s  photons/set %10.0f  sets %3zu/%-3u  %8.2f MB  "
                     "slowest %s %.1f ms  master %.2f ms%s%s\n",
                     (unsigned long long)job.frame, job.fps, proto::frameModeName(job.mode), job.photonsPerSet,
@@ -128,6 +139,8 @@ OutputResult ImageOutput::process(OutputJob& job) {
                     result.masterMs, job.deadlineHit ? "  (deadline)" : "",
                     job.errorEstimate > 0.0 ? ("  est. error " + std::to_string(job.errorEstimate).substr(0, 6)).c_str() : "");
         std::fflush(stdout);
+        progress_.update(job.shown, opt_.totalFrames, job.elapsedSeconds);
+        if (job.last) progress_.finish();
     }
     if (csv_) {
         std::fprintf(csv_, "%llu,%.3f,%.1f,%s,%llu,%s,%.3f,%zu,%u,%d,%.3f,%.3f,%.3f,%.3f\n",
@@ -143,10 +156,15 @@ OutputResult ImageOutput::process(OutputJob& job) {
 void ImageOutput::writeImages(const std::string& exrPath) {
     const std::filesystem::path dir = std::filesystem::path(exrPath).parent_path();
     if (!dir.empty()) std::filesystem::create_directories(dir);
-    writeExr(exrPath, image_);
+    writeExr(exrPath, image_, false, metadata());
     const std::string png = std::filesystem::path(exrPath).replace_extension(".png").string();
     writePng(png, image_.width(), image_.height(), image_.final());
+    progress_.clear();
     std::fprintf(stderr, "rtpm-server: wrote %s and %s\n", exrPath.c_str(), png.c_str());
+}
+
+ExrAttributes ImageOutput::metadata() const {
+    return imageMetadata({"rtpm-server", opt_.sceneName, settings_, shown_, photonsStored_});
 }
 
 }  // namespace rtpm::server

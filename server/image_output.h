@@ -13,6 +13,9 @@
 
 #include "common/core/interleave.h"
 #include "common/core/pixel_radiance.h"
+#include "common/core/progress.h"
+#include "common/core/render_settings.h"
+#include "common/image/image_io.h"
 #include "common/image/frame_image.h"
 #include "proto/messages.h"
 #include "server/assignment.h"
@@ -24,7 +27,9 @@ struct ImageOutputOptions {
     int width = 640, height = 480, interleave = 3, filter = 3;
     std::string out;   ///< final EXR (PNG beside it); empty = none
     std::string csv;   ///< per-frame figures, appended (header when new); empty = none
-    bool quiet = false;  ///< no per-frame line on stdout
+    bool quiet = false;  ///< no per-frame line on stdout and no progress line on stderr
+    std::string sceneName;  ///< as given (--scene), for the images' metadata
+    uint64_t totalFrames = 0;  ///< frames of the run, for the progress line (0 = until stopped)
     /// Called on the output thread after each frame is composed, before files are written (the
     /// browser viewer's feed). Must not keep the reference.
     std::function<void(uint64_t frame, const FrameImage& image)> onComposed;
@@ -49,6 +54,9 @@ struct OutputJob {
     std::string saveAs;  ///< also write this frame to this EXR path (PNG beside it); empty = no
     bool last = false;   ///< write opt.out after this frame
     double errorEstimate = 0.0;  ///< progressive: the caustic's estimated relative error (0 = none)
+    uint64_t shown = 0;  ///< frames shown so far, this one included
+    double elapsedSeconds = 0.0;  ///< since the first frame began
+    RenderSettings settings;      ///< the settings this frame was rendered with (image metadata)
 };
 
 /// What the output stage found.
@@ -91,12 +99,18 @@ public:
 
 private:
     void writeImages(const std::string& exrPath);
+    /// Metadata of the image as of the last processed job (image_metadata.h).
+    ExrAttributes metadata() const;
 
     ImageOutputOptions opt_;
     Interleave pattern_;
     FrameImage image_;
     std::vector<std::vector<PixelRadiance>> radiance_;  ///< per set, reused
     FILE* csv_ = nullptr;
+    ProgressLine progress_{stderr, isTerminal(stderr)};
+    uint64_t shown_ = 0;             ///< of the last processed job
+    uint64_t photonsStored_ = 0;     ///< of the last processed job, all sets
+    RenderSettings settings_;        ///< of the last processed job
     asio::io_context io_;
     asio::executor_work_guard<asio::io_context::executor_type> guard_{io_.get_executor()};
     std::thread thread_;

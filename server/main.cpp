@@ -7,9 +7,12 @@
 #include <filesystem>
 
 #include "common/core/console.h"
+#include "common/cmd/command_line.h"
 #include "common/render/render_flags.h"
+#include "common/core/output_file.h"
 #include "common/core/strings.h"
 #include "common/scene/scene_loader.h"
+#include "proto/net/listen_address.h"
 #include "server/animation.h"
 #include "server/script/script_edit.h"
 #include "common/image/image_io.h"
@@ -28,7 +31,15 @@ int run(int argc, char** argv) {
     std::string deadline = "auto";
     CLI::App app{"rtpm-server: the cluster master. Waits for rtpm-client processes, deals them the M×M "
                  "interleaving sets, runs the frame loop, assembles their pixels, box-filters the caustics and "
-                 "writes the image rtpm-render writes for the same settings."};
+                 "writes the image rtpm-render writes for the same settings.",
+                 "rtpm-server"};
+    addStandardFlags(app, proto::kProtocolVersion,
+                     {{0, "normal end: all frames shown, or a service (--frames 0) stopped by SIGINT/SIGTERM"},
+                      {1, "start-up failure: scene, edit script, an output that cannot be written, an address "
+                          "that cannot be listened on"},
+                      {server::kExitImageNotWritten, "frames rendered but an image could not be written"},
+                      {server::kExitNoCompleteFrame, "frames shown but none complete (clients missing)"},
+                      {130, "a finite run interrupted by SIGINT or SIGTERM (the last image is written)"}});
     // Rendering settings: the same names, meanings and defaults as rtpm-render.
     addRenderFlags(app, rs, o.sceneName, plain, noDefaultLight);
     SceneInputPolicy sceneInput;
@@ -74,7 +85,9 @@ int run(int argc, char** argv) {
                    "rgb9e5-zstd (rgb9e5 with a compressed caustic plane), rgb8 (6 B/px, clamped to [0,1])")
         ->capture_default_str();
     app.add_flag("--walkthrough", o.walkthrough, "no photon shooting after the first frame of each epoch");
-    app.add_option("--out", o.out, "final EXR path (default out/<scene>.exr); the PNG goes beside it");
+    app.add_option("--out", o.out,
+                   "final image NAME.exr or NAME.png: both NAME.exr (every layer, linear) and NAME.png "
+                   "(tone-mapped) are written (default out/<scene>.exr)");
     app.add_option("--save-every", o.saveEvery, "also write every n-th frame as <out>_<frame>.exr/.png (0 = off)")
         ->capture_default_str();
     app.add_option("--csv", o.csv,
@@ -96,47 +109,63 @@ int run(int argc, char** argv) {
     app.add_option("--viewer-fps", o.viewerFps,
                    "frames per second sent to a viewer at most (0 = every frame the master composes)")
         ->capture_default_str();
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
-        return app.exit(e);
-    }
+    if (auto code = parseCommandLine(app, argc, argv)) return *code;
     rs.photons.selective = !plain;
     o.frameBudgetMs = convergence.frameBudgetMs;
     o.targetError = convergence.targetError;
     if (!o.http.empty() && framesOpt->count() == 0) o.frames = 0;
-    if (o.maxViewers < 1) throw std::invalid_argument("--max-viewers must be >= 1");
+    if (!o.http.empty()) {
+        try {
+            net::parseListenAddress("--http", o.http);
+        } catch (const std::invalid_argument& e) {
+            throw UsageError(e.what());
+        }
+    }
+    if (o.maxViewers < 1) throw UsageError("--max-viewers must be >= 1");
     if (!(o.viewerFps >= 0.0 && o.viewerFps <= 1000.0))
-        throw std::invalid_argument("--viewer-fps must be in [0, 1000] (0 = no cap)");
+        throw UsageError("--viewer-fps must be in [0, 1000] (0 = no cap)");
     if (deadline != "auto") {
         if (deadline.empty() || deadline.size() > 9 || deadline.find_first_not_of("0123456789") != std::string::npos ||
             std::stol(deadline) < 1)
-            throw std::invalid_argument("--deadline-ms must be auto or a whole number of milliseconds >= 1, got '" +
+            throw UsageError("--deadline-ms must be auto or a whole number of milliseconds >= 1, got '" +
                                         deadline + "'");
         o.deadline.fixed = std::chrono::milliseconds(std::stol(deadline));
     }
-    if (handshakeMs < 1) throw std::invalid_argument("--handshake-timeout-ms must be >= 1");
-    if (readMs < 0) throw std::invalid_argument("--read-timeout-ms must be >= 0");
+    if (handshakeMs < 1) throw UsageError("--handshake-timeout-ms must be >= 1");
+    if (readMs < 0) throw UsageError("--read-timeout-ms must be >= 0");
     if (o.maxPeers < 1 || o.admission.maxPending < 1 || o.admission.maxPendingPerSource < 1)
-        throw std::invalid_argument("--max-clients, --max-pending and --max-pending-per-source must be >= 1");
+        throw UsageError("--max-clients, --max-pending and --max-pending-per-source must be >= 1");
     o.handshakeTimeout = std::chrono::milliseconds(handshakeMs);
     o.readTimeout = std::chrono::milliseconds(readMs);
     if (o.token.empty())
         if (const char* env = std::getenv("RTPM_TOKEN")) o.token = env;
     if (o.token.empty() && !o.insecureNoToken)
-        throw std::invalid_argument("no token: pass --token or set RTPM_TOKEN (or --insecure-no-token)");
+        throw UsageError("no token: pass --token or set RTPM_TOKEN (or --insecure-no-token)");
     auto anim = server::parseAnimation(animate);
-    if (!anim) throw std::invalid_argument("--animate must be orbit, light, ior or object, got '" + animate + "'");
+    if (!anim) throw UsageError("--animate must be orbit, light, ior or object, got '" + animate + "'");
     o.animation = *anim;
     if (encoding == "float32") o.encoding = proto::PixelEncoding::Float32;
     else if (encoding == "rgb9e5") o.encoding = proto::PixelEncoding::Rgb9e5;
     else if (encoding == "rgb9e5-zstd") o.encoding = proto::PixelEncoding::Rgb9e5Zstd;
     else if (encoding == "rgb8") o.encoding = proto::PixelEncoding::Rgb8;
-    else throw std::invalid_argument("--encoding must be float32, rgb9e5, rgb9e5-zstd or rgb8, got '" + encoding + "'");
-    validateSettings(rs);
+    else throw UsageError("--encoding must be float32, rgb9e5, rgb9e5-zstd or rgb8, got '" + encoding + "'");
+    try {
+        validateSettings(rs);
+    } catch (const std::invalid_argument& e) {
+        throw UsageError(e.what());
+    }
 
     o.builtin = isBuiltinScene(o.sceneName);
     if (o.builtin) o.sceneName = toUpper(o.sceneName);
+    // Every output is checked (and its folder created) before any work: frames rendered into an
+    // --out that cannot be written would be lost.
+    const ImageOutputPaths outPaths =
+        imageOutputPaths(o.out.empty() ? "out/" + toLower(std::filesystem::path(o.sceneName).stem().string()) + ".exr"
+                                       : o.out);
+    prepareOutputFile("--out", outPaths.exr);
+    prepareOutputFile("--out", outPaths.png);
+    o.out = outPaths.exr;
+    if (!o.csv.empty()) prepareOutputFile("--csv", o.csv, OutputWrite::Append);
     SceneOverrides overrides;
     overrides.defaultLight = !noDefaultLight;
     Scene scene = loadScene(o.sceneName, overrides, sceneInput);
@@ -145,10 +174,6 @@ int run(int argc, char** argv) {
         o.script = server::loadEditScript(editScript);
         o.scriptFile = editScript;
     }
-    if (o.out.empty()) o.out = "out/" + toLower(std::filesystem::path(o.sceneName).stem().string()) + ".exr";
-    // Refuse now, not after the last frame: every frame rendered into an unwritable --out is lost.
-    checkImageWritable(o.out);
-    checkImageWritable(std::filesystem::path(o.out).replace_extension(".png").string());
 
     server::Master master(std::move(o), std::move(scene));
     return master.run();
@@ -160,6 +185,10 @@ int main(int argc, char** argv) {
     rtpm::lineBufferConsole();
     try {
         return run(argc, argv);
+    } catch (const rtpm::UsageError& e) {
+        return rtpm::reportUsageError("rtpm-server", e);
+    } catch (const rtpm::OutputError& e) {
+        std::fprintf(stderr, "rtpm-server: output error: %s\n", e.what());
     } catch (const rtpm::SceneError& e) {
         std::fprintf(stderr, "rtpm-server: scene error: %s\n", e.what());
     } catch (const std::exception& e) {

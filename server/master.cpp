@@ -15,6 +15,7 @@
 
 #include "common/image/image_io.h"
 #include "proto/auth.h"
+#include "proto/net/listen_address.h"
 #include "server/frame_loop.h"
 #include "server/image_output.h"
 #include "server/live_control.h"
@@ -25,17 +26,6 @@
 namespace rtpm::server {
 
 namespace {
-
-std::pair<std::string, uint16_t> parseHostPort(const std::string& s) {
-    const size_t colon = s.rfind(':');
-    std::string host = colon == std::string::npos ? s : s.substr(0, colon);
-    std::string port = colon == std::string::npos ? "0" : s.substr(colon + 1);
-    if (host.empty()) host = "127.0.0.1";
-    if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
-        std::stoul(port) > 65535)
-        throw std::invalid_argument("--http must be HOST:PORT (port 0-65535), got '" + s + "'");
-    return {host, static_cast<uint16_t>(std::stoul(port))};
-}
 
 /// The options with every check that needs no scene and no socket done (process start: throws).
 MasterOptions validated(MasterOptions o) {
@@ -92,6 +82,8 @@ struct Master::Impl final : PeerEvents, FrameLoopListener {
         o.out = opt.out;
         o.csv = opt.csv;
         o.quiet = opt.quiet;
+        o.sceneName = opt.sceneName;
+        o.totalFrames = opt.frames > 0 ? uint64_t(opt.frames) : 0;
         o.onComposed = [this](uint64_t frame, const FrameImage& image) {
             if (viewer) viewer->publishFrame(frame, image);
         };
@@ -99,7 +91,7 @@ struct Master::Impl final : PeerEvents, FrameLoopListener {
     }
 
     void startViewer() {
-        auto [host, httpPort] = parseHostPort(opt.http);
+        auto [host, httpPort] = net::parseListenAddress("--http", opt.http);
         ViewerOptions vo;
         vo.host = host;
         vo.port = httpPort;
@@ -155,7 +147,7 @@ struct Master::Impl final : PeerEvents, FrameLoopListener {
     void printStart() {
         std::printf("rtpm-server listening on %s:%u\n", opt.listen.c_str(), static_cast<unsigned>(peers.port()));
         if (viewer) {
-            auto [host, unused] = parseHostPort(opt.http);
+            auto [host, unused] = net::parseListenAddress("--http", opt.http);
             std::printf("viewer: http://%s:%u/\n", host.c_str(), static_cast<unsigned>(viewer->port()));
             publishScene();
         }
@@ -194,17 +186,21 @@ struct Master::Impl final : PeerEvents, FrameLoopListener {
         summary.bytesReceived = f.bytesReceived;
         summary.clientsEvicted = f.clientsEvicted;
         summary.clientsJoined = peers.counts().joined;
-        summary.peersRejected = peers.counts().rejected;
+        summary.peersRefused = peers.counts().refused;
+        summary.failedAuth = peers.counts().failedAuth;
+        summary.protocolErrors = peers.counts().protocolErrors;
     }
 
     void printSummary() {
         double fps = summary.seconds > 0 ? double(summary.framesShown) / summary.seconds : 0.0;
         std::printf("summary: %llu frames shown (%llu incomplete) in %.2f s = %.2f fps, %.1f MB received, "
-                    "%llu clients joined, %llu evicted, %llu peers refused or dropped for protocol errors\n",
+                    "%llu clients joined, %llu evicted, %llu peers refused (capacity, rate limit, version), "
+                    "%llu failed authentications, %llu protocol errors\n",
                     (unsigned long long)summary.framesShown, (unsigned long long)summary.framesIncomplete,
                     summary.seconds, fps, double(summary.bytesReceived) / 1e6,
                     (unsigned long long)summary.clientsJoined, (unsigned long long)summary.clientsEvicted,
-                    (unsigned long long)summary.peersRejected);
+                    (unsigned long long)summary.peersRefused, (unsigned long long)summary.failedAuth,
+                    (unsigned long long)summary.protocolErrors);
         std::fflush(stdout);
     }
 

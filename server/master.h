@@ -26,7 +26,7 @@ constexpr int kExitNoCompleteFrame = 6;
 /// Everything rtpm-server's flags decide.
 struct MasterOptions {
     std::string listen = "127.0.0.1";  ///< address to bind
-    uint16_t port = 7411;              ///< 0 = ephemeral (see portFile)
+    uint16_t port = proto::kDefaultPort;  ///< 0 = ephemeral (see portFile)
     std::string portFile;              ///< written atomically with the bound port once listening
     std::string token;                 ///< shared secret; empty only with insecureNoToken
     bool insecureNoToken = false;
@@ -82,7 +82,9 @@ struct MasterSummary {
     uint64_t bytesReceived = 0;     ///< FrameData wire bytes
     uint64_t clientsJoined = 0;
     uint64_t clientsEvicted = 0;    ///< late or skipped evictAfter frames in a row (told Bye{Timeout})
-    uint64_t peersRejected = 0;     ///< handshakes refused and peers closed for protocol errors
+    uint64_t peersRefused = 0;      ///< refused at connect or in the handshake: capacity, rate limit, version
+    uint64_t failedAuth = 0;        ///< refused for a wrong token (or none where one is needed)
+    uint64_t protocolErrors = 0;    ///< closed for bytes that break the protocol, in or after the handshake
 };
 
 /// The master (docs/ARCHITECTURE.md §1, threads §8). One io_context thread does all networking;
@@ -92,7 +94,7 @@ struct MasterSummary {
 class Master {
 public:
     /// `scene` is the scene as loaded (clients of a file scene receive it as .glb).
-    /// Throws std::invalid_argument for bad options, std::system_error if it cannot listen.
+    /// Throws std::invalid_argument for bad options, std::runtime_error if it cannot listen.
     Master(MasterOptions options, Scene scene);
     ~Master();
     Master(const Master&) = delete;

@@ -57,7 +57,7 @@ void Peers::admit(asio::ip::tcp::socket sock) {
     const Admission::Verdict v = admission_.onConnect(id, source, Admission::Clock::now());
     armAdmissionLog();
     if (v.decision != AdmissionDecision::Admit) {
-        ++counts_.rejected;
+        ++counts_.refused;
         // A plain Reject would be garbage to a TLS client; a TLS handshake per refusal is what a flood wants.
         if (acceptor_.tls()) return;
         Acceptor::refuseNow(sock,
@@ -102,14 +102,16 @@ void Peers::armAdmissionLog() {
 // Refuses a peer in its handshake. Not logged one by one (a flood would fill the disk): the
 // admission summary line counts it.
 void Peers::reject(net::Connection& c, proto::RejectReason reason, const std::string& text) {
-    ++counts_.rejected;
+    if (reason == proto::RejectReason::BadToken) ++counts_.failedAuth;
+    else if (reason == proto::RejectReason::ProtocolError) ++counts_.protocolErrors;
+    else ++counts_.refused;
     c.send(proto::Reject{reason, text.substr(0, proto::kMaxTextBytes)});
     c.closeAfterFlush();
 }
 
 void Peers::protocolError(net::Connection& c, const std::string& why) {
     std::fprintf(stderr, "rtpm-server: closing %s: protocol error: %s\n", registry_.describe(c).c_str(), why.c_str());
-    ++counts_.rejected;
+    ++counts_.protocolErrors;
     c.send(proto::Bye{proto::ByeReason::ProtocolError, why.substr(0, proto::kMaxTextBytes)});
     c.closeAfterFlush();
     dropClientOf(c, "protocol error");

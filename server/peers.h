@@ -35,7 +35,9 @@ public:
 /// Peer totals of a run.
 struct PeerCounts {
     uint64_t joined = 0;
-    uint64_t rejected = 0;  ///< handshakes refused and peers closed for protocol errors
+    uint64_t refused = 0;         ///< refused at connect or in the handshake: capacity, rate limit, version
+    uint64_t failedAuth = 0;      ///< refused for a wrong token (or none where one is needed)
+    uint64_t protocolErrors = 0;  ///< closed for bytes that break the protocol, in or after the handshake
 };
 
 /// Owns every connection (authenticated or not). Peers that send bad bytes are closed with a log

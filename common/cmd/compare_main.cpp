@@ -7,17 +7,20 @@
 #include <string>
 #include <vector>
 
+#include "common/cmd/command_line.h"
 #include "common/core/console.h"
 #include "common/image/error_metrics.h"
 #include "common/image/image_io.h"
+#include "proto/wire.h"
 
 namespace {
 
 using namespace rtpm;
 
-// Exit codes: scripts tell a failed comparison from a comparison that could not be made.
-constexpr int kExitError = 1;      // missing file, size mismatch, missing channel, bad option
-constexpr int kExitOverBound = 2;  // --max-rel-rmse or --energy-bounds not met
+// Exit codes: scripts tell a failed comparison from a comparison that could not be made, and
+// both from a command line that cannot be used (kExitUsage, 2, as every program).
+constexpr int kExitError = 1;      // missing file, size mismatch, missing channel
+constexpr int kExitOverBound = 3;  // --max-rel-rmse or --energy-bounds not met
 
 std::string fmt(double v, const char* spec = "%.4g") {
     if (std::isnan(v)) return "n/a";
@@ -45,9 +48,8 @@ int run(int argc, char** argv) {
         "Caustic region: pixels whose reference mask-layer luminance exceeds FRACTION x the\n"
         "PERCENTILE quantile of its positive values (default 5% of the 99th percentile).\n"
         "rel_rmse = sqrt(mean((o-r)^2)) / mean(|r|); mae = mean(|o-r|); rel_mae = mae / mean(|r|)\n"
-        "over all channels of the region's pixels; energy = sum(o) / sum(r) over the whole image.\n"
-        "Exit status: 0 ok, 1 cannot compare (missing file/channel, size mismatch), 2 a bound given\n"
-        "by --max-rel-rmse or --energy-bounds is not met, or OUTPUT holds NaN/Inf values."};
+        "over all channels of the region's pixels; energy = sum(o) / sum(r) over the whole image.",
+        "rtpm-compare"};
     app.add_option("output", outputPath, "rendered EXR (the image judged)")->required();
     app.add_option("reference", referencePath, "reference EXR (converged or analytic)")->required();
     app.add_option("--layer", layers,
@@ -66,11 +68,12 @@ int run(int argc, char** argv) {
     app.add_option("--max-rel-rmse", maxRelRmse, "fail (exit 2) when the caustic-region rel_rmse exceeds this");
     app.add_option("--energy-bounds", energyBounds, "fail (exit 2) when the energy ratio is outside [LO, HI]")
         ->expected(2);
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
-        return app.exit(e);
-    }
+    addStandardFlags(app, proto::kProtocolVersion,
+                     {{0, "compared, within the bounds given"},
+                      {kExitError, "cannot compare: missing file or channel, size mismatch"},
+                      {kExitOverBound, "a bound given by --max-rel-rmse or --energy-bounds is not met, or OUTPUT "
+                                       "holds NaN/Inf values"}});
+    if (auto code = parseCommandLine(app, argc, argv)) return *code;
     if (layers.empty()) layers.push_back("caustic_filtered");
     for (std::string& l : layers)
         if (l == "final") l.clear();

@@ -2,26 +2,43 @@
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
 
+#include <cerrno>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <numeric>
 #include <string>
 
 #include "common/core/console.h"
-#include "common/image/frame_image.h"
+#include "common/cmd/command_line.h"
+#include "common/core/output_file.h"
+#include "common/core/progress.h"
 #include "common/core/strings.h"
+#include "common/image/frame_image.h"
 #include "common/scene/gltf_export.h"
 #include "common/image/image_io.h"
+#include "common/render/image_metadata.h"
 #include "common/render/render_flags.h"
 #include "common/render/pass_budget.h"
 #include "common/render/render_job.h"
 #include "common/scene/scene_loader.h"
+#include "proto/wire.h"
 
 namespace {
 
 using namespace rtpm;
+
+// The first SIGINT/SIGTERM (0 = none): the frame loop stops after the frame in flight.
+volatile std::sig_atomic_t gStopSignal = 0;
+
+void onStopSignal(int sig) {
+    gStopSignal = sig;
+    std::signal(sig, SIG_DFL);  // a second signal ends the process at once
+}
 
 struct Options {
     std::string scene = "RING";
@@ -48,16 +65,22 @@ int run(int argc, char** argv) {
     RenderSettings rs;
     CLI::App app{"rtpm-render: single-process caustic renderer (photon maps per interleaving set, "
                  "image-space box filter). Writes a multi-layer EXR (R G B, direct.*, caustic.*, "
-                 "caustic_filtered.*) and a tone-mapped PNG beside it."};
+                 "caustic_filtered.*) and a tone-mapped PNG beside it.",
+                 "rtpm-render"};
     addRenderFlags(app, rs, o.scene, o.plain, o.noDefaultLight);
     addSceneInputFlags(app, o.sceneInput);
     addConvergenceFlags(app, o.convergence);
     app.add_option("--frames", o.frames,
                    "frames to render; every frame adds one photon batch per set until the cap "
                    "(accumulation), the last frame is written")
-        ->capture_default_str();
-    app.add_option("--out", o.out, "output EXR path (default out/<scene>.exr); the PNG goes beside it");
-    app.add_option("--threads", o.threads, "worker threads (0 = all cores)")->capture_default_str();
+        ->capture_default_str()
+        ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+    app.add_option("--out", o.out,
+                   "output image NAME.exr or NAME.png: both NAME.exr (every layer, linear) and NAME.png "
+                   "(tone-mapped) are written (default out/<scene>.exr)");
+    app.add_option("--threads", o.threads, "worker threads (0 = all cores)")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 4096));
     app.add_option("--camera-eye", o.eye, "camera position x y z (overrides the scene camera)")->expected(3);
     app.add_option("--camera-target", o.target, "camera target x y z")->expected(3);
     app.add_option("--camera-yfov", o.yfov, "vertical field of view in radians (with --camera-eye)");
@@ -67,15 +90,34 @@ int run(int argc, char** argv) {
     app.add_option("--export-glb", o.exportGlb, "write the scene as a .glb file and exit");
     app.add_option("--save-every", o.saveEvery,
                    "also write every n-th frame as <out>_<frame>.exr/.png, as rtpm-server does (0 = off)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(CLI::NonNegativeNumber);
     app.add_option("--csv", o.csv, "append one line of figures per frame to this CSV file");
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
-        return app.exit(e);
-    }
+    addStandardFlags(app, proto::kProtocolVersion,
+                     {{0, "the image was written"},
+                      {1, "the scene or an output cannot be used (refused before rendering), or writing failed"},
+                      {130, "stopped by SIGINT (Ctrl-C): the frame in flight was finished and the image so far "
+                            "written"},
+                      {143, "stopped by SIGTERM, as for SIGINT"}});
+    if (auto code = parseCommandLine(app, argc, argv)) return *code;
     o.exposureSet = exp->count() > 0;
     rs.photons.selective = !o.plain;
+    try {
+        validateSettings(rs);
+    } catch (const std::invalid_argument& e) {
+        throw UsageError(e.what());
+    }
+
+    // Every output is checked (and its folder created) before any work: a render is never lost
+    // to a path that cannot be written after its last frame.
+    if (!o.exportGlb.empty()) prepareOutputFile("--export-glb", o.exportGlb);
+    const std::string stem = toLower(std::filesystem::path(o.scene).stem().string());
+    const ImageOutputPaths outPaths = imageOutputPaths(o.out.empty() ? "out/" + stem + ".exr" : o.out);
+    if (o.exportGlb.empty()) {
+        prepareOutputFile("--out", outPaths.exr);
+        prepareOutputFile("--out", outPaths.png);
+        if (!o.csv.empty()) prepareOutputFile("--csv", o.csv, OutputWrite::Append);
+    }
 
     std::unique_ptr<tbb::global_control> threadLimit;
     if (o.threads > 0)
@@ -94,9 +136,10 @@ int run(int argc, char** argv) {
     if (!o.lightPos.empty())
         overrides.light = PointLightOverride{Vec3(o.lightPos[0], o.lightPos[1], o.lightPos[2]), Vec3(o.lightIntensity)};
 
-    auto t0 = std::chrono::steady_clock::now();
+    using Clock = std::chrono::steady_clock;
+    auto t0 = Clock::now();
     Scene scene = loadScene(o.scene, overrides, o.sceneInput);
-    double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    double loadSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
     for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     std::printf("scene %s: %zu triangles, %zu lights, %zu materials, loaded in %.1f ms\n", scene.name.c_str(),
                 scene.triangleCount(), scene.lights.size(), scene.materials.size(), loadSeconds * 1e3);
@@ -105,15 +148,7 @@ int run(int argc, char** argv) {
         std::printf("wrote %s\n", o.exportGlb.c_str());
         return 0;
     }
-    if (o.frames < 1) throw std::invalid_argument("invalid setting: --frames must be >= 1");
     const Camera camera = *scene.camera;
-
-    std::string stem = toLower(std::filesystem::path(o.scene).stem().string());
-    std::string outPath = o.out.empty() ? "out/" + stem + ".exr" : o.out;
-    const std::string pngPath = std::filesystem::path(outPath).replace_extension(".png").string();
-    // Refuse now, not after the last frame: every frame rendered into an unwritable --out is lost.
-    checkImageWritable(outPath);
-    checkImageWritable(pngPath);
 
     const int setCount = rs.interleave * rs.interleave;
     std::vector<uint32_t> sets(static_cast<size_t>(setCount));
@@ -127,7 +162,7 @@ int run(int argc, char** argv) {
     if (!o.csv.empty()) {
         bool fresh = !std::filesystem::exists(o.csv);
         csv = std::fopen(o.csv.c_str(), "a");
-        if (!csv) throw std::runtime_error("cannot open " + o.csv);
+        if (!csv) throw OutputError("--csv " + o.csv + ": cannot open: " + std::strerror(errno));
         if (fresh) std::fprintf(csv, "frame,mode,shoot_ms,eye_ms,filter_ms,total_ms,photons,paths\n");
     }
     std::printf("%dx%d, M=%d (%d sets), F=%d, P=%u paths/set/frame, k=%u, %s, diffuse bounces %u, %s estimator\n",
@@ -136,16 +171,31 @@ int run(int argc, char** argv) {
                 causticEstimatorName(rs.photons.estimator));
     std::printf("%5s %-11s %9s %9s %9s %9s %11s %11s %7s %7s %9s\n", "frame", "mode", "shoot_ms", "eye_ms",
                 "filter_ms", "total_ms", "photons", "paths", "yield", "batches", "est_error");
+    std::fflush(stdout);
     PassBudget budget(o.convergence.frameBudgetMs * 1e-3);
-    for (int f = 0; f < o.frames; ++f) {
-        auto tf = std::chrono::steady_clock::now();
+
+    // SIGINT/SIGTERM: the frame in flight is finished and the image so far written; a second
+    // signal ends the process at once (the handler restores the default action).
+    std::signal(SIGINT, onStopSignal);
+    std::signal(SIGTERM, onStopSignal);
+    ProgressLine progress(stderr, isTerminal(stderr));
+    const auto renderStart = Clock::now();
+    int framesDone = 0;
+    FrameStats last;
+    auto metadata = [&] {
+        return imageMetadata({"rtpm-render", o.scene, rs, uint64_t(framesDone), last.photonsStored});
+    };
+    for (int f = 0; f < o.frames && gStopSignal == 0; ++f) {
+        auto tf = Clock::now();
         const uint32_t passBatches = budget.batches();
         FrameStats st = job.renderFrame(camera, true, pixels, passBatches);
-        auto tfilter = std::chrono::steady_clock::now();
+        auto tfilter = Clock::now();
         for (const SetPixels& sp : pixels)
             scatterSet(image, pattern, sp);
         image.filterAndCompose(rs.filterSize());
-        auto tend = std::chrono::steady_clock::now();
+        auto tend = Clock::now();
+        framesDone = f + 1;
+        last = st;
         double filterMs = std::chrono::duration<double, std::milli>(tend - tfilter).count();
         double totalMs = std::chrono::duration<double, std::milli>(tend - tf).count();
         budget.record(st.converging, totalMs * 1e-3);
@@ -156,37 +206,54 @@ int run(int argc, char** argv) {
         const char* mode = st.converging         ? "converging"
                            : st.pathsThisFrame ? (f == 0 ? "interaction" : "accumulate")
                                                : "walkthrough";
+        progress.clear();
         std::printf("%5d %-11s %9.1f %9.1f %9.2f %9.1f %11llu %11llu %6.1f%% %7u %9.4f\n", f, mode,
                     st.shootSeconds * 1e3, st.eyeSeconds * 1e3, filterMs, totalMs,
                     (unsigned long long)st.photonsStored, (unsigned long long)st.pathsTraced, yield * 100.0,
                     st.converging ? passBatches : 1u, estimate);
+        std::fflush(stdout);
         if (csv)
             std::fprintf(csv, "%d,%s,%.3f,%.3f,%.3f,%.3f,%llu,%llu\n", f, mode, st.shootSeconds * 1e3,
                          st.eyeSeconds * 1e3, filterMs, totalMs, (unsigned long long)st.photonsStored,
                          (unsigned long long)st.pathsTraced);
         if (o.saveEvery > 0 && f > 0 && f % o.saveEvery == 0) {
-            writeExr(numberedPath(outPath, uint64_t(f), ".exr"), image);
+            writeExr(numberedPath(outPaths.exr, uint64_t(f), ".exr"), image, false, metadata());
             ToneMap frameTm;
             if (o.exposureSet) frameTm.exposureStops = o.exposure;
-            writePng(numberedPath(outPath, uint64_t(f), ".png"), rs.width, rs.height, image.final(), frameTm);
+            writePng(numberedPath(outPaths.exr, uint64_t(f), ".png"), rs.width, rs.height, image.final(), frameTm);
         }
         if (st.eye.nonFinite) std::fprintf(stderr, "warning: %llu non-finite pixel values replaced by 0\n",
                                            (unsigned long long)st.eye.nonFinite);
+        progress.update(uint64_t(framesDone), uint64_t(o.frames),
+                        std::chrono::duration<double>(Clock::now() - renderStart).count());
         if (o.convergence.targetError > 0.0 && st.converging && estimate > 0.0 &&
             estimate <= o.convergence.targetError) {
+            progress.clear();
             std::printf("target error reached at frame %d (estimated %.4f <= %g)\n", f, estimate,
                         o.convergence.targetError);
             break;
         }
     }
+    progress.finish();
     if (csv) std::fclose(csv);
+    const double wallSeconds = std::chrono::duration<double>(Clock::now() - renderStart).count();
+    const int stopSignal = gStopSignal;
+    if (stopSignal != 0)
+        std::fprintf(stderr, "rtpm-render: %s after frame %d of %d: writing the image rendered so far\n",
+                     stopSignal == SIGINT ? "SIGINT" : "SIGTERM", framesDone, o.frames);
 
-    writeExr(outPath, image);
-    ToneMap tm;
-    if (o.exposureSet) tm.exposureStops = o.exposure;
-    writePng(pngPath, rs.width, rs.height, image.final(), tm);
-    std::printf("wrote %s and %s\n", outPath.c_str(), pngPath.c_str());
-    return 0;
+    if (framesDone > 0) {
+        writeExr(outPaths.exr, image, false, metadata());
+        ToneMap tm;
+        if (o.exposureSet) tm.exposureStops = o.exposure;
+        writePng(outPaths.png, rs.width, rs.height, image.final(), tm);
+        std::printf("wrote %s and %s\n", outPaths.exr.c_str(), outPaths.png.c_str());
+    }
+    std::printf("summary: %d of %d frames in %s = %.2f fps, %llu photons stored, %llu photon paths traced%s\n",
+                framesDone, o.frames, formatDuration(wallSeconds).c_str(),
+                wallSeconds > 0 ? framesDone / wallSeconds : 0.0, (unsigned long long)last.photonsStored,
+                (unsigned long long)last.pathsTraced, stopSignal ? " (stopped by a signal)" : "");
+    return stopSignal ? 128 + stopSignal : 0;
 }
 
 }  // namespace
@@ -195,6 +262,10 @@ int main(int argc, char** argv) {
     rtpm::lineBufferConsole();
     try {
         return run(argc, argv);
+    } catch (const rtpm::UsageError& e) {
+        return rtpm::reportUsageError("rtpm-render", e);
+    } catch (const rtpm::OutputError& e) {
+        std::fprintf(stderr, "rtpm-render: output error: %s\n", e.what());
     } catch (const rtpm::SceneError& e) {
         std::fprintf(stderr, "rtpm-render: scene error: %s\n", e.what());
     } catch (const std::exception& e) {

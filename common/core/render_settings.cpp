@@ -2,6 +2,7 @@
 #include "common/core/render_settings.h"
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 namespace rtpm {
@@ -64,6 +65,25 @@ void validateSettings(const RenderSettings& s) {
             "estimator must be progressive or knn");
     require(p.progressiveGamma > 0.0f && p.progressiveGamma <= kMaxProgressiveGamma,
             "progressive confidence width must be in (0, 16], got " + std::to_string(p.progressiveGamma));
+}
+
+std::string describeSettings(const RenderSettings& s) {
+    const PhotonSettings& p = s.photons;
+    char rMax[32], confidence[32];
+    std::snprintf(rMax, sizeof rMax, "%g", double(p.rMax));
+    std::snprintf(confidence, sizeof confidence, "%g", double(p.progressiveGamma));
+    std::string d = "--width " + std::to_string(s.width) + " --height " + std::to_string(s.height) + " -M " +
+                    std::to_string(s.interleave) + " -F " + std::to_string(s.filterSize()) + " -P " +
+                    std::to_string(p.photonsPerBatch) + " --k " + std::to_string(p.k) + " --rmax " + rMax +
+                    " --cap " + std::to_string(p.capPhotons) + " --diffuse-bounces " +
+                    std::to_string(p.diffuseBounces) + " --depth " + std::to_string(s.eye.maxDepth) +
+                    " --photon-depth " + std::to_string(p.maxDepth) + " --area-samples " +
+                    std::to_string(s.eye.areaLightSamples) + " --seed " + std::to_string(p.seed) + " --tree " +
+                    photonTreeName(p.tree) + " --estimator " + causticEstimatorName(p.estimator) +
+                    " --confidence " + confidence;
+    if (!p.selective) d += " --no-spt";
+    if (p.gatherVisibility) d += " --gather-visibility";
+    return d;
 }
 
 }  // namespace rtpm

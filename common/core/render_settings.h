@@ -123,4 +123,8 @@ struct RenderSettings {
 /// sizes, M larger than the image, F over 64, k = 0, a non-finite or negative radius, …).
 void validateSettings(const RenderSettings& settings);
 
+/// The settings that decide an image, as the flags that give them ("--width 640 --height 480 -M 3
+/// -F 3 -P 20000 --k 64 ..."), for image metadata and logs. One line, stable order.
+std::string describeSettings(const RenderSettings& settings);
+
 }  // namespace rtpm

@@ -8,6 +8,7 @@
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
 #include <ImfTestFile.h>
 #include <half.h>
 #include <stb_image.h>
@@ -17,6 +18,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <atomic>
 #include <cerrno>
 #include <cmath>
@@ -28,6 +30,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "common/core/output_file.h"
 #include "common/image/frame_image.h"
 
 namespace rtpm {
@@ -46,15 +49,6 @@ void checkSize(const char* what, int width, int height, size_t floats) {
 
 float finiteOrZero(float v) { return std::isfinite(v) ? v : 0.0f; }
 
-// A fresh name in `path`'s folder: hidden, unique per process and call, removed or renamed away.
-std::string temporaryNameBeside(const std::string& path) {
-    static std::atomic<uint64_t> counter{0};
-    const std::filesystem::path p(path);
-    const std::string name = "." + p.filename().string() + ".tmp-" + std::to_string(::getpid()) + "-" +
-                             std::to_string(counter.fetch_add(1));
-    return (p.has_parent_path() ? p.parent_path() / name : std::filesystem::path(name)).string();
-}
-
 // Flushes `path`'s data to disk, so the rename that follows never publishes an empty file after
 // a crash.
 bool syncFile(const std::string& path) {
@@ -68,7 +62,7 @@ bool syncFile(const std::string& path) {
 // Runs `write` on a temporary file beside `path`, flushes it and renames it over `path`; on any
 // failure the temporary file is removed and `path` is left as it was.
 void writeThroughTemporary(const std::string& path, const std::function<void(const std::string& tmp)>& write) {
-    const std::string tmp = temporaryNameBeside(path);
+    const std::string tmp = temporaryPathBeside(path);
     auto removeTmp = [&] {
         std::error_code ec;
         std::filesystem::remove(tmp, ec);
@@ -94,42 +88,30 @@ void writeThroughTemporary(const std::string& path, const std::function<void(con
 
 }  // namespace
 
-void checkImageWritable(const std::string& path, bool createFolders) {
-    namespace fs = std::filesystem;
-    auto refuse = [&](const std::string& why) {
-        throw std::runtime_error("cannot write images to " + path + ": " + why);
-    };
-    if (path.empty()) refuse("empty path");
-    const fs::path p(path);
-    const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
-    std::error_code ec;
-    if (createFolders && !fs::exists(dir, ec)) {
-        fs::create_directories(dir, ec);
-        if (ec) refuse("cannot create folder " + dir.string() + ": " + ec.message());
-    }
-    if (!fs::is_directory(dir, ec)) refuse(dir.string() + " is not a folder");
-    const fs::file_status st = fs::symlink_status(p, ec);
-    if (fs::exists(st)) {
-        const fs::file_status target = fs::status(p, ec);
-        if (fs::is_directory(target)) refuse("it is a folder");
-        if (!fs::is_regular_file(target)) refuse("it exists and is not a regular file");
-    }
-    // The real test of writability (permissions, read-only mounts, quotas, ACLs, root squash):
-    // create, write and remove a file beside it, the way every write will.
-    const std::string probe = temporaryNameBeside(path);
-    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-    if (fd < 0) refuse("cannot create a file in " + dir.string() + ": " + std::strerror(errno));
-    const char byte = 0;
-    const bool wrote = ::write(fd, &byte, 1) == 1;
-    const int writeErrno = errno;
-    ::close(fd);
-    ::unlink(probe.c_str());
-    if (!wrote) refuse("cannot write a file in " + dir.string() + ": " + std::strerror(writeErrno));
+ImageOutputPaths imageOutputPaths(const std::string& out) {
+    std::filesystem::path p(out);
+    std::string ext = p.extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (ext != ".exr" && ext != ".png")
+        throw OutputError("--out " + out + ": the image is written as an EXR with a PNG beside it: give a path ending "
+                          "in .exr (or .png), e.g. " + p.replace_extension(".exr").string());
+    ImageOutputPaths paths;
+    paths.exr = std::filesystem::path(out).replace_extension(".exr").string();
+    paths.png = std::filesystem::path(out).replace_extension(".png").string();
+    return paths;
 }
 
 void writeExr(const std::string& path, int width, int height, std::span<const ImageLayer> layers,
-              bool half) {
+              bool half, const ExrAttributes& attributes) {
     if (layers.empty()) throw std::invalid_argument(path + ": no layers to write");
+    // The header's own fields (Imf::Header's required attributes) must not be replaced by text.
+    static const std::set<std::string> kReserved = {"channels", "compression", "dataWindow", "displayWindow",
+                                                    "lineOrder", "pixelAspectRatio", "screenWindowCenter",
+                                                    "screenWindowWidth", "tiles", "type", "name", "version",
+                                                    "chunkCount"};
+    for (const auto& [name, value] : attributes)
+        if (name.empty() || kReserved.count(name))
+            throw std::invalid_argument(path + ": attribute name '" + name + "' is reserved by OpenEXR");
     std::set<std::string> names;
     for (const ImageLayer& layer : layers) {
         checkSize(path.c_str(), width, height, layer.rgb.size());
@@ -143,6 +125,7 @@ void writeExr(const std::string& path, int width, int height, std::span<const Im
     std::vector<std::vector<::half>> halfPlanes;
     Imf::Header header(width, height);
     header.compression() = Imf::ZIP_COMPRESSION;
+    for (const auto& [name, value] : attributes) header.insert(name, Imf::StringAttribute(value));
     Imf::FrameBuffer frameBuffer;
     for (const ImageLayer& layer : layers) {
         for (size_t c = 0; c < 3; ++c) {
@@ -176,12 +159,12 @@ void writeExr(const std::string& path, int width, int height, std::span<const Im
     });
 }
 
-void writeExr(const std::string& path, const FrameImage& frame, bool half) {
+void writeExr(const std::string& path, const FrameImage& frame, bool half, const ExrAttributes& attributes) {
     const ImageLayer layers[] = {{"", frame.final()},
                                  {"direct", frame.direct()},
                                  {"caustic", frame.caustic()},
                                  {"caustic_filtered", frame.causticFiltered()}};
-    writeExr(path, frame.width(), frame.height(), layers, half);
+    writeExr(path, frame.width(), frame.height(), layers, half, attributes);
 }
 
 std::vector<float> ExrImage::layerRgb(const std::string& name) const {
@@ -222,6 +205,9 @@ ExrImage readOpenExr(const std::string& path) {
             frameBuffer.insert(it.name(), Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * size_t(img.width)));
         }
         if (img.channelNames.empty()) throw std::runtime_error("image has no channels");
+        for (auto it = file.header().begin(); it != file.header().end(); ++it)
+            if (const auto* text = dynamic_cast<const Imf::StringAttribute*>(&it.attribute()))
+                img.attributes[it.name()] = text->value();
         file.setFrameBuffer(frameBuffer);
         file.readPixels(window.min.y, window.max.y);
         return img;

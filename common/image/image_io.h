@@ -23,22 +23,32 @@ struct ImageLayer {
 /// renames it over `path`: a reader (or a second process writing the same path) sees the old
 /// image or the new one, never a partial file, and a failed write leaves the old file as it was.
 
-/// Checks, before any work is done, that an image can later be written to `path`: the folder
-/// exists (`createFolders`: it is created if missing) and a
-/// file can be created, written and removed in it, and `path` is not a folder or a non-regular
-/// file (a device would be replaced by the rename). Throws std::runtime_error naming the path
-/// and the reason. Cost: one small file created and removed.
-void checkImageWritable(const std::string& path, bool createFolders = true);
+/// The two files an image output (--out) names: an EXR and a PNG beside it with the same stem.
+struct ImageOutputPaths {
+    std::string exr, png;
+};
 
-/// Writes a multi-layer OpenEXR file (zip compression, float32 or half). Non-finite values are
-/// written as 0. Throws std::runtime_error naming the file on any I/O error, or
-/// std::invalid_argument if a layer's size is not width·height·3 or two layers share a name.
+/// "x.exr" and "x.png" (any letter case) both give x.exr and x.png; any other extension throws
+/// OutputError naming the path and the fix (a JPEG or extension-less name would otherwise hold
+/// an EXR, and a .png name would have its EXR overwritten by the PNG). Check the two paths with
+/// prepareOutputFile (common/core/output_file.h) before rendering.
+ImageOutputPaths imageOutputPaths(const std::string& out);
+
+/// Header attributes of an EXR file: name → text, written as OpenEXR string attributes (what
+/// `oiiotool --info -v` and `exrheader` list). rtpm's names: image_metadata.h.
+using ExrAttributes = std::map<std::string, std::string>;
+
+/// Writes a multi-layer OpenEXR file (zip compression, float32 or half) with `attributes` in its
+/// header. Non-finite values are written as 0. Throws std::runtime_error naming the file on any
+/// I/O error, or std::invalid_argument if a layer's size is not width·height·3, two layers share
+/// a name or an attribute name is one OpenEXR reserves.
 void writeExr(const std::string& path, int width, int height, std::span<const ImageLayer> layers,
-              bool half = false);
+              bool half = false, const ExrAttributes& attributes = {});
 
 /// Writes a frame with the docs/ARCHITECTURE.md §9 channels: R G B (final), direct.*, caustic.*,
 /// caustic_filtered.* (the buffers of `frame`, which must have been composed).
-void writeExr(const std::string& path, const FrameImage& frame, bool half = false);
+void writeExr(const std::string& path, const FrameImage& frame, bool half = false,
+              const ExrAttributes& attributes = {});
 
 /// The path of frame `frame`'s numbered copy of output `out`: `<dir>/<stem>_<frame, 5 digits><ext>`
 /// (rtpm-render and rtpm-server --save-every write the same names).
@@ -50,6 +60,7 @@ struct ExrImage {
     int height = 0;
     std::vector<std::string> channelNames;  ///< in the file's order
     std::map<std::string, std::vector<float>> channels;
+    ExrAttributes attributes;  ///< the header's string attributes (EXR only)
 
     /// Interleaved RGB of layer `name` ("" = R G B). Throws std::out_of_range if a channel is missing.
     std::vector<float> layerRgb(const std::string& name) const;

@@ -26,7 +26,8 @@ inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string&
     app.add_option("--width", rs.width, "image width in pixels")->capture_default_str();
     app.add_option("--height", rs.height, "image height in pixels")->capture_default_str();
     app.add_option("--photons,-P", rs.photons.photonsPerBatch, "P: photon paths traced per set per frame")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(CLI::Range(1u, 50'000'000u));
     app.add_option("--k", rs.photons.k, "photons per density estimate")->capture_default_str();
     app.add_option("--rmax", rs.photons.rMax,
                    "maximum gather radius in metres (0 = 2% of the scene diagonal)")

@@ -15,6 +15,8 @@
 #include <glm/gtx/quaternion.hpp>
 #include <stb_image_write.h>
 
+#include "common/core/output_file.h"
+
 namespace rtpm {
 
 namespace {
@@ -292,9 +294,9 @@ std::vector<uint8_t> encodeGlb(const Scene& scene) {
 void exportGlb(const Scene& scene, const std::string& path) {
     std::vector<uint8_t> bytes = encodeGlb(scene);
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    if (!out) throw SceneError(path, "file", "cannot open for writing");
+    if (!out) throw OutputError(path + ": cannot open for writing");
     out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-    if (!out) throw SceneError(path, "file", "write failed");
+    if (!out) throw OutputError(path + ": write failed");
 }
 
 }  // namespace rtpm

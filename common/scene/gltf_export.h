@@ -21,7 +21,8 @@ namespace rtpm {
 /// Cost O(scene size).
 std::vector<uint8_t> encodeGlb(const Scene& scene);
 
-/// Writes encodeGlb(scene) to `path`. Throws SceneError{path, "file", …} when it cannot write.
+/// Writes encodeGlb(scene) to `path`. Throws OutputError (common/core/output_file.h) when it
+/// cannot write, SceneError as encodeGlb.
 void exportGlb(const Scene& scene, const std::string& path);
 
 }  // namespace rtpm

@@ -7,6 +7,8 @@
 #include <map>
 #include <stdexcept>
 
+#include "proto/net/listen_address.h"
+
 namespace rtpm::server {
 
 namespace {
@@ -131,11 +133,10 @@ WsEndpoint::WsEndpoint(asio::io_context& io, const std::string& host, uint16_t p
         m.h.message(it->second, std::move(msg->get_raw_payload()),
                     msg->get_opcode() != websocketpp::frame::opcode::text);
     });
+    const asio::ip::tcp::endpoint endpoint = net::listenEndpoint("--http", host, port);
     asio::error_code ec;
-    asio::ip::address addr = asio::ip::make_address(host, ec);
-    if (ec) throw std::runtime_error("'" + host + "' is not an IP address");
-    ws.listen(asio::ip::tcp::endpoint(addr, port), ec);
-    if (ec) throw std::runtime_error("cannot listen on " + host + ":" + std::to_string(port) + ": " + ec.message());
+    ws.listen(endpoint, ec);
+    if (ec) throw std::runtime_error(net::listenErrorText("--http " + host + ":" + std::to_string(port), endpoint, ec));
     auto ep = ws.get_local_endpoint(ec);
     if (ec) throw std::runtime_error(ec.message());
     m.boundPort = ep.port();

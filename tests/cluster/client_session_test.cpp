@@ -630,7 +630,7 @@ TEST(FrameRenderer, TreeVariantsMapOntoPhotonTreesAndUnknownOnesAreRefused) {
     EXPECT_THROW(client::toRenderSettings(s), client::ProtocolViolation);
 }
 
-TEST(ParseHostPort, AcceptsHostsAndBracketedV6RejectsBadPorts) {
+TEST(ParseHostPort, AcceptsHostsAndBracketedV6WithTheDefaultPortRejectsBadPorts) {
     std::string h;
     uint16_t p = 0;
     EXPECT_TRUE(client::parseHostPort("example.org:7000", h, p));
@@ -639,7 +639,13 @@ TEST(ParseHostPort, AcceptsHostsAndBracketedV6RejectsBadPorts) {
     EXPECT_TRUE(client::parseHostPort("[::1]:80", h, p));
     EXPECT_EQ(h, "::1");
     EXPECT_EQ(p, 80);
-    EXPECT_FALSE(client::parseHostPort("host", h, p));
+    EXPECT_TRUE(client::parseHostPort("[::1]", h, p));
+    EXPECT_EQ(p, proto::kDefaultPort);
+    EXPECT_TRUE(client::parseHostPort("localhost", h, p));  // the default port, 7411
+    EXPECT_EQ(h, "localhost");
+    EXPECT_EQ(p, 7411);
+    EXPECT_FALSE(client::parseHostPort("", h, p));
+    EXPECT_FALSE(client::parseHostPort("[::1]x", h, p));
     EXPECT_FALSE(client::parseHostPort("host:0", h, p));
     EXPECT_FALSE(client::parseHostPort("host:65536", h, p));
     EXPECT_FALSE(client::parseHostPort("host:12ab", h, p));

@@ -198,9 +198,18 @@ TEST(RtpmCompare, ExitCodesAndCsvOutput) {
     EXPECT_NE(csv.find("caustic_filtered,20,10,"), std::string::npos) << csv;
     EXPECT_NE(csv.find(",1.1,"), std::string::npos) << csv;  // the energy ratio
 
-    EXPECT_EQ(runCompare(dir.file("out.exr") + " " + dir.file("ref.exr") + " --max-rel-rmse 0.05", log), 2);
+    EXPECT_EQ(runCompare(dir.file("out.exr") + " " + dir.file("ref.exr") + " --max-rel-rmse 0.05", log), 3);
     EXPECT_EQ(runCompare(dir.file("out.exr") + " " + dir.file("ref.exr") + " --max-rel-rmse 0.2", log), 0);
-    EXPECT_EQ(runCompare(dir.file("out.exr") + " " + dir.file("ref.exr") + " --energy-bounds 0.95 1.05", log), 2);
+    EXPECT_EQ(runCompare(dir.file("out.exr") + " " + dir.file("ref.exr") + " --energy-bounds 0.95 1.05", log), 3);
+
+    // A command line that cannot be used: 2, the program's name and the flag it was meant to be.
+    EXPECT_EQ(runCompare(dir.file("out.exr") + " " + dir.file("ref.exr") + " --max-rel-rsme 0.2", log), 2);
+    EXPECT_NE(slurp(log).find("rtpm-compare: unknown flag --max-rel-rsme: did you mean --max-rel-rmse?"),
+              std::string::npos)
+        << slurp(log);
+    EXPECT_EQ(runCompare("--version", log), 0);
+    EXPECT_NE(slurp(log).find("rtpm-compare "), std::string::npos) << slurp(log);
+    EXPECT_NE(slurp(log).find("protocol version "), std::string::npos) << slurp(log);
 
     EXPECT_EQ(runCompare(dir.file("missing.exr") + " " + dir.file("ref.exr"), log), 1);
     EXPECT_NE(slurp(log).find("missing.exr: no such file"), std::string::npos) << slurp(log);

@@ -1,5 +1,6 @@
 // Nothing rendered is lost to the file system: images replace their file through a temporary
-// file and a rename, an unwritable --out is refused before rendering (issue 13, item 5).
+// file and a rename; an unwritable --out, --csv or --export-glb, or an --out that is neither .exr
+// nor .png, is refused before rendering as an output error (issue 13, item 5; issue 24, item 1).
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -10,6 +11,7 @@
 #include <sstream>
 #include <vector>
 
+#include "common/core/output_file.h"
 #include "common/image/image_io.h"
 
 namespace rtpm {
@@ -91,8 +93,8 @@ TEST(ImageOutput, AFailedWriteLeavesTheOldImageAndNoTemporaryFile) {
 
 std::string refusal(const std::string& path) {
     try {
-        checkImageWritable(path);
-    } catch (const std::runtime_error& e) {
+        prepareOutputFile("--out", path);
+    } catch (const OutputError& e) {
         return e.what();
     }
     return "";
@@ -149,8 +151,83 @@ TEST(ImageOutput, RenderRefusesAnUnwritableOutBeforeRendering) {
     std::stringstream ss;
     ss << in.rdbuf();
     const std::string out = ss.str();
-    EXPECT_NE(out.find("cannot write images to /proc/rtpm_issue13/x.exr"), std::string::npos) << out;
+    EXPECT_NE(out.find("rtpm-render: output error: --out /proc/rtpm_issue13/x.exr: cannot"), std::string::npos)
+        << out;
     EXPECT_EQ(out.find("interaction"), std::string::npos) << "frames were rendered first:\n" << out;
+}
+
+TEST(ImageOutput, OutNamesAnExrAndAPngBesideItOrIsRefused) {
+    // Before: --out ring.png wrote the EXR, then the PNG over it; --out x.jpg wrote an EXR named x.jpg.
+    for (const char* given : {"out/ring.exr", "out/ring.png", "out/ring.EXR"}) {
+        const ImageOutputPaths p = imageOutputPaths(given);
+        EXPECT_EQ(p.exr, "out/ring.exr") << given;
+        EXPECT_EQ(p.png, "out/ring.png") << given;
+    }
+    for (const char* given : {"x.jpg", "x", "dir.exr/x.tiff"}) {
+        try {
+            imageOutputPaths(given);
+            ADD_FAILURE() << given << " accepted";
+        } catch (const OutputError& e) {
+            EXPECT_NE(std::string(e.what()).find(std::string("--out ") + given + ": "), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("ending in .exr"), std::string::npos) << e.what();
+        }
+    }
+}
+
+TEST(ImageOutput, CsvOutputsGetTheirFolderAndAnUnappendableFileIsRefused) {
+    ScratchDir dir;
+    EXPECT_NO_THROW(prepareOutputFile("--csv", (dir / "a/b/figures.csv").string(), OutputWrite::Append));
+    EXPECT_TRUE(fs::is_directory(dir / "a/b"));
+    fs::create_directories(dir / "folder.csv");
+    try {
+        prepareOutputFile("--csv", (dir / "folder.csv").string(), OutputWrite::Append);
+        ADD_FAILURE() << "a folder accepted as a CSV file";
+    } catch (const OutputError& e) {
+        EXPECT_NE(std::string(e.what()).find("--csv " + (dir / "folder.csv").string() + ": it is a folder"),
+                  std::string::npos)
+            << e.what();
+    }
+}
+
+// Runs rtpm-render with `args`; returns its exit code, stdout+stderr in `out`.
+int runRender(const std::string& args, const std::string& log, std::string& out) {
+    const std::string exe = std::string(RTPM_BINARY_DIR) + "/common/cmd/rtpm-render";
+    const int status = std::system((exe + " " + args + " > " + log + " 2>&1").c_str());
+    std::ifstream in(log);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    out = ss.str();
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST(ImageOutput, RenderChecksEveryOutputBeforeRenderingAndCreatesTheirFolders) {
+    const std::string exe = std::string(RTPM_BINARY_DIR) + "/common/cmd/rtpm-render";
+    if (!fs::exists(exe)) GTEST_SKIP() << "rtpm-render not built in " << RTPM_BINARY_DIR;
+    ScratchDir dir;
+    const std::string log = (dir / "log.txt").string();
+    const std::string tiny = " --scene RING --width 16 --height 12 -M 2 -P 200 --frames 1";
+    std::string out;
+    // Refused at start-up, as an output error, before a frame: a JPEG name, a CSV into /proc.
+    EXPECT_EQ(runRender(tiny + " --out " + (dir / "x.jpg").string(), log, out), 1) << out;
+    EXPECT_NE(out.find("rtpm-render: output error: --out " + (dir / "x.jpg").string()), std::string::npos) << out;
+    EXPECT_EQ(out.find("interaction"), std::string::npos) << out;
+    EXPECT_EQ(runRender(tiny + " --out " + (dir / "a.exr").string() + " --csv /proc/rtpm/f.csv", log, out), 1) << out;
+    EXPECT_NE(out.find("rtpm-render: output error: --csv /proc/rtpm/f.csv: cannot create folder"), std::string::npos)
+        << out;
+    EXPECT_EQ(out.find("interaction"), std::string::npos) << out;
+    EXPECT_FALSE(fs::exists(dir / "a.exr"));
+    // Accepted: --out NAME.png writes NAME.exr and NAME.png; --csv and --export-glb into new folders.
+    EXPECT_EQ(runRender(tiny + " --out " + (dir / "img/ring.png").string() + " --csv " +
+                            (dir / "figures/run.csv").string(),
+                        log, out),
+              0)
+        << out;
+    EXPECT_TRUE(fs::is_regular_file(dir / "img/ring.exr")) << out;
+    EXPECT_TRUE(fs::is_regular_file(dir / "img/ring.png")) << out;
+    EXPECT_NO_THROW(readExr((dir / "img/ring.exr").string())) << "the EXR was overwritten by the PNG";
+    EXPECT_TRUE(fs::is_regular_file(dir / "figures/run.csv")) << out;
+    EXPECT_EQ(runRender(" --scene RING --export-glb " + (dir / "scenes/ring.glb").string(), log, out), 0) << out;
+    EXPECT_TRUE(fs::is_regular_file(dir / "scenes/ring.glb")) << out;
 }
 
 }  // namespace

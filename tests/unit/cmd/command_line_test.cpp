@@ -1,0 +1,71 @@
+// The shared command-line conventions: the flag suggested for a typo, the exit codes in --help,
+// --version's text, and usage errors that return 2 (issue 24, items 3 and 4).
+#include "common/cmd/command_line.h"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+
+#include "common/core/version.h"
+
+namespace rtpm {
+namespace {
+
+TEST(CommandLine, EditDistanceCountsInsertionsDeletionsAndSubstitutions) {
+    EXPECT_EQ(editDistance("", ""), 0u);
+    EXPECT_EQ(editDistance("frames", "frames"), 0u);
+    EXPECT_EQ(editDistance("frmaes", "frames"), 2u);  // a swap is two substitutions
+    EXPECT_EQ(editDistance("frame", "frames"), 1u);
+    EXPECT_EQ(editDistance("kitten", "sitting"), 3u);
+    EXPECT_EQ(editDistance("", "abc"), 3u);
+}
+
+std::unique_ptr<CLI::App> exampleApp() {
+    auto app = std::make_unique<CLI::App>("example", "rtpm-example");
+    static int frames = 0, width = 0, k = 0, photons = 0;
+    app->add_option("--frames", frames);
+    app->add_option("--width", width);
+    app->add_option("--k", k);
+    app->add_option("--photons,-P", photons);
+    return app;
+}
+
+TEST(CommandLine, NearestFlagSuggestsOnlyNearMisses) {
+    const auto app = exampleApp();
+    EXPECT_EQ(nearestFlag(*app, "--frmaes"), "--frames");
+    EXPECT_EQ(nearestFlag(*app, "--frame=3"), "--frames");
+    EXPECT_EQ(nearestFlag(*app, "--widht"), "--width");
+    EXPECT_EQ(nearestFlag(*app, "--photon"), "--photons");
+    EXPECT_EQ(nearestFlag(*app, "--kk"), "--k");
+    EXPECT_EQ(nearestFlag(*app, "--threads"), "");  // nothing near: no guess
+    EXPECT_EQ(nearestFlag(*app, "-Q"), "");         // a one-letter flag is never "near" another
+    EXPECT_EQ(nearestFlag(*app, "--"), "");
+}
+
+int parse(CLI::App& app, std::vector<std::string> args) {
+    args.insert(args.begin(), "rtpm-example");
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    return parseCommandLine(app, int(argv.size()), argv.data()).value_or(-1);
+}
+
+TEST(CommandLine, UsageErrorsReturnTwoHelpAndVersionZero) {
+    const auto app = exampleApp();
+    addStandardFlags(*app, 3, {{0, "done"}, {1, "failed"}});
+    EXPECT_EQ(parse(*app, {"--frames", "3"}), -1);  // go on
+    EXPECT_EQ(parse(*exampleApp(), {"--frmaes", "3"}), kExitUsage);
+    EXPECT_EQ(parse(*exampleApp(), {"--frames", "three"}), kExitUsage);
+    const auto version = exampleApp();
+    addStandardFlags(*version, 3, {});
+    EXPECT_EQ(parse(*version, {"--version"}), 0);
+    EXPECT_EQ(app->get_footer(), "Exit codes:\n  0  done\n  1  failed\n  2  usage error: unknown flag, bad or "
+                                "out-of-range value");
+}
+
+TEST(CommandLine, VersionTextNamesVersionCommitAndProtocol) {
+    EXPECT_EQ(versionText("rtpm-x", 3),
+              std::string("rtpm-x ") + rtpmVersion() + "\ncommit " + rtpmCommit() + "\nprotocol version 3");
+}
+
+}  // namespace
+}  // namespace rtpm
