@@ -139,8 +139,12 @@ OutputResult ImageOutput::process(OutputJob& job) {
                     result.masterMs, job.deadlineHit ? "  (deadline)" : "",
                     job.errorEstimate > 0.0 ? ("  est. error " + std::to_string(job.errorEstimate).substr(0, 6)).c_str() : "");
         std::fflush(stdout);
-        progress_.update(job.shown, opt_.totalFrames, job.elapsedSeconds);
-        if (job.last) progress_.finish();
+        // i/N, elapsed and ETA on stderr: on a terminal always; otherwise only for a finite run
+        // (a service's plain log is the frame line above, not a stderr line a second forever).
+        if (progress_.terminal() || opt_.totalFrames > 0) {
+            progress_.update(job.shown, opt_.totalFrames, job.elapsedSeconds);
+            if (job.last) progress_.finish();
+        }
     }
     if (csv_) {
         std::fprintf(csv_, "%llu,%.3f,%.1f,%s,%llu,%s,%.3f,%zu,%u,%d,%.3f,%.3f,%.3f,%.3f\n",

@@ -30,6 +30,8 @@ public:
     void clear();
     /// Terminal: ends the drawn line with a newline, so later output starts on its own line.
     void finish();
+    /// Whether the line is drawn on a terminal.
+    bool terminal() const { return terminal_; }
 
 private:
     std::FILE* stream_;
