@@ -82,17 +82,15 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
     }
 }
 
-void ProgressiveSet::addPhotons(HitState& s, std::span<const FoundPhoton> photons, double weight) {
+void ProgressiveSet::addPhotons(HitState& s, std::span<const FoundPhoton> photons) {
     // One pass's photons are summed per ring first, then added to the ring totals: the totals
     // take one addition per pass, not per photon, so float sums stay accurate over many passes.
     Rings local;
-    const float w = float(weight);
     for (const FoundPhoton& p : photons) {
         const int j = ringOf(p.dist2, s.outer2);
-        const Vec3 pw = p.power * w;
-        local.power[3 * j] += pw.x;
-        local.power[3 * j + 1] += pw.y;
-        local.power[3 * j + 2] += pw.z;
+        local.power[3 * j] += p.power.x;
+        local.power[3 * j + 1] += p.power.y;
+        local.power[3 * j + 2] += p.power.z;
         local.count[j] += 1.0f;
     }
     for (int j = s.active; j < kRadiusBins; ++j) {
@@ -140,7 +138,7 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
                 s.outer2 = std::nextafter(s.outer2, std::numeric_limits<float>::infinity());
                 found.clear();
                 maps.gatherMapPhotons(scene, set, e.hit, e.normal, s.outer2, found);
-                addPhotons(s, found, 1.0);
+                addPhotons(s, found);
             }
         }
     });
@@ -164,7 +162,7 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
             found.clear();
             const float r2 = float(disc2(s.outer2, s.active));
             maps.gatherPassPhotons(scene, set, e.hit, e.normal, r2, found);
-            addPhotons(s, found, 1.0);
+            addPhotons(s, found);
             if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, passes_, localRays));
         }
         rays += localRays;

@@ -67,6 +67,12 @@ struct CausticErrorSums {
     double sigma = 0.0;     ///< Σ over pixels of the estimate's standard deviation (luminance)
     double radiance = 0.0;  ///< Σ over the same pixels of the estimate (luminance)
     uint64_t pixels = 0;    ///< pixels with a caustic estimate
+    CausticErrorSums& operator+=(const CausticErrorSums& o) {
+        sigma += o.sigma;
+        radiance += o.radiance;
+        pixels += o.pixels;
+        return *this;
+    }
 };
 
 /// Relative error of the shown caustic the figures predict: per pixel σ is the noise of the
@@ -151,7 +157,7 @@ private:
         glm::dvec3 areaSum{0.0};   ///< Σ area-light samples over passes 0 … t
     };
     void compose(std::span<PixelRadiance> out, uint64_t& nonFinite);
-    static void addPhotons(HitState& s, std::span<const FoundPhoton> photons, double weight);
+    static void addPhotons(HitState& s, std::span<const FoundPhoton> photons);
 
     bool valid_ = false;
     Camera camera_;

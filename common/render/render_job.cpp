@@ -102,9 +102,7 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
             out[i].ownWeights = progressive_[i].ownWeights();
             out[i].error = progressive_[i].errorSums();
         }
-        stats.error.sigma += out[i].error.sigma;
-        stats.error.radiance += out[i].error.radiance;
-        stats.error.pixels += out[i].error.pixels;
+        stats.error += out[i].error;
         stats.passes = std::max(stats.passes, out[i].passes);
         stats.converging = stats.converging && converge[i];
     }
