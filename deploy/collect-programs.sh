@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Copies rtpm-server, rtpm-client and rtpm-render from a build tree into DEST, stripped, and checks
+# Copies rtpm-server, rtpm-client, rtpm-render and rtpm-compare from a build tree into DEST, stripped, and checks
 # that every shared library they load resolves on this system.
 #
 #   deploy/collect-programs.sh BUILD_DIR DEST
@@ -9,7 +9,7 @@ source "$here/paths.sh"
 build=${1:?usage: collect-programs.sh BUILD_DIR DEST}
 dest=${2:?usage: collect-programs.sh BUILD_DIR DEST}
 mkdir -p "$dest"
-for name in rtpm-server rtpm-client rtpm-render; do
+for name in rtpm-server rtpm-client rtpm-render rtpm-compare; do
     src=$(rtpmProgram "$build" "$name")
     install -m 0755 "$src" "$dest/$name"
     strip --strip-unneeded "$dest/$name"

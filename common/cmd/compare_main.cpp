@@ -1,8 +1,10 @@
 // rtpm-compare: error metrics of a rendered EXR against a reference EXR, as a table or CSV.
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -20,7 +22,7 @@ using namespace rtpm;
 // Exit codes: scripts tell a failed comparison from a comparison that could not be made, and
 // both from a command line that cannot be used (kExitUsage, 2, as every program).
 constexpr int kExitError = 1;      // missing file, size mismatch, missing channel
-constexpr int kExitOverBound = 3;  // --max-rel-rmse or --energy-bounds not met
+constexpr int kExitOverBound = 3;  // --max-rel-rmse, --energy-bounds or --identical not met
 
 std::string fmt(double v, const char* spec = "%.4g") {
     if (std::isnan(v)) return "n/a";
@@ -36,11 +38,45 @@ ExrImage load(const std::string& path) {
     return readExr(path);
 }
 
+// Whether `output` holds the channels of `reference` with bit-identical values (NaN payloads and
+// the sign of zero included); on a difference, says on stderr where the first one lies. The
+// header's attributes (which program wrote the file, …) are not compared.
+bool identicalPixels(const ExrImage& output, const ExrImage& reference) {
+    if (output.width != reference.width || output.height != reference.height) {
+        std::fprintf(stderr, "rtpm-compare: not identical: %dx%d against %dx%d pixels\n", output.width,
+                     output.height, reference.width, reference.height);
+        return false;
+    }
+    if (output.channelNames != reference.channelNames) {
+        std::fprintf(stderr, "rtpm-compare: not identical: the files hold different channels\n");
+        return false;
+    }
+    bool same = true;
+    for (const std::string& name : reference.channelNames) {
+        const std::vector<float>& o = output.channels.at(name);
+        const std::vector<float>& r = reference.channels.at(name);
+        size_t differing = 0, first = 0;
+        for (size_t i = 0; i < r.size(); ++i) {
+            if (std::memcmp(&o[i], &r[i], sizeof(float)) == 0) continue;
+            if (differing++ == 0) first = i;
+        }
+        if (differing == 0) continue;
+        const int width = std::max(reference.width, 1);
+        std::fprintf(stderr,
+                     "rtpm-compare: not identical: channel %s differs at %zu pixels, the first at (%d, %d): "
+                     "%.9g against %.9g\n",
+                     name.c_str(), differing, int(first % width), int(first / width), o[first], r[first]);
+        same = false;
+    }
+    return same;
+}
+
 int run(int argc, char** argv) {
     std::string outputPath, referencePath, maskLayer;
     std::vector<std::string> layers;
     RegionSettings region;
     bool csv = false;
+    bool identical = false;
     double maxRelRmse = 0.0;
     std::vector<double> energyBounds;
     CLI::App app{
@@ -65,14 +101,17 @@ int run(int argc, char** argv) {
         ->capture_default_str()
         ->check(CLI::Range(1e-9, 1.0));
     app.add_flag("--csv", csv, "print CSV (header + one row per layer) instead of a table");
-    app.add_option("--max-rel-rmse", maxRelRmse, "fail (exit 2) when the caustic-region rel_rmse exceeds this");
-    app.add_option("--energy-bounds", energyBounds, "fail (exit 2) when the energy ratio is outside [LO, HI]")
+    app.add_option("--max-rel-rmse", maxRelRmse, "fail (exit 3) when the caustic-region rel_rmse exceeds this");
+    app.add_option("--energy-bounds", energyBounds, "fail (exit 3) when the energy ratio is outside [LO, HI]")
         ->expected(2);
+    app.add_flag("--identical", identical,
+                 "fail (exit 3) unless both files hold the same channels with bit-identical values (the "
+                 "header's attributes, such as the program that wrote it, are not compared)");
     addStandardFlags(app, proto::kProtocolVersion,
                      {{0, "compared, within the bounds given"},
                       {kExitError, "cannot compare: missing file or channel, size mismatch"},
-                      {kExitOverBound, "a bound given by --max-rel-rmse or --energy-bounds is not met, or OUTPUT "
-                                       "holds NaN/Inf values"}});
+                      {kExitOverBound, "a bound given by --max-rel-rmse or --energy-bounds is not met, the pixels "
+                                       "differ under --identical, or OUTPUT holds NaN/Inf values"}});
     if (auto code = parseCommandLine(app, argc, argv)) return *code;
     if (layers.empty()) layers.push_back("caustic_filtered");
     for (std::string& l : layers)
@@ -81,7 +120,7 @@ int run(int argc, char** argv) {
     const ExrImage output = load(outputPath);
     const ExrImage reference = load(referencePath);
 
-    bool overBound = false;
+    bool overBound = identical && !identicalPixels(output, reference);
     if (csv) {
         std::printf("layer,width,height,threshold,caustic_pixels,caustic_rel_rmse,caustic_mae,caustic_rel_mae,"
                     "image_rel_rmse,image_mae,image_rel_mae,energy_ratio,nonfinite_output,nonfinite_reference\n");

@@ -218,5 +218,29 @@ TEST(Programs, ServerSummaryCountsFailedAuthenticationsApart) {
         << server.logs();
 }
 
+// Identity checks (the multihost and Docker tests) compare pixels, not files: the EXR header
+// names the program that wrote it, so rtpm-server's and rtpm-render's files differ in bytes.
+TEST(Programs, CompareIdenticalJudgesPixelsNotTheHeader) {
+    TempDir dir;
+    std::string out, err;
+    const std::vector<std::string> settings = {"--scene", "RING", "--width", "32", "--height", "24", "-P", "500",
+                                               "--frame-budget-ms", "0", "--frames"};
+    auto render = [&](const std::string& frames, const std::string& name) {
+        std::vector<std::string> args = settings;
+        args.insert(args.end(), {frames, "--out", dir.file(name)});
+        ASSERT_EQ(run(dir, "common/cmd/rtpm-render", args, out, err), 0) << err;
+    };
+    render("2", "a.exr");
+    render("2", "b.exr");
+    render("3", "c.exr");
+    EXPECT_EQ(run(dir, "common/cmd/rtpm-compare", {"--identical", dir.file("a.exr"), dir.file("b.exr")}, out, err), 0)
+        << err;
+    // The frame count in the header differs, and so do the pixels: exit 3, naming a channel.
+    EXPECT_EQ(run(dir, "common/cmd/rtpm-compare", {"--identical", dir.file("a.exr"), dir.file("c.exr")}, out, err), 3)
+        << err;
+    EXPECT_TRUE(std::regex_search(err, std::regex(R"(not identical: channel caustic\S*\.[RGB] differs at \d+ pixels)")))
+        << err;
+}
+
 }  // namespace
 }  // namespace rtpm::test
