@@ -41,10 +41,20 @@ int ringOf(float d2, float outer2) {
 // The photons of one gather, reused per thread.
 thread_local std::vector<FoundPhoton> found;
 
+// The blur of a disc relative to its estimate e (n photons), from the step to the disc just
+// inside it (e', n'; Choice::drift), with the step's own noise taken out in quadrature: for
+// Poisson counts Var(e − e')/e² = (n'(1/ρ − 1)² + n − n')/n², ρ = kBinRatio2.
+double drift(double e, double n, double inner, double innerN) {
+    const double step = (e - inner) / e;
+    const double a = 1.0 / kBinRatio2 - 1.0;
+    const double noise = (innerN * a * a + (n - innerN)) / (n * n);
+    return std::sqrt(std::max(0.0, step * step - noise)) / (1.0 - kBinRatio2);
+}
+
 }  // namespace
 
 void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const double (&noiseScale)[2],
-                            Choice (&out)[2]) {
+                            double maxCount, Choice (&out)[2]) {
     // E_j ∝ P_j / kBinRatio2^j (the common factor π R₀² B cancels in every comparison), and
     // σ_j ≈ E_j / √n_j. The walk starts at the smallest disc holding kMinPhotons (a disc with
     // fewer says too little about its noise to be compared).
@@ -57,11 +67,12 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
         hi[i] = std::numeric_limits<double>::infinity();
         out[i] = Choice{active, glm::dvec3(0.0), 0.0};
     }
-    double previous = 0.0;  // E of the last disc walked
+    double previous = 0.0, previousCount = 0.0;  // E and n of the last disc walked
     for (int j = kRadiusBins - 1; j >= active && (open[0] || open[1]); --j) {
         const double scale = 1.0 / kDiscScale[size_t(j)];
         power += glm::dvec3(rings.power[3 * j], rings.power[3 * j + 1], rings.power[3 * j + 2]);
         count += rings.count[j];
+        if (any && count > maxCount) break;
         if (!any && count < kMinPhotons && j > active) continue;
         const double e = luminance(power) * scale;
         const double sd = count > 0.0 ? e / std::sqrt(count) : 0.0;
@@ -75,9 +86,10 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             }
             lo[i] = lo2;
             hi[i] = hi2;
-            out[i] = Choice{j, power, count, any && e > 0.0 ? std::abs(e - previous) / ((1.0 - kBinRatio2) * e) : 0.0};
+            out[i] = Choice{j, power, count, any && e > 0.0 ? drift(e, count, previous, previousCount) : 0.0};
         }
         previous = e;
+        previousCount = count;
         any = true;
     }
 }
@@ -107,11 +119,13 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
     passes_ = 0;
     batches_ = double(maps.stats(set).batches);
     gamma_ = maps.settings().progressiveGamma;
+    k_ = maps.settings().k;
+    pathsPerBatch_ = maps.settings().photonsPerBatch;
     fixedDirect_.resize(out.size());
     for (size_t p = 0; p < out.size(); ++p) fixedDirect_[p] = out[p].direct;
     state_.assign(records_.hits.size(), HitState{});
     const float rMax2 = maps.gatherRadius() * maps.gatherRadius();
-    // The ladder's outer disc is the map's k-NN radius: hits in groups of 8 consecutive ones
+    // The ladder's outer disc has kOuterArea × the area of the map's k-NN disc: hits in groups of 8 consecutive ones
     // (neighbouring pixels) share their k-NN search (PhotonMaps::gatherMapGroup); the hint runs
     // through a fixed block of groups, so neither the groups nor the hints depend on the thread
     // count. Then the map's photons within it fill the rings.
@@ -133,8 +147,8 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
                 const EyeHit& e = records_.hits[h0 + i];
                 HitState& s = state_[h0 + i];
                 s.areaSum = glm::dvec3(e.areaDirect);
-                s.outer2 = gathers[i].radius2 > 0.0f ? gathers[i].radius2 : rMax2;
-                // Just beyond r_k, so that the k-th photon falls inside the ladder.
+                s.outer2 = gathers[i].radius2 > 0.0f ? std::min(rMax2, kOuterArea * gathers[i].radius2) : rMax2;
+                // Just beyond, so that a photon at exactly that distance falls inside the ladder.
                 s.outer2 = std::nextafter(s.outer2, std::numeric_limits<float>::infinity());
                 found.clear();
                 maps.gatherMapPhotons(scene, set, e.hit, e.normal, s.outer2, found);
@@ -178,6 +192,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
     const double noiseScale = std::sqrt(filterShare_);
     const double scales[2] = {noiseScale, 1.0};
     const double gamma = gamma_;
+    const double maxCount = maxDiscPhotons(k_, batches * double(pathsPerBatch_));
     std::atomic<uint64_t> bad{0};
     std::vector<float> sigma(out.size(), 0.0f);
     ownWeights_.assign(out.size(), 0);
@@ -207,7 +222,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 direct += throughput * (s.areaSum / samples);
                 if (!(batches > 0.0) || !(s.outer2 > 0.0f)) continue;
                 Choice c[2];
-                choose(s.rings, s.active, gamma, scales, c);
+                choose(s.rings, s.active, gamma, scales, maxCount, c);
                 const glm::dvec3 weight = throughput * glm::dvec3(e.albedo) / double(kPi);
                 for (int i = 0; i < (f_ > 1 ? 2 : 1); ++i) {
                     const double area = kPi * disc2(s.outer2, c[i].disc) * batches;

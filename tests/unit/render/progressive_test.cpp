@@ -38,7 +38,7 @@ const double kScales[2] = {1.0, 1.0};
 TEST(ProgressiveChoose, AFlatDensityTakesTheWidestDisc) {
     const auto rings = ringsOf([](double) { return 4000.0; });
     ProgressiveSet::Choice c[2];
-    ProgressiveSet::choose(rings, 0, 2.0, kScales, c);
+    ProgressiveSet::choose(rings, 0, 2.0, kScales, 1e30, c);
     EXPECT_EQ(c[0].disc, 0) << "nothing varies: the widest disc has the least noise";
 }
 
@@ -46,7 +46,7 @@ TEST(ProgressiveChoose, AStepStopsTheDiscBeforeItReachesTheStep) {
     // Bright inside r < 0.3, dark outside: a disc reaching past 0.3 averages in the dark side.
     const auto rings = ringsOf([](double r) { return r < 0.3 ? 20000.0 : 0.0; });
     ProgressiveSet::Choice c[2];
-    ProgressiveSet::choose(rings, 0, 2.0, kScales, c);
+    ProgressiveSet::choose(rings, 0, 2.0, kScales, 1e30, c);
     const double radius = std::sqrt(std::pow(kBinRatio2, double(c[0].disc)));
     EXPECT_LE(radius, 0.3 / std::sqrt(kBinRatio2) + 1e-9) << "disc " << c[0].disc;
     EXPECT_GT(radius, 0.3 * kBinRatio2) << "but as wide as the step allows";
@@ -58,14 +58,14 @@ TEST(ProgressiveChoose, AWiderNoiseScaleNeverTakesANarrowerDisc) {
     const auto rings = ringsOf([](double r) { return 2000.0 * (1.0 + 4.0 * r * r); });
     const double scales[2] = {1.0 / 3.0, 1.0};
     ProgressiveSet::Choice c[2];
-    ProgressiveSet::choose(rings, 0, 2.0, scales, c);
+    ProgressiveSet::choose(rings, 0, 2.0, scales, 1e30, c);
     EXPECT_GE(c[0].disc, c[1].disc);
 }
 
 TEST(ProgressiveChoose, InactiveRingsAreNeverChosen) {
     const auto rings = ringsOf([](double) { return 4000.0; });
     ProgressiveSet::Choice c[2];
-    ProgressiveSet::choose(rings, 5, 2.0, kScales, c);
+    ProgressiveSet::choose(rings, 5, 2.0, kScales, 1e30, c);
     EXPECT_GE(c[0].disc, 5);
 }
 
