@@ -1,0 +1,106 @@
+#!/usr/bin/env bash
+# Error against time of the cluster as shipped: rtpm-server and two rtpm-client processes on this
+# machine (each client cores/2 render threads, as deploy/run-local.sh starts them), the default
+# settings (M 3, P 20 000, still passes grown to a 200 ms frame), on the curved-mirror scene with
+# its closed-form reference (tests/support/ring_mirror.h; no photon estimator in the reference).
+# One cluster per frame count; the time is the whole run's wall clock, from starting the server
+# to the image written (start-up, scene transfer and BVH builds included), and the CPU seconds of
+# all three processes. The error is the caustic-region rel. MAE of the caustic as shown
+# (caustic_filtered) against the reference.
+#
+#   tests/bench/cluster_convergence.sh [--build DIR] [--estimator E ...] [--frames "1 2 4 ..."]
+#                                      [--size WxH] [--clients N] [-- extra rtpm-server flags]
+#
+# Prints one markdown row per run and, per estimator, the first measured time at which the error
+# is at most 0.05 and 0.02.
+set -euo pipefail
+
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+build=$root/build
+estimators=(progressive knn)
+frames="1 2 4 8 16 32 64 128 256"
+size=320x240
+clients=2
+extra=()
+while (($#)); do
+    case $1 in
+        --build) build=${2:?}; shift 2 ;;
+        --estimator) estimators=(${2:?}); shift 2 ;;
+        --frames) frames=${2:?}; shift 2 ;;
+        --size) size=${2:?}; shift 2 ;;
+        --clients) clients=${2:?}; shift 2 ;;
+        --) shift; extra=("$@"); break ;;
+        *) echo "cluster_convergence.sh: unknown argument $1" >&2; exit 2 ;;
+    esac
+done
+server_bin=$build/server/rtpm-server
+client_bin=$build/client/rtpm-client
+bench_bin=$build/tests/bench/ring_mirror_bench
+for b in "$server_bin" "$client_bin" "$bench_bin"; do
+    [[ -x $b ]] || { echo "cluster_convergence.sh: $b not built" >&2; exit 1; }
+done
+width=${size%x*}
+height=${size#*x}
+threads=$(( $(nproc) / clients ))
+((threads >= 1)) || threads=1
+
+work=$(mktemp -d /tmp/rtpm-convergence.XXXXXX)
+pids=()
+cleanup() {
+    for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
+    rm -rf "$work"
+}
+trap cleanup EXIT
+"$bench_bin" --write-scene "$work/mirror.glb" >/dev/null
+export RTPM_TOKEN
+RTPM_TOKEN=$(od -An -tx1 -N16 /dev/urandom | tr -d ' \n')
+
+# cluster ESTIMATOR FRAMES DIR: one cluster run to its end, its image in DIR/out.exr.
+cluster() {
+    local estimator=$1 n=$2 dir=$3
+    "$server_bin" --listen 127.0.0.1 --port 0 --port-file "$dir/port" --min-clients "$clients" \
+        --scene "$work/mirror.glb" --photon-depth 2 --diffuse-bounces 0 --width "$width" --height "$height" \
+        --estimator "$estimator" --frames "$n" --quiet --out "$dir/out.exr" "${extra[@]}" >"$dir/server.log" 2>&1 &
+    local server=$!
+    pids=("$server")
+    for ((i = 0; i < 3000; i++)); do
+        [[ -s $dir/port ]] && break
+        sleep 0.01
+    done
+    [[ -s $dir/port ]] || { cat "$dir/server.log" >&2; echo "cluster_convergence.sh: no port file" >&2; exit 1; }
+    for ((c = 1; c <= clients; c++)); do
+        "$client_bin" --port-file "$dir/port" --name "bench-$c" --threads "$threads" >"$dir/client-$c.log" 2>&1 &
+        pids+=("$!")
+    done
+    local status=0
+    wait "$server" || status=$?
+    for p in "${pids[@]:1}"; do wait "$p" || true; done
+    pids=()
+    ((status == 0)) || { cat "$dir/server.log" >&2; echo "cluster_convergence.sh: rtpm-server exited $status" >&2; exit 1; }
+}
+
+# run ESTIMATOR FRAMES: prints "wall cpu rel_mae energy" (wall: the whole run; CPU: user + system
+# seconds of the server and the clients, all reaped by the run).
+run() {
+    local estimator=$1 n=$2 dir="$work/$1-$2"
+    mkdir -p "$dir"
+    local TIMEFORMAT='%R %U %S'
+    { time cluster "$estimator" "$n" "$dir"; } 2>"$dir/time"
+    local wall user sys _ err energy
+    read -r wall user sys <"$dir/time"
+    read -r _ err _ energy < <("$bench_bin" --compare "$dir/out.exr" --layer caustic_filtered)
+    echo "$wall $(awk -v u="$user" -v s="$sys" 'BEGIN { printf "%.2f", u + s }') $err $energy"
+}
+
+echo "| estimator | frames | wall s | CPU s (all processes) | caustic rel. MAE | energy |"
+echo "|---|---|---|---|---|---|"
+for estimator in "${estimators[@]}"; do
+    first05="" first02=""
+    for n in $frames; do
+        read -r wall cpu err energy < <(run "$estimator" "$n")
+        echo "| $estimator | $n | $wall | $cpu | $err | $energy |"
+        [[ -z $first05 ]] && awk -v e="$err" 'BEGIN { exit !(e <= 0.05) }' && first05="$wall s ($n frames)"
+        [[ -z $first02 ]] && awk -v e="$err" 'BEGIN { exit !(e <= 0.02) }' && first02="$wall s ($n frames)"
+    done
+    echo "$estimator: first run at rel. MAE <= 0.05: ${first05:-none}; <= 0.02: ${first02:-none}" >&2
+done
