@@ -231,7 +231,11 @@ void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
     if (!opt_.out.empty() && opt_.saveEvery > 0 && r.frame > 0 && r.frame % uint64_t(opt_.saveEvery) == 0)
         job.saveAs = numberedPath(opt_.out, r.frame, ".exr");
     if (!r.deadlineHit && !r.arrived.empty()) deadlines_.completed(r.waited, frameCost(shown.mode));
-    passBudget_.record(shown.mode == proto::FrameMode::Converging, double(job.slowestMs) * 1e-3);
+    // The budget bounds a client's work on a frame (shooting, eye pass, encoding), not the time
+    // from FrameBegin to its last FrameData: with frames in flight that also holds the wait behind
+    // the frame before, about twice the work, and the passes never grew.
+    const double workMs = double(job.slowestPhotonMs) + double(job.slowestEyeMs) + double(job.slowestEncodeMs);
+    passBudget_.record(shown.mode == proto::FrameMode::Converging, workMs * 1e-3);
     if (opt_.targetError > 0.0 && shown.mode == proto::FrameMode::Converging && job.errorEstimate > 0.0 &&
         job.errorEstimate <= opt_.targetError && !targetReached_ && state_ == State::Running) {
         // No new frame begins; the frames in flight finish and the last one shown is written
