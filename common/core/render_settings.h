@@ -101,9 +101,11 @@ struct PhotonSettings {
     CausticEstimatorKind estimator = CausticEstimatorKind::Progressive;
     /// Progressive: half-width Γ of the confidence intervals (in standard deviations) by which
     /// each pixel chooses its gather disc (common/render/progressive.h); in (0, 16]. Larger takes
-    /// wider discs (less noise, more blur). On the curved-mirror reference (defaults, 32 frames)
-    /// Γ = 1 gave 0.038 rel. MAE with 12 % too much energy in the first frame (noise), 1.5 0.041,
-    /// 2 0.044 (tests/bench/RESULTS.md, "Convergence").
+    /// wider discs (less noise, more blur). On the curved-mirror reference with the photon cap
+    /// (progressive.h maxDiscPhotons): defaults, 64 frames, Γ = 1 gave 0.0267 rel. MAE, 1.5
+    /// 0.0285; M = 1, 12.8 M paths, Γ = 0.75 0.019, 1 0.020, 1.5 0.025. 1.5 stays the default
+    /// because the estimator's own error figure tracks the true error within 1.5× with it and
+    /// not with Γ = 1 (2.2× too high after 64 frames) (tests/bench/RESULTS.md).
     float progressiveGamma = 1.5f;
 };
 

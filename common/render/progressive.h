@@ -2,21 +2,25 @@
 // gather radius chosen per eye hit after the fact.
 //
 // Each diffuse end point of a pixel's eye path (EyeHit) keeps a ladder of kRadiusBins
-// concentric discs (radii r_j = R₀ · kBinRatio^j, R₀ from the restart) and, per ring between two
-// discs, the power, count and Σ luminance² of every photon that fell into it — over the
-// accumulated map at the restart and over every progressive pass since. With B batches in all,
-// the disc j gives the kernel estimate
+// concentric discs (radii r_j = R₀ · kBinRatio^j; R₀² is kOuterArea × the restart map's k-NN
+// disc) and, per ring between two discs, the power and count of every photon that fell into it
+// — over the accumulated map at the restart and over every progressive pass since. With B
+// batches in all, the disc j gives the kernel estimate
 //   E_j = Σ_{r < r_j} Φ_p / (π r_j² B)      with standard deviation  σ_j ≈ E_j / √n_j
-// (n_j photons in the disc, of about equal power), unbiased for the density smoothed over r_j. Which disc a pixel shows is chosen when the
-// frame is composed, by the intersection-of-confidence-intervals rule (Goldenshluger & Nemirovski
-// 1997, Katkovnik 1999): from the smallest disc holding kMinPhotons photons outwards, keep
-// E_j ± Γσ_j as long as every interval met so far still overlaps; the last such disc is shown. A
-// larger disc is taken only while the estimate does not move beyond its noise, so a flat
-// region gets a wide disc (little noise) and a fold line or cusp a narrow one (little blur).
-// Nothing depends on how photons were split into passes: the rings hold the same photons
-// whether they came as 640 passes of 20 000 paths or 8 of 1.6 M, and a pass of several
-// batches (growing still-view passes) simply adds them. This replaces shrinking-radius SPPM,
-// whose radius at a given photon count depended on the first pass's size.
+// (n_j photons in the disc, of about equal power), unbiased for the density smoothed over r_j.
+// Which disc a pixel shows is chosen when the frame is composed, by the
+// intersection-of-confidence-intervals rule (Goldenshluger & Nemirovski 1997, Katkovnik 1999):
+// from the smallest disc holding kMinPhotons photons outwards, keep E_j ± Γσ_j as long as every
+// interval met so far still overlaps, and no disc holding more than maxDiscPhotons (k·√(N/20 000)
+// for N paths); the last such disc is shown. A larger disc is taken only while the estimate does
+// not move beyond its noise, so a flat region gets a wide disc (little noise) and a fold line or
+// cusp a narrow one (little blur).
+// The result does not depend on how photons were split into passes: the rings hold the same
+// photons whether they came as 160 passes of 20 000 paths or 2 of 1.6 M, the ladder reaches
+// beyond the first batch's k-NN disc, and the cap counts photons, not passes (within 6 % on the
+// curved mirror, tests/accuracy/progressive_estimator_test.cpp). A pass of several batches
+// (growing still-view passes) simply adds them. This replaces shrinking-radius SPPM, whose
+// radius at a given photon count depended on the first pass's size.
 // A pass gathers only the rings the rule may still choose (up to kActiveMargin rings outside the
 // shown one), so its cost is O(log b + photons near the shown disc), not the map's size.
 // Direct light from area lights converges as before: one more rotated sample set per pass.
