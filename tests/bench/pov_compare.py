@@ -156,10 +156,11 @@ def main():
                           f"{float(r['cpu_s']):6.2f} s, rel. MAE {float(r['rel_mae']):.4f}, "
                           f"energy {float(r['energy']):.3f}", flush=True)
     os.makedirs(a.out, exist_ok=True)
-    with open(os.path.join(a.out, "pov_compare.csv"), "w") as f:
-        f.write("renderer,setting,wall_s,cpu_s,rel_mae,energy\n")
+    with open(os.path.join(a.out, "pov_compare.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["renderer", "setting", "wall_s", "cpu_s", "rel_mae", "energy"])
         for r in rows:
-            f.write(f"{r[0]},{r[1]},{r[2]:.3f},{r[3]:.3f},{r[4]:.5f},{r[5]:.4f}\n")
+            w.writerow([r[0], r[1], f"{r[2]:.3f}", f"{r[3]:.3f}", f"{r[4]:.5f}", f"{r[5]:.4f}"])
 
     print("\n| renderer | setting | wall s | CPU s | caustic rel. MAE | energy |\n|---|---|---|---|---|---|")
     for r in rows:
