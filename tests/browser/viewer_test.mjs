@@ -1,7 +1,8 @@
 // Browser test of rtpm-server's viewer (ctest label `browser`): starts a local cluster with the
 // viewer, opens the page in the system's headless Chromium through puppeteer-core (DevTools
 // protocol), and checks the live picture, camera and light controls, refusal of a malformed
-// control, and that the page logs no console error. Saves a screenshot of the viewer.
+// control, and that the page logs no console error. Saves a screenshot of the viewer while the
+// view converges, before any control is sent (README's picture: copy it to tests/browser/viewer.png).
 //
 //   node viewer_test.mjs --server rtpm-server --client rtpm-client --work DIR [--screenshot PNG]
 //                        [--chromium /usr/bin/chromium] [--width 320 --height 240]
@@ -123,6 +124,17 @@ try {
   const progress = await page.$eval('#progress', (e) => e.textContent);
   check(/estimator progressive: \d+ pass/.test(progress), `the estimator's progress is shown ("${progress}")`);
 
+  // Before any control the page has shown no error. The screenshot README shows is taken here,
+  // while the view converges: the viewer as a user first sees it.
+  const banner = await page.$eval('#error', (e) => (e.hidden ? '' : e.textContent));
+  const earlyErrors = (await viewer()).errors;
+  check(banner === '' && earlyErrors.length === 0,
+    `no error shown before any control${earlyErrors.length ? ` ("${earlyErrors.join(' | ')}")` : ''}`);
+  if (args.screenshot) {
+    await page.screenshot({ path: args.screenshot });
+    console.log(`screenshot: ${args.screenshot}`);
+  }
+
   // Camera: drag across the image → camera edits → a walkthrough frame and a different picture.
   const box = await (await page.$('#frame-canvas')).boundingBox();
   const before = await pixels();
@@ -225,10 +237,6 @@ try {
   const lag = (await viewer()).lag;
   console.log(`info page lag behind the newest frame: mean ${(lag.sum / Math.max(1, lag.n)).toFixed(2)}, max ${lag.max} over ${lag.n} frames`);
 
-  if (args.screenshot) {
-    await page.screenshot({ path: args.screenshot });
-    console.log(`screenshot: ${args.screenshot}`);
-  }
   check(consoleErrors.length === 0, `no console error${consoleErrors.length ? ': ' + consoleErrors.join(' | ') : ''}`);
   await browser.close();
   browser = null;
