@@ -69,6 +69,32 @@ TEST(ProgressiveChoose, InactiveRingsAreNeverChosen) {
     EXPECT_GE(c[0].disc, 5);
 }
 
+TEST(ProgressiveChoose, NoDiscHoldsMoreThanTheCap) {
+    // A flat density takes the widest disc (above); with a cap the widest disc holding at most
+    // that many photons is shown, whatever the rule would allow.
+    const auto rings = ringsOf([](double) { return 4000.0; });
+    ProgressiveSet::Choice c[2];
+    ProgressiveSet::choose(rings, 0, 2.0, kScales, 500.0, c);
+    for (const auto& choice : c) {
+        EXPECT_LE(choice.count, 500.0);
+        // The next wider disc would hold more than the cap.
+        ASSERT_GT(choice.disc, 0);
+        double wider = 0.0;
+        for (int j = choice.disc - 1; j < kRadiusBins; ++j) wider += rings.count[j];
+        EXPECT_GT(wider, 500.0) << "disc " << choice.disc;
+    }
+}
+
+TEST(ProgressiveChoose, TheCapCountsPhotonsNotPasses) {
+    // k at one default batch, growing as the square root of the paths traced: the same paths give
+    // the same cap however they were batched, and the shown disc still shrinks (N / cap grows).
+    EXPECT_DOUBLE_EQ(maxDiscPhotons(64, kDiscCapPaths), 64.0);
+    EXPECT_DOUBLE_EQ(maxDiscPhotons(64, 100 * kDiscCapPaths), 640.0);
+    EXPECT_DOUBLE_EQ(maxDiscPhotons(64, 1.0), 64.0) << "never below k";
+    EXPECT_GT(maxDiscPhotons(64, 4e8) / 4e8, 0.0);
+    EXPECT_LT(maxDiscPhotons(64, 4e8) / 4e8, maxDiscPhotons(64, 4e6) / 4e6);
+}
+
 TEST(PassBudget, GrowsWhileStillAndFastAndResetsOnMotion) {
     PassBudget b(0.2);
     EXPECT_EQ(b.batches(), 1u);
