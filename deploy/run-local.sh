@@ -6,7 +6,9 @@
 # --view runs the cluster as a service with the browser viewer (rtpm-server --http 127.0.0.1:0,
 # rendering until Ctrl-C) and prints the viewer's URL with the token; without it the server
 # renders its --frames (default 10) and exits.
-# Builds first (deploy/build.sh, incremental, into ${RTPM_BUILD_DIR:-build}).
+# Builds first (deploy/build.sh, incremental, into ${RTPM_BUILD_DIR:-build}): only what the two
+# programs need (RTPM_BUILD_SCOPE=programs: install-deps.sh build, and a new build folder is
+# configured without tests and benchmarks; deploy/test.sh adds them later).
 # The server listens on an ephemeral port (--port 0) and announces it through a port file; the
 # clients start once that file exists (bounded poll, no sleep-as-readiness). The token is
 # $RTPM_TOKEN, or a fresh random one. Each client gets max(1, cores / N) render threads so N
@@ -50,7 +52,8 @@ server_bin=$build/server/rtpm-server
 client_bin=$build/client/rtpm-client
 # Always (incrementally) build, so the server and clients never run stale binaries.
 echo "run-local.sh: building rtpm-server and rtpm-client into $build" >&2
-RTPM_BUILD_DIR=$build RTPM_BUILD_TARGETS="rtpm-server rtpm-client" bash "$root/deploy/build.sh" >&2
+RTPM_BUILD_DIR=$build RTPM_BUILD_SCOPE=programs RTPM_BUILD_TARGETS="rtpm-server rtpm-client" \
+    bash "$root/deploy/build.sh" >&2
 
 work=$(mktemp -d "${TMPDIR:-/tmp}/rtpm-local.XXXXXX")
 pids=()
