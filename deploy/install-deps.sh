@@ -33,6 +33,7 @@ dev=(
     python3 python3-matplotlib python3-numpy
     povray  # tests/bench/pov_compare.py: the offline photon-mapping peer (issue 9)
     iproute2 procps
+    linux-perf  # tests/bench/frame_profile.sh (the bench-smoke label runs it)
     openssl  # tests make throwaway TLS certificates; docs generate tokens with `openssl rand`
 )
 docker=(

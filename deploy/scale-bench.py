@@ -102,9 +102,10 @@ def main():
             r = by[mode][n]
             fps, cc, mc = fnum(r["fps"]), fnum(r["client_cpu_s_per_frame"]), fnum(r["master_cpu_s_per_frame"])
             base = base or fps
-            quota_fps = 1.0 / max(cc / (n * qc), mc / qm) if cc and mc else None
+            # A quota rate needs both CPU figures; cpuacct reads 0 for a master that did next to nothing.
+            quota_fps = f"{1.0 / max(cc / (n * qc), mc / qm):.2f}" if cc and mc else "n/a"
             p(f"| {mode} | {n} | {fps:.2f} | {fps / base:.2f} | "
-              f"{quota_fps:.2f} | {cc:.3f} | {mc:.4f} | {float(r['bytes_per_frame']) / 1e3:.0f} kB | "
+              f"{quota_fps} | {cc:.3f} | {mc:.4f} | {float(r['bytes_per_frame']) / 1e3:.0f} kB | "
               f"{float(r['client_link_bytes_per_frame']) / 1e3:.0f} kB | {float(r['photons_total']):.0f} | "
               f"{fnum(r['caustic_rel_rmse']):.3f} | {r['incomplete']} | {r['load1']} |")
     p("")
@@ -215,7 +216,8 @@ def main():
         fps = get("fps")
         cc, mc = get("client_cpu_s_per_frame"), get("master_cpu_s_per_frame")
         ax[0][0].plot(ns, fps, "o-", color=c, label=f"{mode} (measured, loaded machine)")
-        ax[0][0].plot(ns, [1.0 / max(a / (n * qc), b / qm) for n, a, b in zip(ns, cc, mc)], "s:", color=c,
+        ax[0][0].plot(ns, [1.0 / max(a / (n * qc), b / qm) if a and b else math.nan for n, a, b in zip(ns, cc, mc)],
+                      "s:", color=c,
                       label=f"{mode} at quota (from CPU s)")
         ax[0][1].plot(ns, cc, "o-", color=c, label=f"{mode} clients")
         ax[0][1].plot(ns, mc, "^--", color=c, label=f"{mode} master")

@@ -11,15 +11,16 @@
 #
 #   deploy/scale-bench.sh [--clients "1 2 4 8 16"] [--scene RING] [--size 320x240] [-M 4]
 #                         [--client-cores 0.1] [--master-cores 0.3] [--frames 7]
-#                         [--walk-frames 7] [--walk-photons 50000] [--out DIR]
+#                         [--walk-frames 7] [--walk-photons 50000] [--out DIR] [--refs DIR]
+#                         [--ref-photons 2000000]
 #
 # M = 4 gives 16 interleaving sets, so up to 16 clients all own sets (more would wait as spares).
 # A last run repeats the largest cluster's walkthrough at twice the width and height, so the model
 # can tell fixed from per-pixel costs. Outputs in DIR (default <build>/scale-bench): scale.csv
 # (one row per run), scale.md, scale.png.
 # Programs from ${RTPM_BUILD_DIR:-<repo>/build} (built if missing). The converged reference the
-# error needs (rtpm-render, one frame of 2 000 000 paths per set, k = 200, another seed; as
-# tests/bench/cluster_bench.sh --refs makes it) is cached in <build>/refs.
+# error needs (rtpm-render, one frame of --ref-photons paths per set, k = 200, another seed; as
+# tests/bench/cluster_bench.sh --refs makes it) is cached in --refs DIR (default <build>/refs).
 # On a machine shared with other work the wall-clock figures (fps) are lower than the quotas
 # allow; CPU seconds per frame are not: both are reported, with the load average of each run.
 set -euo pipefail
@@ -38,6 +39,8 @@ frames=7
 walkFrames=7
 walkPhotons=50000
 out=""
+refs=""
+refPhotons=2000000
 while (($#)); do
     case $1 in
         --clients) clientCounts=$2; shift ;;
@@ -50,6 +53,8 @@ while (($#)); do
         --walk-frames) walkFrames=$2; shift ;;
         --walk-photons) walkPhotons=$2; shift ;;
         --out) out=$2; shift ;;
+        --refs) refs=$2; shift ;;
+        --ref-photons) refPhotons=$2; shift ;;
         -h|--help) sed -n '2,25p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) echo "scale-bench: unknown option '$1' (see --help)" >&2; exit 2 ;;
     esac
@@ -64,6 +69,7 @@ if ! reason=$(netnsCheck); then
     exit 1
 fi
 out=${out:-$build/scale-bench}
+refs=${refs:-$build/refs}
 mkdir -p "$out"
 w=${size%x*} h=${size#*x}
 
@@ -98,11 +104,12 @@ export RTPM_TOKEN
 RTPM_TOKEN=$(od -An -tx1 -N16 /dev/urandom | tr -d ' \n')
 
 # The converged reference (shared with cluster_bench.sh --refs: same settings, same file name).
-ref=$build/refs/${scene}_${w}x${h}.exr
+# A reference of other than the default photon count is named after it, so the cache never mixes them.
+ref=$refs/${scene}_${w}x${h}$( ((refPhotons == 2000000)) || echo "_p$refPhotons").exr
 if [[ ! -f $ref ]]; then
-    mkdir -p "$build/refs"
+    mkdir -p "$refs"
     echo "scale-bench: converged reference $ref (once)" >&2
-    "$render_bin" --scene "$scene" --width "$w" --height "$h" --frames 1 --photons 2000000 --k 200 \
+    "$render_bin" --scene "$scene" --width "$w" --height "$h" --frames 1 --photons "$refPhotons" --k 200 \
         --seed 977 --out "$ref" >"$work/ref.log" 2>&1 || { cat "$work/ref.log" >&2; exit 1; }
 fi
 

@@ -1,20 +1,85 @@
-// Helpers shared by the benchmarks: thread limits, raw Embree ray batches, process memory figures.
+// Helpers shared by the benchmarks: the smoke switch, thread limits, raw Embree ray batches,
+// process memory figures.
 #pragma once
 
+#include <benchmark/benchmark.h>
 #include <embree3/rtcore.h>
 #include <tbb/blocked_range.h>
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
 
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "common/trace/embree_scene.h"
 
 namespace rtpm::bench {
+
+/// The smoke switch: RTPM_BENCH_SMOKE=1 in the environment (the ctest label bench-smoke) runs
+/// every registered benchmark once, its set-up at the smallest size, to show that it still runs;
+/// the figures of such a run mean nothing. Unset (or any other value), benchmarks run as written.
+inline bool smoke() {
+    static const bool on = [] {
+        const char* v = std::getenv("RTPM_BENCH_SMOKE");
+        return v != nullptr && std::string_view(v) == "1";
+    }();
+    return on;
+}
+
+/// `full`, or `small` under the smoke switch: a size a benchmark's set-up or loop uses.
+template <class T>
+T sized(T full, T small) {
+    return smoke() ? small : full;
+}
+
+/// A benchmark's iteration policy when its code sets none: the library's (its default minimum
+/// time, or --benchmark_min_time), one iteration under the smoke switch. For BENCHMARK(...)->Apply.
+inline void smokeOnce(benchmark::internal::Benchmark* b) {
+    if (smoke()) b->Iterations(1);
+}
+
+/// A benchmark timed for at least `seconds` (MinTime, which --benchmark_min_time does not
+/// shorten), or one iteration under the smoke switch.
+inline benchmark::internal::Benchmark* minTime(benchmark::internal::Benchmark* b, double seconds) {
+    return smoke() ? b->Iterations(1) : b->MinTime(seconds);
+}
+
+/// BENCHMARK_MAIN's body. Under the smoke switch the exit status is 1 when no benchmark ran or one
+/// reported an error (State::SkipWithError, which the library does not count as a failure), so a
+/// broken benchmark fails its smoke test.
+inline int runBenchmarks(int argc, char** argv) {
+    benchmark::Initialize(&argc, argv);
+    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+    if (!smoke()) {
+        benchmark::RunSpecifiedBenchmarks();
+        benchmark::Shutdown();
+        return 0;
+    }
+    struct Checking : benchmark::ConsoleReporter {
+        size_t runs = 0, errors = 0;
+        void ReportRuns(const std::vector<Run>& reports) override {
+            for (const Run& r : reports) {
+                ++runs;
+                if (r.error_occurred) {
+                    ++errors;
+                    std::fprintf(stderr, "benchmark %s failed: %s\n", r.benchmark_name().c_str(),
+                                 r.error_message.c_str());
+                }
+            }
+            ConsoleReporter::ReportRuns(reports);
+        }
+    } reporter;
+    const size_t ran = benchmark::RunSpecifiedBenchmarks(&reporter);
+    benchmark::Shutdown();
+    std::fprintf(stderr, "smoke: %zu benchmarks ran, %zu failed\n", ran, reporter.errors);
+    return ran > 0 && reporter.errors == 0 ? 0 : 1;
+}
 
 /// Threads a benchmark runs with: `requested` > 0 as given, otherwise every hardware thread TBB
 /// sees. Pass the result to tbb::global_control(max_allowed_parallelism, …).

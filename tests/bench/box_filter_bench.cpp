@@ -8,11 +8,12 @@
 #include <vector>
 
 #include "common/image/box_filter.h"
+#include "tests/bench/bench_util.h"
 
 namespace {
 
-constexpr int kWidth = 640;
-constexpr int kHeight = 480;
+const int kWidth = rtpm::bench::sized(640, 64);
+const int kHeight = rtpm::bench::sized(480, 48);
 
 std::vector<float> causticImage() {
     std::mt19937 rng(1);
@@ -70,10 +71,10 @@ void BM_BoxFilterOiioConvolve(benchmark::State& state) {
     setFps(state);
 }
 
-BENCHMARK(BM_BoxFilterRunningSums)->DenseRange(3, 8)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_BoxFilterNaive)->DenseRange(3, 8)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_BoxFilterOiioConvolve)->DenseRange(3, 8)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_BoxFilterRunningSums)->DenseRange(3, 8)->Unit(benchmark::kMillisecond)->Apply(rtpm::bench::smokeOnce);
+BENCHMARK(BM_BoxFilterNaive)->DenseRange(3, 8)->Unit(benchmark::kMillisecond)->Apply(rtpm::bench::smokeOnce);
+BENCHMARK(BM_BoxFilterOiioConvolve)->DenseRange(3, 8)->Unit(benchmark::kMillisecond)->Apply(rtpm::bench::smokeOnce);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) { return rtpm::bench::runBenchmarks(argc, argv); }

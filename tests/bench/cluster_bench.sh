@@ -69,6 +69,7 @@ resClients=2
 resModes="walkthrough interaction"
 memFrames=5000 memSize=64x48 memEvery=100 memSample=100 memClients=2 memPhotons=2000 memScene=RING
 doRefs=0 doScaling=0 doResolution=0 doMemory=0
+failures=0
 refPhotons=2000000 refK=200 refSeed=977
 
 while (($#)); do
@@ -320,7 +321,7 @@ scaling() {
         for mode in interaction walkthrough; do
             base="" cbase=""
             for n in $clientCounts; do
-                run_case "$n" "$scene" "$sw" "$sh" "$mode" && r=$result || { echo "| $scene | $estimator | $mode | $n | failed | | | | | | | | | | |"; continue; }
+                run_case "$n" "$scene" "$sw" "$sh" "$mode" && r=$result || { echo "| $scene | $estimator | $mode | $n | failed | | | | | | | | | | |"; failures=$((failures + 1)); continue; }
                 IFS='|' read -r fps cpuf ph mae energy rmse nf inc lastMode split <<<"$r"
                 [[ -z $base ]] && base=$fps cbase=$cpuf
                 echo "| $scene | $estimator | $mode | $n | $fps | $(ratio "$fps" "$base") | $cpuf | $(ratio "$cpuf" "$cbase") | $(bound "$cpuf") | $ph | $mae | $energy | $rmse | $nf ($inc) | $split |"
@@ -342,7 +343,7 @@ resolution() {
             base=""
             for size in $sizes; do
                 w=${size%x*} h=${size#*x}
-                run_case "$resClients" "$scene" "$w" "$h" "$mode" && r=$result || { echo "| $scene | $estimator | $mode | $size | failed | | | | | | | | | | |"; continue; }
+                run_case "$resClients" "$scene" "$w" "$h" "$mode" && r=$result || { echo "| $scene | $estimator | $mode | $size | failed | | | | | | | | | | |"; failures=$((failures + 1)); continue; }
                 IFS='|' read -r fps cpuf ph mae energy rmse nf inc lastMode split <<<"$r"
                 [[ -z $base ]] && base=$(awk -v f="$fps" -v w="$w" -v h="$h" 'BEGIN { print f * w * h }')
                 echo "| $scene | $estimator | $mode | $size | $fps | $(awk -v f="$fps" -v w="$w" -v h="$h" -v b="$base" 'BEGIN { printf "%.2f", f * w * h / b }') | $cpuf | $(awk -v c="$cpuf" -v p="$((w * h))" 'BEGIN { if (c == "n/a") print "n/a"; else printf "%.2f", c / p * 1e6 }') | $(bound "$cpuf") | $ph | $mae | $energy | $rmse | $nf ($inc) | $split |"
@@ -385,6 +386,10 @@ memory() {
     done
     wait_cluster || return 1
     local secs=$((SECONDS - t0))
+    if [[ ! -s $samples ]]; then
+        echo "cluster_bench.sh: no VmRSS sample: the run ended before the first one (raise --mem-frames)" >&2
+        return 1
+    fi
     echo "### Memory over a long run"
     echo
     echo "$memScene ${w}x${h}, $memClients clients, P = $memPhotons paths/set/frame, $memFrames frames in $secs s,"
@@ -401,9 +406,12 @@ memory() {
     echo
     echo "| process | mean first quarter (MB) | mean last quarter (MB) | last / first | max (MB) |"
     echo "|---|---|---|---|---|"
+    # A quarter is at least one sample (a short run may have fewer than four).
     awk -v rows="$rows" '
+        BEGIN { q = rows < 4 ? 1 : rows / 4 }
         { for (i = 2; i <= NF; i++) { v = $i / 1024; if (v > mx[i]) mx[i] = v
-              if (NR <= rows / 4) { a[i] += v; na[i]++ } else if (NR > rows - rows / 4) { b[i] += v; nb[i]++ } }
+              if (NR <= q) { a[i] += v; na[i]++ }
+              if (NR > rows - q) { b[i] += v; nb[i]++ } }
           nf = NF }
         END { for (i = 2; i <= nf; i++) {
                 name = i == 2 ? "server" : "client " (i - 2)
@@ -419,4 +427,8 @@ if ((doScaling || doResolution || doMemory)); then
     ((doMemory)) && memory
     echo "Load at end:$(uptime | sed 's/.*load average://')"
 fi
-exit 0
+# A failed run is a row of the table, and the exit status says so.
+if ((failures)); then
+    echo "cluster_bench.sh: $failures run(s) failed" >&2
+    exit 1
+fi

@@ -22,8 +22,8 @@
 namespace rtpm {
 namespace {
 
-constexpr int kWidth = 640;
-constexpr int kHeight = 480;
+const int kWidth = bench::sized(640, 64);
+const int kHeight = bench::sized(480, 48);
 
 struct LoadedScene {
     Scene scene;
@@ -127,29 +127,27 @@ int main(int argc, char** argv) {
     for (const std::string& name : builtinSceneNames()) {
         for (int threads : {1, 0}) {
             const std::string suffix = name + (threads == 1 ? "/threads:1" : "/threads:all");
-            benchmark::RegisterBenchmark(("EyePass/" + suffix).c_str(),
+            bench::minTime(benchmark::RegisterBenchmark(("EyePass/" + suffix).c_str(),
                                          [=](benchmark::State& st) { eyePass(st, name, threads); })
-                ->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
-            benchmark::RegisterBenchmark(("EmbreeCoherent/" + suffix).c_str(),
+                ->Unit(benchmark::kMillisecond)->UseRealTime(), 1.0);
+            bench::minTime(benchmark::RegisterBenchmark(("EmbreeCoherent/" + suffix).c_str(),
                                          [=](benchmark::State& st) { rawEmbree(st, name, true, threads); })
-                ->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
-            benchmark::RegisterBenchmark(("EmbreeCoherentPacket8/" + suffix).c_str(),
+                ->Unit(benchmark::kMillisecond)->UseRealTime(), 1.0);
+            bench::minTime(benchmark::RegisterBenchmark(("EmbreeCoherentPacket8/" + suffix).c_str(),
                                          [=](benchmark::State& st) { packetEmbree(st, name, threads); })
-                ->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
-            benchmark::RegisterBenchmark(("EmbreeIncoherent/" + suffix).c_str(),
+                ->Unit(benchmark::kMillisecond)->UseRealTime(), 1.0);
+            bench::minTime(benchmark::RegisterBenchmark(("EmbreeIncoherent/" + suffix).c_str(),
                                          [=](benchmark::State& st) { rawEmbree(st, name, false, threads); })
-                ->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
+                ->Unit(benchmark::kMillisecond)->UseRealTime(), 1.0);
         }
     }
     // A 160×120 image of the same view on one thread: small enough to profile under
     // valgrind --tool=callgrind (instruction counts are repeatable on a loaded machine).
     for (const std::string& name : builtinSceneNames())
         benchmark::RegisterBenchmark(("EyePassSmall/" + name).c_str(),
-                                     [=](benchmark::State& st) { eyePass(st, name, 1, 160, 120); })
+                                     [=](benchmark::State& st) {
+                                         eyePass(st, name, 1, bench::sized(160, 32), bench::sized(120, 24));
+                                     })
             ->Unit(benchmark::kMillisecond)->Iterations(1);
-    benchmark::Initialize(&argc, argv);
-    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-    benchmark::RunSpecifiedBenchmarks();
-    benchmark::Shutdown();
-    return 0;
+    return bench::runBenchmarks(argc, argv);
 }

@@ -15,7 +15,8 @@
 # alike: in walkthrough frames all of it is the eye pass), caustic gather (k-NN traversal,
 # heap, occupancy test, progressive radius gathers), shading (eye paths, direct light, camera),
 # box filter and composition, other. Writing the EXR/PNG at the end is left out of the total.
-# Binaries: ${RTPM_BUILD_DIR:-<repo>/build}/common/cmd/rtpm-render (Release). Needs `perf`.
+# Binaries: ${RTPM_BUILD_DIR:-<repo>/build}/common/cmd/rtpm-render (Release). Needs `perf` (exit
+# status 77 without it).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
 build=${RTPM_BUILD_DIR:-$root/build}
@@ -35,7 +36,11 @@ while (($#)); do
     shift
 done
 ((${#scenes[@]})) || scenes=(RING GLASS HEADLIGHT)
-command -v perf >/dev/null || { echo "frame_profile.sh: needs perf (Debian package linux-perf)" >&2; exit 1; }
+# Without perf, or where the kernel refuses to sample (perf_event_paranoid, a container), there is
+# nothing to measure: exit 77, which the bench-smoke test reports as skipped.
+command -v perf >/dev/null || { echo "frame_profile.sh: skipped: needs perf (Debian package linux-perf)" >&2; exit 77; }
+perf record -q -o /dev/null -- true >/dev/null 2>&1 ||
+    { echo "frame_profile.sh: skipped: perf cannot record here (kernel.perf_event_paranoid = $(cat /proc/sys/kernel/perf_event_paranoid 2>/dev/null || echo ?))" >&2; exit 77; }
 [[ -x $render ]] || { echo "frame_profile.sh: no $render (build Release first)" >&2; exit 1; }
 case $mode in
     interaction) extra=(-P 20000) ;;

@@ -33,13 +33,16 @@
 #include "common/photon/photon_grid.h"
 #include "common/photon/photon_map.h"
 #include "common/scene/scene_loader.h"
+#include "tests/bench/bench_util.h"
 
 namespace rtpm {
 namespace {
 
 constexpr uint32_t kLeafSize = KdTree::kDefaultLeafSize;
-constexpr int kImageWidth = 640, kImageHeight = 480;
-constexpr size_t kPoolSize = 320000;
+// Under the smoke switch (bench_util.h) a pool of 2 000 photons and a 64×48 image: every size
+// then takes the whole pool.
+const int kImageWidth = bench::sized(640, 64), kImageHeight = bench::sized(480, 48);
+const size_t kPoolSize = bench::sized<size_t>(320000, 2000);
 constexpr int kMaxSpecularBounces = 8;
 
 /// One scene's photon pool and query points, built once per process.
@@ -390,8 +393,10 @@ void registerAll() {
     using benchmark::kMillisecond;
     using Fn = void (*)(benchmark::State&, const std::string&);
     const auto reg = [](const std::string& name, const std::string& scene, Fn fn) {
-        return benchmark::RegisterBenchmark((name + "/" + scene).c_str(), fn, scene)
-            ->Unit(kMillisecond);
+        benchmark::internal::Benchmark* b =
+            benchmark::RegisterBenchmark((name + "/" + scene).c_str(), fn, scene)->Unit(kMillisecond);
+        bench::smokeOnce(b);
+        return b;
     };
     for (const std::string scene : {"RING", "GLASS"}) {
         for (int64_t n : kSizes) {
@@ -424,9 +429,5 @@ void registerAll() {
 
 int main(int argc, char** argv) {
     rtpm::registerAll();
-    benchmark::Initialize(&argc, argv);
-    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-    benchmark::RunSpecifiedBenchmarks();
-    benchmark::Shutdown();
-    return 0;
+    return rtpm::bench::runBenchmarks(argc, argv);
 }

@@ -16,12 +16,14 @@
 #include "proto/messages.h"
 #include "proto/pixel_codec.h"
 #include "server/master.h"
+#include "tests/bench/bench_util.h"
 
 namespace {
 
 using namespace rtpm;
 
-constexpr int kWidth = 640, kHeight = 480, kM = 4;
+const int kWidth = bench::sized(640, 64), kHeight = bench::sized(480, 48);
+constexpr int kM = 4;
 
 // Deterministic pixels shaped like a real frame: smooth direct light everywhere, caustics in
 // about a fifth of the pixels (so the zstd plane is sparse, as in RING).
@@ -99,7 +101,7 @@ void syntheticClient(uint16_t port, const std::string& token, proto::PixelEncodi
 void BM_MasterCapacity(benchmark::State& state) {
     const int clients = int(state.range(0));
     const auto encoding = static_cast<proto::PixelEncoding>(state.range(1));
-    const int frames = int(state.range(2));
+    const int frames = bench::sized(int(state.range(2)), 3);
     Scene scene = loadScene("RING");
     for (auto _ : state) {
         server::MasterOptions o;
@@ -146,4 +148,4 @@ BENCHMARK(BM_MasterCapacity)
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) { return rtpm::bench::runBenchmarks(argc, argv); }

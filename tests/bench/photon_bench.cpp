@@ -54,11 +54,12 @@
 namespace rtpm {
 namespace {
 
-constexpr uint32_t kBatchPaths = 20000;        // PhotonSettings default P
-constexpr size_t kEmissionRays = 1u << 18;
-constexpr uint32_t kYieldBatches = 10;
-constexpr uint32_t kMemoryBatchPaths = 100000;
-constexpr uint64_t kMemoryCap = 1'000'000;
+// Under the smoke switch (bench_util.h): batches of 1 000 paths, 1 024 rays, a cap of 2 000 photons.
+const uint32_t kBatchPaths = bench::sized(20000u, 1000u);  // PhotonSettings default P
+const size_t kEmissionRays = bench::sized<size_t>(1u << 18, 1u << 10);
+const uint32_t kYieldBatches = bench::sized(10u, 2u);
+const uint32_t kMemoryBatchPaths = bench::sized(100000u, 1000u);
+const uint64_t kMemoryCap = bench::sized<uint64_t>(1'000'000, 2000);
 constexpr double kMemorySeconds = 40.0;
 
 using Clock = std::chrono::steady_clock;
@@ -394,19 +395,19 @@ int main(int argc, char** argv) {
                 for (uint32_t db : {0u, 1u}) {
                     const std::string id = "Shoot/" + name + (selective ? "/spt" : "/plain") +
                                            "/db:" + std::to_string(db) + th;
-                    RegisterBenchmark(id.c_str(), [=](benchmark::State& st) {
+                    bench::minTime(RegisterBenchmark(id.c_str(), [=](benchmark::State& st) {
                         shoot(st, name, selective, db, threads);
-                    })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
+                    })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime(), 1.0);
                 }
-            RegisterBenchmark(("EmbreeEmission/" + name + th).c_str(), [=](benchmark::State& st) {
+            bench::minTime(RegisterBenchmark(("EmbreeEmission/" + name + th).c_str(), [=](benchmark::State& st) {
                 rawEmbree(st, name, RayKind::Emission, threads);
-            })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
-            RegisterBenchmark(("EmbreeWrapped/" + name + th).c_str(), [=](benchmark::State& st) {
+            })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime(), 1.0);
+            bench::minTime(RegisterBenchmark(("EmbreeWrapped/" + name + th).c_str(), [=](benchmark::State& st) {
                 rawEmbree(st, name, RayKind::Wrapped, threads);
-            })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
-            RegisterBenchmark(("EmbreeRandom/" + name + th).c_str(), [=](benchmark::State& st) {
+            })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime(), 1.0);
+            bench::minTime(RegisterBenchmark(("EmbreeRandom/" + name + th).c_str(), [=](benchmark::State& st) {
                 rawEmbree(st, name, RayKind::Random, threads);
-            })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
+            })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime(), 1.0);
         }
         for (uint32_t db : {0u, 1u})
             for (bool selective : {false, true}) {
@@ -421,20 +422,16 @@ int main(int argc, char** argv) {
             RegisterBenchmark(("Yield/" + name + "/spt-nodilate/db:" + std::to_string(db)).c_str(),
                               [=](benchmark::State& st) { yieldRun(st, name, true, db, false); })
                 ->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->Iterations(1);
-            RegisterBenchmark(("Split/" + tail).c_str(), [=](benchmark::State& st) {
+            bench::minTime(RegisterBenchmark(("Split/" + tail).c_str(), [=](benchmark::State& st) {
                 splitRun(st, name, db);
-            })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
+            })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime(), 1.0);
         }
-        RegisterBenchmark(("Sample/" + name).c_str(), [=](benchmark::State& st) {
+        bench::minTime(RegisterBenchmark(("Sample/" + name).c_str(), [=](benchmark::State& st) {
             sampleRun(st, name);
-        })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
+        })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime(), 1.0);
         RegisterBenchmark(("Memory/" + name).c_str(), [=](benchmark::State& st) {
             memoryRun(st, name);
         })->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->Iterations(1);
     }
-    benchmark::Initialize(&argc, argv);
-    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-    benchmark::RunSpecifiedBenchmarks();
-    benchmark::Shutdown();
-    return 0;
+    return bench::runBenchmarks(argc, argv);
 }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "proto/pixel_codec.h"
+#include "tests/bench/bench_util.h"
 
 namespace {
 
@@ -37,7 +38,7 @@ std::vector<PixelPair> ringFrame(int w, int h) {
 }
 
 const std::vector<PixelPair>& frame() {
-    static const std::vector<PixelPair> f = ringFrame(640, 480);
+    static const std::vector<PixelPair> f = ringFrame(rtpm::bench::sized(640, 64), rtpm::bench::sized(480, 48));
     return f;
 }
 
@@ -73,9 +74,9 @@ void BM_Decode(benchmark::State& state) {
 }
 
 // Arg: 0 Float32, 1 Rgb8, 2 Rgb9e5, 3 Rgb9e5Zstd (PixelEncoding ids).
-BENCHMARK(BM_Encode)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_Decode)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Encode)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->Apply(rtpm::bench::smokeOnce);
+BENCHMARK(BM_Decode)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->Apply(rtpm::bench::smokeOnce);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) { return rtpm::bench::runBenchmarks(argc, argv); }

@@ -185,7 +185,9 @@ def main():
                       + (f", ratio to POV-Ray's best {tr / best[1]:.2f}" if best and tr else ""))
         for pname in povs:
             pts = sorted((r[col], r[4]) for r in rows if r[0] == pname)
-            print(f"{clock}: {pname}: fitted exponent (error ~ time^-e) {slope(pts):.3f}, "
+            # One photon count (or equal times) gives no exponent to fit.
+            fit = f"{slope(pts):.3f}" if len({t for t, _ in pts}) >= 2 else "n/a (one time)"
+            print(f"{clock}: {pname}: fitted exponent (error ~ time^-e) {fit}, "
                   f"lowest error {min(p[1] for p in pts):.4f}")
         for name in names:
             late = [(r[col], r[4]) for r in rows if r[0] == name and r[col] >= 1.0]

@@ -6,6 +6,9 @@ does that):
   sweep.py --build BUILD --make-references   converged references into BUILD/sweep-cache (once)
   sweep.py --build BUILD --run               the sweep -> tests/bench/sweep_results.csv + report
   sweep.py --report                          SWEEP.md and sweep_<scene>.png from the CSV only
+Options for a small run elsewhere (the bench-smoke test): --out DIR (the CSV, SWEEP.md, PNGs and
+JSON notes; default tests/bench), --cache DIR (references and images; default BUILD/sweep-cache),
+--size WxH (default 320x240), --ref-photons P (paths per set of each reference frame).
 
 Every sweep point is one process run from reset. Its time per frame is the median total_ms of
 the frames in the mode it measures (interaction: frame 0 only; accumulation: frames 1..N-1;
@@ -64,13 +67,13 @@ def log(msg):
 
 
 class Tools:
-    def __init__(self, build):
+    def __init__(self, build, cache=None):
         self.build = Path(build).resolve()
-        self.render = self.build / "common" / "rtpm-render"
-        self.compare = self.build / "common" / "rtpm-compare"
+        self.render = self.build / "common" / "cmd" / "rtpm-render"
+        self.compare = self.build / "common" / "cmd" / "rtpm-compare"
         self.server = self.build / "server" / "rtpm-server"
         self.client = self.build / "client" / "rtpm-client"
-        self.cache = self.build / "sweep-cache"
+        self.cache = Path(cache).resolve() if cache else self.build / "sweep-cache"
         for exe in (self.render, self.compare):
             if not exe.is_file():
                 sys.exit(f"sweep.py: {exe} is not built (tests/bench/sweep.sh builds it)")
@@ -118,13 +121,13 @@ def compare(tools, out, ref):
             "energy": float(row["energy_ratio"]), "image_rel_rmse": float(row["image_rel_rmse"])}
 
 
-def make_references(tools, scenes):
+def make_references(tools, scenes, ref_photons=None):
     meta_path = tools.cache / "references.json"
     meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
     if not shutil.which("oiiotool"):
         sys.exit("sweep.py: oiiotool (openimageio-tools) is needed to average the two reference seeds")
     for scene in scenes:
-        r = REFERENCES[scene]
+        r = dict(REFERENCES[scene], **({"P": ref_photons} if ref_photons else {}))
         pt = dict(BASE, P=r["P"], frames=r["frames"], k=r["k"], cap=0)
         parts = []
         t0 = time.time()
@@ -585,6 +588,7 @@ def machine_lines(start_load=None):
 
 
 def main():
+    global BENCH, RESULTS_CSV, SWEEP_MD, WIDTH, HEIGHT
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", default=os.environ.get("RTPM_BUILD_DIR", str(ROOT / "build")))
     ap.add_argument("--make-references", action="store_true")
@@ -596,16 +600,28 @@ def main():
     ap.add_argument("--scenes", default=",".join(SCENES))
     ap.add_argument("--groups", default="", help="run only these groups (comma-separated, e.g. tree); "
                     "the CSV keeps the other rows")
+    ap.add_argument("--out", default=str(BENCH), help="folder of the CSV, SWEEP.md, the PNGs and the JSON notes")
+    ap.add_argument("--cache", default="", help="folder of the references and images (default BUILD/sweep-cache)")
+    ap.add_argument("--size", default=f"{WIDTH}x{HEIGHT}", help="WxH of every point and reference")
+    ap.add_argument("--ref-photons", type=int, default=0, help="paths per set of each reference frame "
+                    "(default: REFERENCES, millions)")
     a = ap.parse_args()
+    BENCH = Path(a.out).resolve()
+    BENCH.mkdir(parents=True, exist_ok=True)
+    RESULTS_CSV, SWEEP_MD = BENCH / "sweep_results.csv", BENCH / "SWEEP.md"
+    try:
+        WIDTH, HEIGHT = (int(v) for v in a.size.lower().split("x"))
+    except ValueError:
+        sys.exit(f"sweep.py: --size must be WxH, not {a.size}")
     scenes = [s.strip().upper() for s in a.scenes.split(",") if s.strip()]
     for s in scenes:
         if s not in SCENES:
             sys.exit(f"sweep.py: unknown scene {s} (known: {', '.join(SCENES)})")
     if not (a.make_references or a.run or a.report or a.recompare):
         ap.error("nothing to do: give --make-references, --run, --recompare and/or --report")
-    tools = Tools(a.build) if (a.make_references or a.run or a.recompare) else None
+    tools = Tools(a.build, a.cache) if (a.make_references or a.run or a.recompare) else None
     if a.make_references:
-        make_references(tools, scenes)
+        make_references(tools, scenes, a.ref_photons)
     if a.run:
         if not tools.has_tree:
             log("rtpm-render has no --tree flag: the tree variants are skipped")
@@ -624,7 +640,7 @@ def main():
         recompare(tools)
     if a.report or a.run or a.recompare:
         build = Path(a.build).resolve()
-        meta_path = build / "sweep-cache" / "references.json"
+        meta_path = (Path(a.cache).resolve() if a.cache else build / "sweep-cache") / "references.json"
         refs = json.loads(meta_path.read_text()) if meta_path.exists() else {}
         stored = BENCH / "sweep_references.json"
         if refs:

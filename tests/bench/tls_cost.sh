@@ -2,12 +2,20 @@
 # Cost of TLS on the cluster link: the same run with and without --tls-cert/--tls, alternating,
 # prints fps (the server's summary) and user+system CPU seconds of the server and of the clients.
 #
-#   tests/bench/tls_cost.sh [BUILD_DIR] [ROUNDS] [extra rtpm-server flags ...]
+#   tests/bench/tls_cost.sh [--size WxH] [--frames N] [BUILD_DIR] [ROUNDS] [extra rtpm-server flags ...]
 #
 # Defaults: build/, 2 rounds, RING 640x480, 40 frames, 2 clients with 1 render thread each,
 # walkthrough (frame 0 shoots, later frames only trace: the link's share of a frame is largest).
 # Run it with --encoding float32 (24 B/px, 7.4 MB per frame) and rgb9e5-zstd (the default).
 set -euo pipefail
+size=640x480 frames=40
+while (($#)); do
+    case $1 in
+        --size) size=${2:?--size needs WxH}; shift 2 ;;
+        --frames) frames=${2:?--frames needs a count}; shift 2 ;;
+        *) break ;;
+    esac
+done
 build=${1:-build}
 rounds=${2:-2}
 shift $(( $# > 2 ? 2 : $# )) || true
@@ -27,7 +35,7 @@ run() {  # run LABEL tls(0/1)
     fi
     rm -f "$work/port"
     /usr/bin/time -f "%U %S" -o "$work/server.time" "$build/server/rtpm-server" --port 0 --port-file "$work/port" \
-        --scene RING --width 640 --height 480 --frames 40 --min-clients 2 --walkthrough --quiet \
+        --scene RING --width "${size%x*}" --height "${size#*x}" --frames "$frames" --min-clients 2 --walkthrough --quiet \
         --out "$work/out.exr" "${sflags[@]}" "${extra[@]}" >"$work/server.out" 2>"$work/server.err" &
     local spid=$!
     for _ in $(seq 1 600); do [[ -s $work/port ]] && break; sleep 0.05; done

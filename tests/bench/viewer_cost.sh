@@ -16,6 +16,7 @@
 #
 #   tests/bench/viewer_cost.sh [frames=300] [width=640] [height=480] [fps=30] [extra rtpm-server flags…]
 #   VIEWER_COST_PAGES=2 …   (pages watching at once, all with the same display setting; default 1)
+#   VIEWER_COST_CACHE=DIR … (where the replayed frame is rendered once and kept; default the build dir)
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
 build=${RTPM_BUILD_DIR:-$root/build}
@@ -31,7 +32,7 @@ trap cleanup EXIT
 trap 'exit 130' INT TERM  # runs the EXIT trap
 export RTPM_TOKEN=$(od -An -tx1 -N16 /dev/urandom | tr -d " \n")
 
-exr=$build/viewer_cost_ring_${width}x${height}.exr
+exr=${VIEWER_COST_CACHE:-$build}/viewer_cost_ring_${width}x${height}.exr
 if [[ ! -s $exr ]]; then
     echo "rendering the frame the feeders replay: $exr"
     "$build/common/cmd/rtpm-render" --scene RING --width "$width" --height "$height" --frames 2 --out "$exr" >/dev/null

@@ -19,6 +19,7 @@
 #include "common/image/image_io.h"
 #include "common/image/tone_map.h"
 #include "server/viewer/jpeg_encoder.h"
+#include "tests/bench/bench_util.h"
 
 namespace {
 
@@ -139,13 +140,14 @@ void BM_Png(benchmark::State& state) {
     state.counters["bytes"] = double(bytes);
 }
 
-BENCHMARK(BM_ToneMap)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_ToneMapSqrtFit)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_DisplayScale)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_TurboJpeg)->Arg(85)->Arg(75)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_WebP)->Arg(75)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_Png)->Unit(benchmark::kMillisecond);
+using rtpm::bench::smokeOnce;
+BENCHMARK(BM_ToneMap)->Unit(benchmark::kMillisecond)->Apply(smokeOnce);
+BENCHMARK(BM_ToneMapSqrtFit)->Unit(benchmark::kMillisecond)->Apply(smokeOnce);
+BENCHMARK(BM_DisplayScale)->Unit(benchmark::kMillisecond)->Apply(smokeOnce);
+BENCHMARK(BM_TurboJpeg)->Arg(85)->Arg(75)->Unit(benchmark::kMillisecond)->Apply(smokeOnce);
+BENCHMARK(BM_WebP)->Arg(75)->Unit(benchmark::kMillisecond)->Apply(smokeOnce);
+BENCHMARK(BM_Png)->Unit(benchmark::kMillisecond)->Apply(smokeOnce);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) { return rtpm::bench::runBenchmarks(argc, argv); }
