@@ -90,6 +90,7 @@ std::pair<OutputJob, ViewerFrame> FrameLedger::retire(const RetiredFrame& r, Tim
     }
     // Only a frame every set arrived for says how the whole image stands.
     job.errorEstimate = r.missing.empty() ? causticErrorEstimate(error) : 0.0;
+    job.passBatches = info.passBatches;
     job.data = std::move(info.data);
     ViewerFrame shown{r.frame,        info.epoch, info.mode,  job.fps,    job.photonsPerSet, info.slowestStats,
                       info.slowest,   job.arrived, job.owners, passes == UINT32_MAX ? 0u : passes,

@@ -34,7 +34,7 @@ ImageOutput::ImageOutput(ImageOutputOptions options)
         if (fresh)
             std::fprintf(csv_, "frame,fps,photons_per_set,mode,bytes,slowest_client,slowest_ms,sets_arrived,"
                                "sets_total,deadline_hit,master_ms,slowest_photon_ms,slowest_eye_ms,"
-                               "slowest_encode_ms\n");
+                               "slowest_encode_ms,est_error,pass_batches\n");
     }
     thread_ = std::thread([this] { io_.run(); });
 }
@@ -133,11 +133,12 @@ OutputResult ImageOutput::process(OutputJob& job) {
     if (!opt_.quiet) {
         progress_.clear();
         std::printf("frame %5llu  %7.2f fps  %-11s  photons/set %10.0f  sets %3zu/%-3u  %8.2f MB  "
-                    "slowest %s %.1f ms  master %.2f ms%s%s\n",
+                    "slowest %s %.1f ms  master %.2f ms%s%s%s\n",
                     (unsigned long long)job.frame, job.fps, proto::frameModeName(job.mode), job.photonsPerSet,
                     job.arrived, job.setCount, double(job.bytes) / 1e6, job.slowest.c_str(), job.slowestMs,
                     result.masterMs, job.deadlineHit ? "  (deadline)" : "",
-                    job.errorEstimate > 0.0 ? ("  est. error " + std::to_string(job.errorEstimate).substr(0, 6)).c_str() : "");
+                    job.errorEstimate > 0.0 ? ("  est. error " + std::to_string(job.errorEstimate).substr(0, 6)).c_str() : "",
+                    job.passBatches > 1 ? ("  batches " + std::to_string(job.passBatches)).c_str() : "");
         std::fflush(stdout);
         // i/N, elapsed and ETA on stderr: on a terminal always; otherwise only for a finite run
         // (a service's plain log is the frame line above, not a stderr line a second forever).
@@ -147,11 +148,11 @@ OutputResult ImageOutput::process(OutputJob& job) {
         }
     }
     if (csv_) {
-        std::fprintf(csv_, "%llu,%.3f,%.1f,%s,%llu,%s,%.3f,%zu,%u,%d,%.3f,%.3f,%.3f,%.3f\n",
+        std::fprintf(csv_, "%llu,%.3f,%.1f,%s,%llu,%s,%.3f,%zu,%u,%d,%.3f,%.3f,%.3f,%.3f,%.5f,%u\n",
                      (unsigned long long)job.frame, job.fps, job.photonsPerSet, proto::frameModeName(job.mode),
                      (unsigned long long)job.bytes, job.slowest.c_str(), job.slowestMs, job.arrived,
                      job.setCount, job.deadlineHit ? 1 : 0, result.masterMs, job.slowestPhotonMs,
-                     job.slowestEyeMs, job.slowestEncodeMs);
+                     job.slowestEyeMs, job.slowestEncodeMs, job.errorEstimate, job.passBatches);
         std::fflush(csv_);
     }
     return result;

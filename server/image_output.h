@@ -54,6 +54,7 @@ struct OutputJob {
     std::string saveAs;  ///< also write this frame to this EXR path (PNG beside it); empty = no
     bool last = false;   ///< write opt.out after this frame
     double errorEstimate = 0.0;  ///< progressive: the caustic's estimated relative error (0 = none)
+    uint32_t passBatches = 1;    ///< batches per set this frame's progressive passes shot
     uint64_t shown = 0;  ///< frames shown so far, this one included
     double elapsedSeconds = 0.0;  ///< since the first frame began
     RenderSettings settings;      ///< the settings this frame was rendered with (image metadata)

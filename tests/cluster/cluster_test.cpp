@@ -10,6 +10,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <sstream>
 
 #include "client/worker.h"
 #include "proto/auth.h"
@@ -29,6 +30,7 @@ const std::string kToken = "5f2c8d0a9b7e4c1f3a6d8e2b0c9f7a14";  // `openssl rand
 struct RunSettings {
     std::string scene = "RING";
     int width = 96, height = 72, m = 3, frames = 3, photons = 2000;
+    int budgetMs = 0;                ///< --frame-budget-ms
     std::vector<std::string> extra;  ///< more shared flags
 
     /// Flags that rtpm-render and rtpm-server share (README: "The main ones, shared by rtpm-server").
@@ -38,7 +40,7 @@ struct RunSettings {
                                    std::to_string(frames), "-P", std::to_string(photons),
                                    // One batch per pass: with a budget, pass sizes follow each
                                    // process's own frame times, so the two would differ.
-                                   "--frame-budget-ms", "0"};
+                                   "--frame-budget-ms", std::to_string(budgetMs)};
         f.insert(f.end(), extra.begin(), extra.end());
         return f;
     }
@@ -207,6 +209,39 @@ TEST_P(ClusterEveryFrame, EqualsSingleProcessBitForBitAtEveryFrame) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Estimators, ClusterEveryFrame, ::testing::Values("progressive", "knn"));
+
+// A still view's passes grow while the clients' work per frame stays under half the budget
+// (a budget no frame of this size reaches: doubling every frame once the first converging frame
+// is recorded), and every converging frame reports the estimator's error. The CSV's
+// pass_batches and est_error columns say so per frame.
+TEST(ClusterStillPasses, GrowToTheFrameBudget) {
+    RunSettings rs;
+    rs.frames = 8;
+    rs.budgetMs = 60000;
+    Cluster c;
+    c.startServer(rs, 1, "float32", {"--csv", c.dir.file("frames.csv")});
+    c.startClient();
+    c.expectServerFinishes();
+    std::ifstream csv(c.dir.file("frames.csv"));
+    std::string line;
+    ASSERT_TRUE(std::getline(csv, line));
+    EXPECT_NE(line.find(",est_error,pass_batches"), std::string::npos) << line;
+    std::vector<uint32_t> batches;
+    while (std::getline(csv, line)) {
+        std::vector<std::string> cols;
+        std::stringstream row(line);
+        for (std::string col; std::getline(row, col, ',');) cols.push_back(col);
+        ASSERT_EQ(cols.size(), 16u) << line;
+        batches.push_back(uint32_t(std::stoul(cols[15])));
+        if (cols[3] == "converging") {
+            EXPECT_GT(std::stod(cols[14]), 0.0) << "no error estimate: " << line;
+        }
+    }
+    ASSERT_EQ(batches.size(), size_t(rs.frames));
+    EXPECT_EQ(batches.front(), 1u) << "the first frame is a restart: one batch";
+    for (size_t f = 1; f < batches.size(); ++f) EXPECT_GE(batches[f], batches[f - 1]) << "frame " << f;
+    EXPECT_GE(batches.back(), 8u) << c.logs();
+}
 
 // Every setting that reaches the clients through Settings, away from its default, must reach
 // them intact (seed, both depth limits, area-light samples, k, r_max, filter, diffuse bounces).
