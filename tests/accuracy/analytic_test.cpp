@@ -15,6 +15,7 @@
 #include "common/image/image_io.h"
 #include "common/photon/photon_map.h"
 #include "common/render/render_job.h"
+#include "tests/support/glass_slab.h"
 #include "tests/support/test_scenes.h"
 
 namespace rtpm {
@@ -97,59 +98,7 @@ TEST(AnalyticDirect, PointLitPlaneMatchesClosedFormThroughExr) {
 
 // ---- (b) refracted caustic under a glass slab ---------------------------------------------------
 //
-// A point light of intensity I sits at height h above the top face of a horizontal slab of index
-// n and thickness t (no absorption), whose bottom face is g above a diffuse floor. A photon leaving
-// at angle θ from the downward axis refracts to θ' (sin θ = n sin θ'), crosses the slab and leaves
-// at θ again. If it crosses the slab 2k+1 times (k internal reflection pairs) it lands at
-//     ρ_k(θ) = (h + g)·tan θ + (2k+1)·t·tan θ'
-// carrying the fraction T_k(θ) = (1 − F(θ))²·F(θ)^{2k} (F: unpolarised Fresnel reflectance, the
-// same inside and outside by reciprocity). Flux I·T_k·sinθ dθ dφ lands on the floor area ρ dρ dφ, so
-//     E(ρ) = Σ_k I·T_k(θ_k)·sin θ_k / (ρ · dρ_k/dθ)    with ρ_k(θ_k) = ρ,
-// and at the axis (θ → 0, ρ_k ≈ c_k·θ) the virtual-source form
-//     E(0) = I·(1 − R₀)²·Σ_k R₀^{2k} / c_k²,   c_k = h + g + (2k+1)·t/n,   R₀ = ((n−1)/(n+1))².
-// The k ≥ 1 terms add R₀² ≈ 0.16 % for n = 1.5; the sum is taken to k = 5 (remainder < 1e-13).
-
-double fresnelUnpolarised(double cosI, double n) {
-    const double sinT2 = (1.0 - cosI * cosI) / (n * n);
-    const double cosT = std::sqrt(std::max(0.0, 1.0 - sinT2));
-    const double rs = (cosI - n * cosT) / (cosI + n * cosT);
-    const double rp = (n * cosI - cosT) / (n * cosI + cosT);
-    return 0.5 * (rs * rs + rp * rp);
-}
-
-struct Slab {
-    double h, g, t, n, intensity;
-};
-
-double slabIrradiance(const Slab& s, double rho) {
-    double e = 0.0;
-    for (int k = 0; k <= 5; ++k) {
-        const double passes = 2.0 * k + 1.0;
-        if (rho <= 0.0) {
-            const double r0 = std::pow((s.n - 1.0) / (s.n + 1.0), 2.0);
-            const double c = s.h + s.g + passes * s.t / s.n;
-            e += s.intensity * (1.0 - r0) * (1.0 - r0) * std::pow(r0, 2.0 * k) / (c * c);
-            continue;
-        }
-        auto rhoOf = [&](double theta) {
-            const double thetaIn = std::asin(std::sin(theta) / s.n);
-            return (s.h + s.g) * std::tan(theta) + passes * s.t * std::tan(thetaIn);
-        };
-        double lo = 0.0, hi = kPi / 2 - 1e-9;
-        for (int it = 0; it < 200; ++it) {
-            const double mid = 0.5 * (lo + hi);
-            (rhoOf(mid) < rho ? lo : hi) = mid;
-        }
-        const double theta = 0.5 * (lo + hi);
-        const double thetaIn = std::asin(std::sin(theta) / s.n);
-        const double dRho = (s.h + s.g) / std::pow(std::cos(theta), 2.0) +
-                            passes * s.t * std::cos(theta) / (s.n * std::pow(std::cos(thetaIn), 3.0));
-        const double f = fresnelUnpolarised(std::cos(theta), s.n);
-        const double transmitted = (1.0 - f) * (1.0 - f) * std::pow(f, 2.0 * k);
-        e += s.intensity * transmitted * std::sin(theta) / (rho * dRho);
-    }
-    return e;
-}
+// The closed form E(ρ) (slabIrradiance) is derived in tests/support/glass_slab.h.
 
 TEST(AnalyticSlab, ClosedFormIsSelfConsistent) {
     // The axis limit and the general formula agree, and without the slab (t = 0) E is I·cos³θ/d²

@@ -6,29 +6,20 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <numeric>
-#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "common/core/interleave.h"
-#include "common/image/error_metrics.h"
-#include "common/image/frame_image.h"
-#include "common/render/progressive.h"
 #include "common/render/render_job.h"
+#include "tests/support/progressive_run.h"
 #include "tests/support/ring_mirror.h"
 
 namespace rtpm {
 namespace {
 
+using testscenes::CausticReference;
+using testscenes::Convergence;
 using testscenes::RingMirror;
-
-struct Convergence {
-    std::vector<double> relMae;    ///< per frame: caustic-region rel. MAE of the shown caustic
-    std::vector<double> energy;    ///< per frame: Σ shown caustic / Σ reference over the compared pixels
-    std::vector<double> estimate;  ///< per frame: the estimator's own error estimate
-};
 
 // Renders `frames` still frames of the curved mirror (L S D photons, as the reference) and
 // scores each one as rtpm-render shows it. `passBatches`: batches of every progressive pass.
@@ -36,37 +27,9 @@ Convergence render(RenderSettings rs, int frames, uint32_t passBatches = 1) {
     RingMirror rm;
     rs.photons.maxDepth = 2;
     rs.photons.diffuseBounces = 0;
-    std::vector<float> ref;
-    std::vector<uint8_t> mask;
-    rm.referenceImage(rs.width, rs.height, ref, mask);
-    Scene scene = rm.scene();
-    const Camera camera = *scene.camera;
-    std::vector<uint32_t> sets(size_t(rs.interleave * rs.interleave));
-    std::iota(sets.begin(), sets.end(), 0u);
-    RenderJob job(std::move(scene), rs, sets);
-    const Interleave pattern{rs.width, rs.height, rs.interleave};
-    FrameImage image(rs.width, rs.height);
-    std::vector<SetPixels> pixels;
-    Convergence run;
-    for (int f = 1; f <= frames; ++f) {
-        const FrameStats st = job.renderFrame(camera, true, pixels, passBatches);
-        for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
-        image.filterAndCompose(rs.filterSize());
-        std::vector<float> shown = image.causticFiltered();
-        double total = 0.0, totalRef = 0.0;
-        for (size_t p = 0; p < mask.size(); ++p)
-            for (int c = 0; c < 3; ++c) {
-                if (!mask[p]) shown[3 * p + c] = 0.0f;
-                total += shown[3 * p + c];
-                totalRef += ref[3 * p + c];
-            }
-        const ErrorMetrics em = compareRgb(shown, ref, ref, rs.width, rs.height);
-        EXPECT_EQ(em.nonFiniteOutput, 0u);
-        run.relMae.push_back(em.caustic.relMae);
-        run.energy.push_back(total / totalRef);
-        run.estimate.push_back(causticErrorEstimate(st.error));
-    }
-    return run;
+    CausticReference ref;
+    rm.referenceImage(rs.width, rs.height, ref.rgb, ref.mask);
+    return renderConvergence(rm.scene(), rs, ref, frames, passBatches);
 }
 
 RenderSettings small() {

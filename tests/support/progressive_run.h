@@ -1,0 +1,117 @@
+// Still frames of a scene through RenderJob + FrameImage, as rtpm-render shows them, each scored
+// against an analytic caustic image: what the progressive-estimator accuracy tests measure.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <numeric>
+#include <utility>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "common/core/interleave.h"
+#include "common/image/error_metrics.h"
+#include "common/image/frame_image.h"
+#include "common/render/progressive.h"
+#include "common/render/render_job.h"
+#include "common/scene/scene.h"
+
+namespace rtpm::testscenes {
+
+/// An analytic caustic image: radiance per pixel (RGB, row-major, W/(m²·sr)) and the pixels
+/// that may be compared (1: the reference holds there).
+struct CausticReference {
+    std::vector<float> rgb;
+    std::vector<uint8_t> mask;
+};
+
+struct Convergence {
+    std::vector<double> relMae;    ///< per frame: caustic-region rel. MAE of the shown caustic
+    std::vector<double> energy;    ///< per frame: Σ shown caustic / Σ reference over the compared pixels
+    std::vector<double> estimate;  ///< per frame: the estimator's own error estimate
+    /// per frame: Σ shown caustic over the compared pixels the reference leaves dark / Σ
+    /// reference: light spread beyond the caustic's edges
+    std::vector<double> spill;
+};
+
+/// Renders `frames` still frames of `scene` from its camera with every set of `rs`, composes
+/// each as rtpm-render does (scatter, box filter) and scores the filtered caustic layer over the
+/// reference's mask with compareRgb (the region from the reference itself). `passBatches`:
+/// batches of every progressive pass. Counts non-finite output as a test failure.
+inline Convergence renderConvergence(Scene scene, const RenderSettings& rs, const CausticReference& ref,
+                                     int frames, uint32_t passBatches = 1) {
+    const Camera camera = *scene.camera;
+    std::vector<uint32_t> sets(size_t(rs.interleave * rs.interleave));
+    std::iota(sets.begin(), sets.end(), 0u);
+    RenderJob job(std::move(scene), rs, sets);
+    const Interleave pattern{rs.width, rs.height, rs.interleave};
+    FrameImage image(rs.width, rs.height);
+    std::vector<SetPixels> pixels;
+    Convergence run;
+    for (int f = 1; f <= frames; ++f) {
+        const FrameStats st = job.renderFrame(camera, true, pixels, passBatches);
+        for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
+        image.filterAndCompose(rs.filterSize());
+        std::vector<float> shown = image.causticFiltered();
+        double total = 0.0, totalRef = 0.0, dark = 0.0;
+        for (size_t p = 0; p < ref.mask.size(); ++p)
+            for (int c = 0; c < 3; ++c) {
+                if (!ref.mask[p]) shown[3 * p + c] = 0.0f;
+                total += shown[3 * p + c];
+                totalRef += ref.rgb[3 * p + c];
+                if (ref.rgb[3 * p + c] == 0.0f) dark += shown[3 * p + c];
+            }
+        const ErrorMetrics em = compareRgb(shown, ref.rgb, ref.rgb, rs.width, rs.height);
+        EXPECT_EQ(em.nonFiniteOutput, 0u);
+        run.relMae.push_back(em.caustic.relMae);
+        run.energy.push_back(total / totalRef);
+        run.spill.push_back(dark / totalRef);
+        run.estimate.push_back(causticErrorEstimate(st.error));
+    }
+    return run;
+}
+
+/// Caustic reference of a floor (the plane y = 0, facing up, albedo `albedo`) seen by `camera`:
+/// per pixel, `samples` × `samples` rays through a regular grid of points inside the pixel are
+/// intersected with the floor and the pixel gets ρ/π times the mean of `irradiance(x, z)`
+/// (W/m²) over their floor points, so a pixel on a caustic's edge gets its covered fraction.
+/// `visible(origin, direction)` says whether a camera ray reaches the floor unobstructed; a
+/// pixel is compared only if all of its rays do (and all go down).
+template <class Irradiance, class Visible>
+CausticReference floorReference(const Camera& camera, int width, int height, int samples, double albedo,
+                                Irradiance irradiance, Visible visible) {
+    CausticReference ref;
+    ref.rgb.assign(size_t(width) * size_t(height) * 3, 0.0f);
+    ref.mask.assign(size_t(width) * size_t(height), 0);
+    const Camera::PixelRays rays = camera.pixelRays(width, height);
+    const glm::dvec3 o(camera.position), forward(rays.forward), right(rays.right), up(rays.up);
+    for (int j = 0; j < height; ++j)
+        for (int i = 0; i < width; ++i) {
+            double sum = 0.0;
+            bool compared = true;
+            for (int sj = 0; sj < samples && compared; ++sj)
+                for (int si = 0; si < samples; ++si) {
+                    // As Camera::PixelRays::direction, at (i + u, j + v) instead of the centre.
+                    const double u = (double(si) + 0.5) / samples, v = (double(sj) + 0.5) / samples;
+                    const double sx = (2.0 * (double(i) + u) / width - 1.0) * double(rays.halfW);
+                    const double sy = (1.0 - 2.0 * (double(j) + v) / height) * double(rays.halfH);
+                    const glm::dvec3 d = glm::normalize(forward + sx * right + sy * up);
+                    if (!(d.y < 0.0) || !visible(o, d)) {
+                        compared = false;
+                        break;
+                    }
+                    const glm::dvec3 p = o + (-o.y / d.y) * d;
+                    sum += irradiance(p.x, p.z);
+                }
+            if (!compared) continue;
+            const size_t p = size_t(j) * size_t(width) + size_t(i);
+            ref.mask[p] = 1;
+            const float l = float(albedo / std::numbers::pi * sum / double(samples * samples));
+            ref.rgb[3 * p] = ref.rgb[3 * p + 1] = ref.rgb[3 * p + 2] = l;
+        }
+    return ref;
+}
+
+}  // namespace rtpm::testscenes
