@@ -7,7 +7,7 @@
 #   tests/bench/smoke.sh CASE BUILD_DIR
 #
 # CASE: viewer_encode ring_mirror viewer_cost cluster_convergence pov_compare cluster_bench
-#       frame_profile sweep tls_cost scale_bench. Exit status 77: skipped (the reason is printed).
+#       frame_profile sweep tls_cost viewer_port_probe scale_bench. Exit status 77: skipped (the reason is printed).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
 case=${1:?usage: smoke.sh CASE BUILD_DIR}
@@ -106,6 +106,14 @@ sweep)
 tls_cost)
     run "$work/out.log" bash "$root/tests/bench/tls_cost.sh" --size 64x48 --frames 3 "$build" 1
     expectRows 2 "^\| (plain|TLS) \| $num \| $num \| $num \|" "$work/out.log"
+    ;;
+viewer_port_probe)
+    # The probes of fixed length up to 5 s; fds (1 000 connections, 7 s of closing, about 35 s under
+    # load) and nat (a 20 s run) are left out for their cost.
+    run "$work/out.log" /usr/bin/python3 "$root/tests/bench/viewer_port_probe.py" "$build" insecure rebinding nodes \
+        origin guesses tokenless
+    expectRows 4 '^insecure: --http ' "$work/out.log"
+    expectRows 5 '^(rebinding|nodes|origin|guesses|tokenless): ' "$work/out.log"
     ;;
 scale_bench)
     # Root only (network namespaces, cgroups), like the multihost test.

@@ -8,9 +8,11 @@ stopped (SIGTERM, then SIGKILL) before the next probe.
 
 Prints one line per figure: "probe: figure".
 """
+import atexit
 import os
 import re
 import resource
+import shutil
 import signal
 import socket
 import subprocess
@@ -24,6 +26,7 @@ BUILD = sys.argv[1] if len(sys.argv) > 1 else "build"
 SERVER = os.path.join(BUILD, "server/rtpm-server")
 CLIENT = os.path.join(BUILD, "client/rtpm-client")
 WORK = tempfile.mkdtemp(prefix="rtpm-viewer-probe.")
+atexit.register(shutil.rmtree, WORK, True)  # the nodes probe alone leaves a 42 MB glTF
 
 
 def say(probe, text):
