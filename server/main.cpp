@@ -44,6 +44,8 @@ int run(int argc, char** argv) {
     addRenderFlags(app, rs, o.sceneName, plain, noDefaultLight);
     SceneInputPolicy sceneInput;
     addSceneInputFlags(app, sceneInput);
+    SceneOverrides overrides;
+    addSceneChoiceFlags(app, overrides);
     ConvergenceFlags convergence;
     addConvergenceFlags(app, convergence);
     auto* framesOpt = app.add_option("--frames", o.frames,
@@ -166,7 +168,6 @@ int run(int argc, char** argv) {
     prepareOutputFile("--out", outPaths.png);
     o.out = outPaths.exr;
     if (!o.csv.empty()) prepareOutputFile("--csv", o.csv, OutputWrite::Append);
-    SceneOverrides overrides;
     overrides.defaultLight = !noDefaultLight;
     Scene scene = loadScene(o.sceneName, overrides, sceneInput);
     for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());

@@ -69,6 +69,8 @@ int run(int argc, char** argv) {
                  "rtpm-render"};
     addRenderFlags(app, rs, o.scene, o.plain, o.noDefaultLight);
     addSceneInputFlags(app, o.sceneInput);
+    SceneOverrides overrides;
+    addSceneChoiceFlags(app, overrides);
     addConvergenceFlags(app, o.convergence);
     app.add_option("--frames", o.frames,
                    "frames to render; every frame adds one photon batch per set until the cap "
@@ -124,7 +126,6 @@ int run(int argc, char** argv) {
         threadLimit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                             size_t(o.threads));
 
-    SceneOverrides overrides;
     overrides.defaultLight = !o.noDefaultLight;
     if (!o.eye.empty()) {
         CameraOverride c;

@@ -7,6 +7,7 @@
 
 #include "common/core/render_settings.h"
 #include "common/scene/scene_files.h"
+#include "common/scene/scene_loader.h"
 
 namespace rtpm {
 
@@ -93,6 +94,13 @@ inline void addConvergenceFlags(CLI::App& app, ConvergenceFlags& flags) {
                    "(printed per frame) is at most this, e.g. 0.02; 0 = off")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 1.0));
+}
+
+/// Adds the flags that choose among what a scene file offers (--variant), bound to `overrides`.
+inline void addSceneChoiceFlags(CLI::App& app, SceneOverrides& overrides) {
+    app.add_option("--variant", overrides.variant,
+                   "glTF material variant (KHR_materials_variants) to render, by name; default: the "
+                   "file's default materials. An unknown name is refused with the file's variant names");
 }
 
 /// Adds the flags that say which files a scene may read and how much it may decode

@@ -43,7 +43,8 @@ const std::set<std::string>& supportedExtensions() {
     static const std::set<std::string> kSupported = {
         "KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior",
         "KHR_materials_volume", "KHR_materials_emissive_strength", "KHR_texture_transform",
-        "KHR_materials_unlit", "EXT_mesh_gpu_instancing"};
+        "KHR_materials_unlit", "EXT_mesh_gpu_instancing", "KHR_mesh_quantization",
+        "KHR_materials_variants", "KHR_materials_pbrSpecularGlossiness"};
     return kSupported;
 }
 
@@ -252,10 +253,45 @@ std::string componentTypeName(int componentType) {
     }
 }
 
+// The vertex data readFloats reads, for the component types each may hold.
+enum class Attribute { Position, Normal, TexCoord, InstanceVector };
+
+const char* attributeName(Attribute a) {
+    switch (a) {
+        case Attribute::Position: return "POSITION";
+        case Attribute::Normal: return "NORMAL";
+        case Attribute::TexCoord: return "TEXCOORD_n";
+        default: return "TRANSLATION/SCALE";
+    }
+}
+
+// The (componentType, normalized) pairs attribute `a` may use: FLOAT always; texture coordinates
+// also normalized UNSIGNED_BYTE/SHORT (glTF 2.0 core); with KHR_mesh_quantization, the
+// extension's table: positions and texture coordinates any of BYTE, UNSIGNED_BYTE, SHORT,
+// UNSIGNED_SHORT, normalized or not; normals normalized BYTE or SHORT. Integer values are
+// dequantized at load (normalized: c/255, c/65535, max(c/127, −1), max(c/32767, −1); otherwise
+// the integer itself); the node's transform carries the scale and offset exporters put there.
+std::vector<std::pair<int, bool>> allowedForms(Attribute a, bool quantization) {
+    constexpr int kByte = TINYGLTF_COMPONENT_TYPE_BYTE, kUByte = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                  kShort = TINYGLTF_COMPONENT_TYPE_SHORT, kUShort = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    std::vector<std::pair<int, bool>> forms{{TINYGLTF_COMPONENT_TYPE_FLOAT, false}};
+    if (a == Attribute::TexCoord && !quantization) forms.insert(forms.end(), {{kUByte, true}, {kUShort, true}});
+    if (!quantization) return forms;
+    if (a == Attribute::Normal) forms.insert(forms.end(), {{kByte, true}, {kShort, true}});
+    if (a == Attribute::Position || a == Attribute::TexCoord)
+        for (int type : {kByte, kUByte, kShort, kUShort}) forms.insert(forms.end(), {{type, true}, {type, false}});
+    return forms;
+}
+
+std::string formName(int componentType, bool normalized) {
+    return (normalized && componentType != TINYGLTF_COMPONENT_TYPE_FLOAT ? "normalized " : "") +
+           componentTypeName(componentType);
+}
+
 class GltfImporter {
 public:
-    GltfImporter(const tinygltf::Model& model, SceneFiles& files)
-        : model_(model), file_(files.sceneFile()), files_(&files) {}
+    GltfImporter(const tinygltf::Model& model, SceneFiles& files, const GltfOptions& options)
+        : model_(model), file_(files.sceneFile()), files_(&files), options_(options) {}
 
     Scene run();
 
@@ -278,10 +314,13 @@ private:
     View checkedAccessor(int index, const std::string& element,
                          std::initializer_list<int> allowedTypes,
                          std::initializer_list<int> allowedComponents) const;
-    std::vector<float> readFloats(int index, const std::string& element, int type) const;
+    /// The accessor's values as floats, dequantized; refuses component types `attribute` may not use.
+    std::vector<float> readFloats(int index, const std::string& element, int type, Attribute attribute) const;
     std::vector<uint32_t> readIndices(int index, const std::string& element) const;
 
     void checkExtensions();
+    void readVariants();
+    int primitiveMaterial(const tinygltf::Primitive& prim, const std::string& element) const;
     void convertMaterials();
     TextureTransform textureTransform(const tinygltf::Value& ext, const std::string& element,
                                       int& uvSet) const;
@@ -297,6 +336,10 @@ private:
     const tinygltf::Model& model_;
     std::string file_;
     SceneFiles* files_;  // the budget every decoded array is charged to before allocation
+    GltfOptions options_;
+    bool quantization_ = false;             // KHR_mesh_quantization listed: integer attributes allowed
+    std::vector<std::string> variantNames_;  // KHR_materials_variants, in file order
+    int variant_ = -1;                       // the chosen variant, -1: the default materials
     Scene scene_;
     std::map<int, std::vector<uint32_t>> meshPrimitives_;  // glTF mesh → rtpm meshes
     std::map<int, int32_t> imageTextures_;                  // glTF image → Scene::textures
@@ -391,15 +434,27 @@ float readComponent(const unsigned char* p, int componentType, bool normalized) 
     }
 }
 
-std::vector<float> GltfImporter::readFloats(int index, const std::string& element, int type) const {
-    View v = type == TINYGLTF_TYPE_VEC2
-                 ? checkedAccessor(index, element, {type},
-                                   {TINYGLTF_COMPONENT_TYPE_FLOAT,
-                                    TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
-                                    TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT})
-                 : checkedAccessor(index, element, {type}, {TINYGLTF_COMPONENT_TYPE_FLOAT});
-    if (v.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && !v.normalized)
-        fail(element, "integer texture coordinates must be normalized");
+std::vector<float> GltfImporter::readFloats(int index, const std::string& element, int type,
+                                            Attribute attribute) const {
+    View v = checkedAccessor(index, element, {type},
+                             {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE,
+                              TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_SHORT,
+                              TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
+    const bool normalized = v.normalized && v.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT;
+    const auto allowed = allowedForms(attribute, quantization_);
+    if (std::find(allowed.begin(), allowed.end(), std::make_pair(v.componentType, normalized)) == allowed.end()) {
+        std::string list;
+        for (const auto& [ct, n] : allowed) list += (list.empty() ? "" : ", ") + formName(ct, n);
+        const auto quantized = allowedForms(attribute, true);
+        const bool quantizationWouldAllow =
+            !quantization_ &&
+            std::find(quantized.begin(), quantized.end(), std::make_pair(v.componentType, normalized)) != quantized.end();
+        fail(element, "accessors[" + std::to_string(index) + "] is " + formName(v.componentType, normalized) +
+                          ", which " + attributeName(attribute) + " may not be (allowed: " + list + ")" +
+                          (quantizationWouldAllow ? "; KHR_mesh_quantization allows it, but the file does "
+                                                    "not list that extension in extensionsUsed"
+                                                  : ""));
+    }
     files_->charge(uint64_t(v.count) * uint64_t(v.components) * sizeof(float), element);
     std::vector<float> out(v.count * size_t(v.components), 0.0f);
     if (!v.data) return out;
@@ -442,9 +497,21 @@ std::vector<uint32_t> GltfImporter::readIndices(int index, const std::string& el
 // ---- extensions, materials, textures ----------------------------------------------------
 
 void GltfImporter::checkExtensions() {
-    for (const std::string& ext : model_.extensionsRequired)
+    for (const std::string& ext : model_.extensionsRequired) {
+        if (ext == "KHR_draco_mesh_compression")
+            fail("extensionsRequired",
+                 "the meshes are Draco-compressed (KHR_draco_mesh_compression), which is not supported; "
+                 "export the file without mesh compression (Blender's glTF exporter: untick "
+                 "Data > Compression)");
         if (!supportedExtensions().count(ext))
             fail("extensionsRequired", "extension " + ext + " is required but not supported");
+    }
+    auto listed = [&](const char* name) {
+        return std::count(model_.extensionsUsed.begin(), model_.extensionsUsed.end(), name) +
+                   std::count(model_.extensionsRequired.begin(), model_.extensionsRequired.end(), name) >
+               0;
+    };
+    quantization_ = listed("KHR_mesh_quantization");
     std::string unsupported;
     for (const std::string& ext : model_.extensionsUsed)
         if (!supportedExtensions().count(ext)) unsupported += (unsupported.empty() ? "" : ", ") + ext;
@@ -521,7 +588,110 @@ int GltfImporter::textureFor(int gltfTexture, const std::string& element) {
     return id;
 }
 
+// KHR_materials_pbrSpecularGlossiness in the metallic-roughness terms the renderer reads.
+struct MetallicRoughness {
+    Vec3 baseColor{1.0f};
+    double metallic = 0.0;
+    double roughness = 0.0;
+};
+
+// Specular-glossiness → metallic-roughness, the rule of the Khronos sample converter that came with
+// the extension ("convert between workflows"), restated: roughness is 1 − glossiness. A
+// dielectric reflects F0 = 0.04 at normal incidence, so the perceived brightness (√(0.299 r² +
+// 0.587 g² + 0.114 b²)) of a specular colour below 0.04 means metallic 0. Otherwise metallic m is
+// the root in [0, 1] of the quadratic that makes the specular and diffuse brightnesses of a
+// metal-rough surface with metallic m match the file's: 0.04 m² + b m + (0.04 − S) = 0 with
+// b = D (1 − s) / 0.96 + S − 0.08, where S and D are the specular's and diffuse's brightness and
+// s the specular colour's largest channel. The base colour blends the colour that explains the
+// diffuse (diffuse (1 − s) / 0.96 / (1 − m)) and the one that explains the specular
+// ((specular − 0.04 (1 − m)) / m) with weight m², clamped to [0, 1]. Pure, O(1).
+MetallicRoughness fromSpecularGlossiness(Vec3 diffuse, Vec3 specular, double glossiness) {
+    constexpr double kDielectricF0 = 0.04, kEpsilon = 1e-6;
+    auto brightness = [](Vec3 c) {
+        return std::sqrt(0.299 * double(c.x) * c.x + 0.587 * double(c.y) * c.y + 0.114 * double(c.z) * c.z);
+    };
+    const double specularStrength = std::max({specular.x, specular.y, specular.z});
+    const double oneMinusS = 1.0 - specularStrength;
+    const double d = brightness(diffuse), sp = brightness(specular);
+    MetallicRoughness out;
+    out.roughness = std::clamp(1.0 - glossiness, 0.0, 1.0);
+    if (sp >= kDielectricF0) {
+        const double a = kDielectricF0;
+        const double b = d * oneMinusS / (1.0 - kDielectricF0) + sp - 2.0 * kDielectricF0;
+        const double c = kDielectricF0 - sp;
+        const double disc = std::max(b * b - 4.0 * a * c, 0.0);
+        out.metallic = std::clamp((-b + std::sqrt(disc)) / (2.0 * a), 0.0, 1.0);
+    }
+    const double m = out.metallic;
+    const glm::dvec3 fromDiffuse =
+        glm::dvec3(diffuse) * (oneMinusS / (1.0 - kDielectricF0) / std::max(1.0 - m, kEpsilon));
+    const glm::dvec3 fromSpecular =
+        (glm::dvec3(specular) - glm::dvec3(kDielectricF0 * (1.0 - m))) / std::max(m, kEpsilon);
+    out.baseColor = Vec3(glm::clamp(glm::mix(fromDiffuse, fromSpecular, m * m), glm::dvec3(0.0), glm::dvec3(1.0)));
+    return out;
+}
+
+// KHR_materials_variants: the file's variant names, and the one options_.variant names.
+void GltfImporter::readVariants() {
+    const std::string el = "extensions.KHR_materials_variants";
+    if (const tinygltf::Value* ext = extension(model_.extensions, "KHR_materials_variants")) {
+        if (!ext->IsObject() || !ext->Has("variants") || !ext->Get("variants").IsArray())
+            fail(el, "must be an object with a variants array");
+        const tinygltf::Value& variants = ext->Get("variants");
+        for (size_t i = 0; i < variants.ArrayLen(); ++i) {
+            const tinygltf::Value& v = variants.Get(int(i));
+            if (!v.IsObject() || !v.Has("name") || !v.Get("name").IsString())
+                fail(el + ".variants[" + std::to_string(i) + "]", "must be an object with a name string");
+            variantNames_.push_back(v.Get("name").Get<std::string>());
+        }
+    }
+    if (options_.variant.empty()) return;
+    for (size_t i = 0; i < variantNames_.size(); ++i)
+        if (variantNames_[i] == options_.variant) variant_ = int(i);
+    if (variant_ >= 0) return;
+    if (variantNames_.empty())
+        fail(el, "no material variant named '" + printableText(options_.variant, 80) +
+                     "': the file defines no variants (KHR_materials_variants)");
+    std::string names;
+    for (const std::string& n : variantNames_) names += (names.empty() ? "'" : ", '") + printableText(n, 80) + "'";
+    fail(el, "no material variant named '" + printableText(options_.variant, 80) + "'; the file's variants: " + names);
+}
+
+// The glTF material a primitive uses: its KHR_materials_variants mapping for the chosen variant,
+// else its own `material` (the default variant); -1 for none. Every mapping is checked, chosen or not.
+int GltfImporter::primitiveMaterial(const tinygltf::Primitive& prim, const std::string& element) const {
+    int material = prim.material;
+    const tinygltf::Value* ext = extension(prim.extensions, "KHR_materials_variants");
+    if (!ext) return material;
+    const std::string el = element + ".extensions.KHR_materials_variants";
+    if (!ext->IsObject() || !ext->Has("mappings") || !ext->Get("mappings").IsArray())
+        fail(el, "must be an object with a mappings array");
+    const tinygltf::Value& mappings = ext->Get("mappings");
+    for (size_t j = 0; j < mappings.ArrayLen(); ++j) {
+        const tinygltf::Value& m = mappings.Get(int(j));
+        const std::string mEl = el + ".mappings[" + std::to_string(j) + "]";
+        if (!m.IsObject() || !m.Has("material") || !m.Get("material").IsNumber() || !m.Has("variants") ||
+            !m.Get("variants").IsArray())
+            fail(mEl, "must be an object with a material index and a variants array");
+        const int mat = m.Get("material").GetNumberAsInt();
+        if (mat < 0 || size_t(mat) >= model_.materials.size())
+            fail(mEl + ".material", "material index " + std::to_string(mat) + " out of range (" +
+                                        std::to_string(model_.materials.size()) + " materials)");
+        const tinygltf::Value& vs = m.Get("variants");
+        for (size_t k = 0; k < vs.ArrayLen(); ++k) {
+            const int v = vs.Get(int(k)).IsNumber() ? vs.Get(int(k)).GetNumberAsInt() : -1;
+            if (v < 0 || size_t(v) >= variantNames_.size())
+                fail(mEl + ".variants[" + std::to_string(k) + "]",
+                     "not a variant index (the file defines " + std::to_string(variantNames_.size()) + " variants)");
+            if (v == variant_) material = mat;
+        }
+    }
+    return material;
+}
+
 void GltfImporter::convertMaterials() {
+    size_t specularGlossinessMaterials = 0;
+    std::vector<std::string> specularGlossinessTextures;  // materials whose texture is dropped
     for (size_t mi = 0; mi < model_.materials.size(); ++mi) {
         const tinygltf::Material& gm = model_.materials[mi];
         const std::string el = "materials[" + std::to_string(mi) + "]";
@@ -533,6 +703,58 @@ void GltfImporter::convertMaterials() {
             base = Vec3(float(pbr.baseColorFactor[0]), float(pbr.baseColorFactor[1]),
                         float(pbr.baseColorFactor[2]));
         if (!finite3(base)) fail(el + ".pbrMetallicRoughness.baseColorFactor", "not finite");
+        // The metallic-roughness parameters the model below reads, from the file's
+        // pbrMetallicRoughness or converted from KHR_materials_pbrSpecularGlossiness.
+        double metallic = pbr.metallicFactor, roughness = pbr.roughnessFactor;
+        tinygltf::TextureInfo baseTexture = pbr.baseColorTexture;
+        std::string baseTextureEl = el + ".pbrMetallicRoughness.baseColorTexture";
+        if (const tinygltf::Value* sg = extension(gm.extensions, "KHR_materials_pbrSpecularGlossiness")) {
+            const std::string sgEl = el + ".extensions.KHR_materials_pbrSpecularGlossiness";
+            if (!sg->IsObject()) fail(sgEl, "must be an object");
+            // An array of `n` numbers in [0, 1] (a number when n = 1), `fallback` when absent.
+            auto factor = [&](const char* key, size_t n, std::vector<double> fallback) {
+                if (!sg->Has(key)) return fallback;
+                const tinygltf::Value& v = sg->Get(key);
+                auto number = [&](const tinygltf::Value& x, double& out) {
+                    if (!x.IsNumber()) return false;
+                    out = x.GetNumberAsDouble();
+                    return out >= 0.0 && out <= 1.0;
+                };
+                bool ok = n == 1 ? number(v, fallback[0]) : v.IsArray() && v.ArrayLen() == n;
+                for (size_t i = 0; n > 1 && ok && i < n; ++i) ok = number(v.Get(int(i)), fallback[i]);
+                if (!ok)
+                    fail(sgEl + "." + key, n == 1 ? "must be a number in [0, 1]"
+                                                  : "must be " + std::to_string(n) + " numbers in [0, 1]");
+                return fallback;
+            };
+            const std::vector<double> diffuse = factor("diffuseFactor", 4, {1, 1, 1, 1});
+            const std::vector<double> specular = factor("specularFactor", 3, {1, 1, 1});
+            const double glossiness = factor("glossinessFactor", 1, {1})[0];
+            const MetallicRoughness mr = fromSpecularGlossiness(
+                Vec3(float(diffuse[0]), float(diffuse[1]), float(diffuse[2])),
+                Vec3(float(specular[0]), float(specular[1]), float(specular[2])), glossiness);
+            base = mr.baseColor;
+            metallic = mr.metallic;
+            roughness = mr.roughness;
+            baseTexture = tinygltf::TextureInfo();
+            baseTextureEl = sgEl + ".diffuseTexture";
+            if (sg->Has("diffuseTexture")) {
+                const tinygltf::Value& t = sg->Get("diffuseTexture");
+                if (!t.IsObject() || !t.Has("index") || !t.Get("index").IsNumber())
+                    fail(baseTextureEl, "must be an object with a texture index");
+                baseTexture.index = t.Get("index").GetNumberAsInt();
+                if (t.Has("texCoord")) {
+                    if (!t.Get("texCoord").IsNumber() || t.Get("texCoord").GetNumberAsInt() < 0)
+                        fail(baseTextureEl + ".texCoord", "must be a non-negative integer");
+                    baseTexture.texCoord = t.Get("texCoord").GetNumberAsInt();
+                }
+                if (t.Has("extensions") && t.Get("extensions").IsObject() &&
+                    t.Get("extensions").Has("KHR_texture_transform"))
+                    baseTexture.extensions["KHR_texture_transform"] = t.Get("extensions").Get("KHR_texture_transform");
+            }
+            if (sg->Has("specularGlossinessTexture")) specularGlossinessTextures.push_back(el);
+            ++specularGlossinessMaterials;
+        }
         base = glm::clamp(base, Vec3(0.0f), Vec3(1.0f));
         m.baseColor = base;
 
@@ -547,11 +769,11 @@ void GltfImporter::convertMaterials() {
         int uvSet = -1;
         // Base-colour texture with its KHR_texture_transform, for the materials that use it.
         auto useBaseColorTexture = [&] {
-            if (pbr.baseColorTexture.index < 0) return;
-            const std::string texEl = el + ".pbrMetallicRoughness.baseColorTexture";
-            m.baseColorTexture = textureFor(pbr.baseColorTexture.index, texEl);
-            uvSet = pbr.baseColorTexture.texCoord;
-            if (const tinygltf::Value* tt = extension(pbr.baseColorTexture.extensions, "KHR_texture_transform"))
+            if (baseTexture.index < 0) return;
+            const std::string& texEl = baseTextureEl;
+            m.baseColorTexture = textureFor(baseTexture.index, texEl);
+            uvSet = baseTexture.texCoord;
+            if (const tinygltf::Value* tt = extension(baseTexture.extensions, "KHR_texture_transform"))
                 m.baseColorTransform = textureTransform(*tt, texEl + ".extensions.KHR_texture_transform", uvSet);
         };
         if (extension(gm.extensions, "KHR_materials_unlit")) {
@@ -566,8 +788,8 @@ void GltfImporter::convertMaterials() {
                 m.baseColor = Vec3(1.0f);  // clear glass: the tint is not modelled
             } else {
                 useBaseColorTexture();  // the Lambertian share's albedo
-                if (pbr.metallicFactor > 0.0)
-                    warn(el + ": metallicFactor " + std::to_string(pbr.metallicFactor) +
+                if (metallic > 0.0)
+                    warn(el + ": metallicFactor " + std::to_string(metallic) +
                          " ignored on a partly transmissive material (dielectric + Lambertian mix)");
             }
             if (transmission && transmission->Has("transmissionTexture"))
@@ -594,7 +816,7 @@ void GltfImporter::convertMaterials() {
                     }
                 }
             }
-        } else if (pbr.metallicFactor >= 0.99 && pbr.roughnessFactor <= 0.01) {
+        } else if (metallic >= 0.99 && roughness <= 0.01) {
             m.type = MaterialType::Mirror;
         } else {
             m.type = MaterialType::Diffuse;
@@ -637,6 +859,18 @@ void GltfImporter::convertMaterials() {
         if (!ignored.empty()) warn(el + ": ignored " + ignored);
         materialUvSet_.push_back(std::max(uvSet, 0));
         scene_.materials.push_back(std::move(m));
+    }
+    if (specularGlossinessMaterials > 0) {
+        std::string line = "KHR_materials_pbrSpecularGlossiness: " + std::to_string(specularGlossinessMaterials) +
+                           " material(s) converted to metallic-roughness (approximate: diffuse and specular "
+                           "colours folded into one base colour and a metallic factor, roughness = 1 - glossiness)";
+        if (!specularGlossinessTextures.empty()) {
+            line += "; specularGlossinessTexture ignored on ";
+            for (size_t i = 0; i < specularGlossinessTextures.size() && i < 8; ++i)
+                line += (i ? ", " : "") + specularGlossinessTextures[i];
+            if (specularGlossinessTextures.size() > 8) line += ", ...";
+        }
+        warn(line);
     }
 }
 
@@ -714,7 +948,7 @@ std::vector<uint32_t> GltfImporter::convertMesh(int meshIndex) {
         if (noData(prim.indices))
             fail(el + ".indices", "accessors[" + std::to_string(prim.indices) +
                                       "] has no bufferView (every triangle would be degenerate)");
-        std::vector<float> p = readFloats(posIt->second, el + ".attributes.POSITION", TINYGLTF_TYPE_VEC3);
+        std::vector<float> p = readFloats(posIt->second, el + ".attributes.POSITION", TINYGLTF_TYPE_VEC3, Attribute::Position);
         size_t nv = p.size() / 3;
         // Every other attribute has one element per vertex: compare counts before reading.
         for (const char* attribute : {"NORMAL", "TEXCOORD_0"}) {
@@ -754,7 +988,7 @@ std::vector<uint32_t> GltfImporter::convertMesh(int meshIndex) {
         auto nIt = prim.attributes.find("NORMAL");
         bool needNormals = true;
         if (nIt != prim.attributes.end()) {
-            std::vector<float> n = readFloats(nIt->second, el + ".attributes.NORMAL", TINYGLTF_TYPE_VEC3);
+            std::vector<float> n = readFloats(nIt->second, el + ".attributes.NORMAL", TINYGLTF_TYPE_VEC3, Attribute::Normal);
             if (n.size() != p.size())
                 fail(el + ".attributes.NORMAL", "count differs from POSITION count");
             mesh.normals.resize(nv);
@@ -773,8 +1007,9 @@ std::vector<uint32_t> GltfImporter::convertMesh(int meshIndex) {
         if (needNormals) mesh.normals = smoothVertexNormals(mesh.positions, mesh.indices);
 
         // One uv set per mesh: the one its material's textures name (TEXCOORD_0 by default).
-        const int uvSet = prim.material >= 0 && size_t(prim.material) < materialUvSet_.size()
-                              ? materialUvSet_[size_t(prim.material)]
+        const int material = primitiveMaterial(prim, el);
+        const int uvSet = material >= 0 && size_t(material) < materialUvSet_.size()
+                              ? materialUvSet_[size_t(material)]
                               : 0;
         const std::string uvName = "TEXCOORD_" + std::to_string(uvSet);
         auto uvIt = prim.attributes.find(uvName);
@@ -784,17 +1019,17 @@ std::vector<uint32_t> GltfImporter::convertMesh(int meshIndex) {
         }
         if (uvIt != prim.attributes.end()) {
             const std::string uvEl = el + ".attributes." + uvIt->first;
-            std::vector<float> uv = readFloats(uvIt->second, uvEl, TINYGLTF_TYPE_VEC2);
+            std::vector<float> uv = readFloats(uvIt->second, uvEl, TINYGLTF_TYPE_VEC2, Attribute::TexCoord);
             if (uv.size() / 2 != nv)
                 fail(uvEl, "count differs from POSITION count");
             mesh.uvs.resize(nv);
             for (size_t i = 0; i < nv; ++i) mesh.uvs[i] = Vec2(uv[2 * i], uv[2 * i + 1]);
         }
 
-        if (prim.material >= 0) {
-            if (size_t(prim.material) >= model_.materials.size())
-                fail(el + ".material", "material index " + std::to_string(prim.material) + " out of range");
-            mesh.material = uint32_t(prim.material);
+        if (material >= 0) {
+            if (size_t(material) >= model_.materials.size())
+                fail(el + ".material", "material index " + std::to_string(material) + " out of range");
+            mesh.material = uint32_t(material);
         } else {
             mesh.material = defaultMaterial();
         }
@@ -890,11 +1125,11 @@ void GltfImporter::addGpuInstances(const tinygltf::Value& ext, const std::string
     if (count * meshes.size() > kMaxInstances - std::min(kMaxInstances, scene_.instances.size()))
         fail(el, std::to_string(count) + " instances exceed the limit of " + std::to_string(kMaxInstances) +
                      " mesh instances per scene");
-    const std::vector<float> tr = tIndex >= 0 ? readFloats(tIndex, el + ".attributes.TRANSLATION", TINYGLTF_TYPE_VEC3)
+    const std::vector<float> tr = tIndex >= 0 ? readFloats(tIndex, el + ".attributes.TRANSLATION", TINYGLTF_TYPE_VEC3, Attribute::InstanceVector)
                                               : std::vector<float>();
     const std::vector<float> rot = rIndex >= 0 ? readInstanceRotations(rIndex, el + ".attributes.ROTATION")
                                                : std::vector<float>();
-    const std::vector<float> sc = sIndex >= 0 ? readFloats(sIndex, el + ".attributes.SCALE", TINYGLTF_TYPE_VEC3)
+    const std::vector<float> sc = sIndex >= 0 ? readFloats(sIndex, el + ".attributes.SCALE", TINYGLTF_TYPE_VEC3, Attribute::InstanceVector)
                                               : std::vector<float>();
     scene_.instances.reserve(scene_.instances.size() + count * meshes.size());
     for (size_t k = 0; k < count; ++k) {
@@ -1023,6 +1258,7 @@ void GltfImporter::visitNode(int nodeIndex, const Mat4& parent, int depth) {
 
 Scene GltfImporter::run() {
     checkExtensions();
+    readVariants();
     convertMaterials();
     onPath_.assign(model_.nodes.size(), 0);
     std::vector<int> roots;
@@ -1053,7 +1289,7 @@ namespace {
 
 // Parses `bytes` (the scene file, already charged to `files`) and imports it; every external
 // file goes through `files`.
-Scene loadGltfBytes(const std::vector<uint8_t>& bytes, SceneFiles& files) {
+Scene loadGltfBytes(const std::vector<uint8_t>& bytes, SceneFiles& files, const GltfOptions& options) {
     const std::string& fileName = files.sceneFile();
     if (bytes.empty()) throw SceneError(fileName, "file", "file is empty (0 bytes)");
     FsContext ctx;
@@ -1118,7 +1354,7 @@ Scene loadGltfBytes(const std::vector<uint8_t>& bytes, SceneFiles& files) {
             throw SceneError(fileName, "JSON", "not a glTF file (neither JSON nor GLB): " + err);
         throw SceneError(fileName, elementFromTinygltfError(err), err);
     }
-    GltfImporter importer(model, files);
+    GltfImporter importer(model, files, options);
     Scene scene = importer.run();
     if (!warn.empty())
         scene.warnings.insert(scene.warnings.begin(), fileName + ": " + printableText(trimmed(warn), 400));
@@ -1128,16 +1364,17 @@ Scene loadGltfBytes(const std::vector<uint8_t>& bytes, SceneFiles& files) {
 }  // namespace
 
 Scene loadGltfFromMemory(const std::vector<uint8_t>& bytes, const std::string& fileName,
-                         const std::string& baseDir, const SceneInputPolicy& policy) {
+                         const std::string& baseDir, const SceneInputPolicy& policy,
+                         const GltfOptions& options) {
     SceneFiles files(fileName, baseDir, policy);
     files.charge(bytes.size(), "file");
-    return loadGltfBytes(bytes, files);
+    return loadGltfBytes(bytes, files, options);
 }
 
-Scene loadGltf(const std::string& path, const SceneInputPolicy& policy) {
+Scene loadGltf(const std::string& path, const SceneInputPolicy& policy, const GltfOptions& options) {
     SceneFiles files(path, policy);
     const std::vector<uint8_t> bytes = files.read(path, "file");
-    return loadGltfBytes(bytes, files);
+    return loadGltfBytes(bytes, files, options);
 }
 
 }  // namespace rtpm

@@ -10,6 +10,14 @@
 
 namespace rtpm {
 
+/// Choices a glTF file leaves to the reader.
+struct GltfOptions {
+    /// KHR_materials_variants: the variant whose materials the primitives use; empty: each
+    /// primitive's own `material` (the default variant). A name the file does not define is an
+    /// error listing the names it does.
+    std::string variant;
+};
+
 /// Loads a glTF 2.0 file (`.gltf` JSON with embedded or external buffers, or `.glb`).
 /// Mapping (docs/ARCHITECTURE.md §9): every primitive of a glTF mesh becomes one rtpm Mesh; every
 /// node that uses the mesh adds one Instance per primitive with the node's world transform (matrix
@@ -25,7 +33,11 @@ namespace rtpm {
 /// KHR_texture_transform. emissiveFactor × KHR_materials_emissive_strength (× emissiveTexture) →
 /// emission. A mesh's uv set is the TEXCOORD_n its material's base-colour (else emissive) texture
 /// names. EXT_mesh_gpu_instancing: one Instance per (instance, primitive), node transform times
-/// the instance's TRS. Primitives other than TRIANGLES are skipped with a warning; missing
+/// the instance's TRS. KHR_mesh_quantization: integer POSITION/NORMAL/TEXCOORD_n of the types the
+/// extension allows, dequantized at load (other types are errors naming the attribute).
+/// KHR_materials_variants: `options.variant`'s mapping, else each primitive's own material.
+/// KHR_materials_pbrSpecularGlossiness: converted to metallic-roughness (see
+/// fromSpecularGlossiness in the source), one warning per file. Primitives other than TRIANGLES are skipped with a warning; missing
 /// normals are computed (area-weighted smooth). Unsupported required extensions are errors,
 /// unsupported used ones warnings (Scene::warnings); README lists every feature.
 /// Throws SceneError{file, element, message} for any malformed input (bad JSON or GLB framing,
@@ -39,12 +51,14 @@ namespace rtpm {
 /// they are allocated; transient peaks are a small multiple of it (tinygltf holds a data: URI
 /// as JSON text and decoded bytes at once).
 /// Thread-safe. Cost: O(file size + triangles).
-Scene loadGltf(const std::string& path, const SceneInputPolicy& policy = {});
+Scene loadGltf(const std::string& path, const SceneInputPolicy& policy = {},
+               const GltfOptions& options = {});
 
 /// Same as loadGltf for bytes already in memory. `fileName` names the source in errors;
 /// `baseDir` plays the scene folder's role for external buffer and image URIs (empty: every
 /// external URI is an error). Used by the fuzz target.
 Scene loadGltfFromMemory(const std::vector<uint8_t>& bytes, const std::string& fileName,
-                         const std::string& baseDir, const SceneInputPolicy& policy = {});
+                         const std::string& baseDir, const SceneInputPolicy& policy = {},
+                         const GltfOptions& options = {});
 
 }  // namespace rtpm

@@ -80,12 +80,19 @@ bool isBuiltinScene(const std::string& name) {
 Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides,
                 const SceneInputPolicy& input) {
     Scene scene;
+    const std::string ext = toLower(std::filesystem::path(nameOrPath).extension().string());
+    const bool gltf = !isBuiltinScene(nameOrPath) && (ext == ".gltf" || ext == ".glb");
+    if (!overrides.variant.empty() && !gltf)
+        throw SceneError(nameOrPath, "variant",
+                         "material variants (KHR_materials_variants) exist only in glTF files; this scene "
+                         "has none to choose from");
     if (isBuiltinScene(nameOrPath)) {
         scene = buildBuiltinScene(toUpper(nameOrPath));
     } else {
-        const std::string ext = toLower(std::filesystem::path(nameOrPath).extension().string());
-        if (ext == ".gltf" || ext == ".glb") {
-            scene = loadGltf(nameOrPath, input);
+        if (gltf) {
+            GltfOptions options;
+            options.variant = overrides.variant;
+            scene = loadGltf(nameOrPath, input, options);
         } else if (ext == ".obj") {
             scene = loadObj(nameOrPath, input);
         } else {

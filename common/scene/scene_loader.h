@@ -31,6 +31,9 @@ struct SceneOverrides {
     /// A scene with no light and no emissive material gets defaultLight() (with a warning);
     /// false makes such a scene an error instead (--no-default-light).
     bool defaultLight = true;
+    /// glTF KHR_materials_variants: the variant whose materials are used (GltfOptions::variant);
+    /// empty: the default materials. Set for a scene other than a glTF file, it is an error.
+    std::string variant;
 };
 
 /// The light a scene without lights gets: a spot light above the scene, aimed at the centre of

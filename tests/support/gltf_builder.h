@@ -76,6 +76,19 @@ public:
         accessors_.push_back(acc + "}");
         return int(accessors_.size() - 1);
     }
+    /// Integer accessor (KHR_mesh_quantization's forms) of `type` ("VEC2", "VEC3", …) over `values`,
+    /// stored as `componentType` (5120 BYTE, 5121 UNSIGNED_BYTE, 5122 SHORT, 5123 UNSIGNED_SHORT,
+    /// matching T), with the accessor's `normalized` flag; returns its index.
+    template <typename T>
+    int integers(const std::vector<T>& values, int componentType, const std::string& type, bool normalized) {
+        const int comps = type == "SCALAR" ? 1 : type == "VEC2" ? 2 : type == "VEC3" ? 3 : 4;
+        const int view = addView(values.data(), values.size() * sizeof(T));
+        accessors_.push_back(R"({"bufferView":)" + std::to_string(view) + R"(,"componentType":)" +
+                             std::to_string(componentType) + R"(,"normalized":)" + (normalized ? "true" : "false") +
+                             R"(,"count":)" + std::to_string(values.size() / size_t(comps)) + R"(,"type":")" +
+                             type + "\"}");
+        return int(accessors_.size() - 1);
+    }
     /// UNSIGNED_INT index accessor; returns its index.
     int indices(const std::vector<uint32_t>& values) {
         const int view = addView(values.data(), values.size() * sizeof(uint32_t));

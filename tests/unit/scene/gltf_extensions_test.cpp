@@ -1,0 +1,272 @@
+// Tests of the glTF extensions that change what a file's data means: KHR_mesh_quantization,
+// KHR_materials_variants, KHR_materials_pbrSpecularGlossiness, and the Draco refusal.
+#include "common/scene/gltf_loader.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include "common/scene/scene_loader.h"
+#include "tests/support/gltf_builder.h"
+
+namespace rtpm {
+namespace {
+
+using testgltf::GltfBuilder;
+
+Scene loadText(const std::string& json, const GltfOptions& options = {}) {
+    return loadGltfFromMemory(std::vector<uint8_t>(json.begin(), json.end()), "test.gltf", "", {}, options);
+}
+
+// The SceneError loading `json` raises (fails the test when it loads).
+SceneError loadError(const std::string& json, const GltfOptions& options = {}) {
+    try {
+        loadText(json, options);
+    } catch (const SceneError& e) {
+        return e;
+    }
+    ADD_FAILURE() << "loaded without error";
+    return SceneError("", "", "");
+}
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+std::string allWarnings(const Scene& s) {
+    std::string all;
+    for (const std::string& w : s.warnings) all += w + "\n";
+    return all;
+}
+
+// World-space corners of every triangle, in scene order.
+std::vector<Vec3> worldTriangles(const Scene& s) {
+    std::vector<Vec3> out;
+    for (const Instance& inst : s.instances)
+        for (uint32_t i : s.meshes[inst.mesh].indices)
+            out.push_back(Vec3(inst.transform * glm::vec4(s.meshes[inst.mesh].positions[i], 1.0f)));
+    return out;
+}
+
+// ---- KHR_mesh_quantization ------------------------------------------------------------------
+
+// A tetrahedron-ish fan of 4 vertices in [-1.5, 2.5]³ with unit normals and uvs 0/1.
+const std::vector<float> kPositions{-1.5f, 0.5f, 2.5f, 2.5f, -1.5f, 0.0f, 0.25f, 2.5f, -1.5f, 1.0f, 1.0f, 1.0f};
+const std::vector<float> kNormals{0.6f, 0.8f, 0.0f, 0.0f, -1.0f, 0.0f, 0.0f, 0.6f, -0.8f, 1.0f, 0.0f, 0.0f};
+const std::vector<float> kUvs{0, 0, 1, 0, 1, 1, 0, 1};
+const std::vector<uint32_t> kIndices{0, 1, 2, 0, 2, 3};
+
+std::string meshFile(GltfBuilder& b, int pos, int nrm, int uv, const std::string& node, const std::string& extensions) {
+    const int idx = b.indices(kIndices);
+    return b.json(extensions + R"("scene":0,"scenes":[{"nodes":[0]}],"nodes":[)" + node +
+                  R"(],"meshes":[{"primitives":[{"attributes":{"POSITION":)" + std::to_string(pos) +
+                  R"(,"NORMAL":)" + std::to_string(nrm) + R"(,"TEXCOORD_0":)" + std::to_string(uv) +
+                  R"(},"indices":)" + std::to_string(idx) + "}]}]");
+}
+
+TEST(GltfQuantization, QuantizedMeshLoadsTheSameTrianglesAsItsFloatVersion) {
+    GltfBuilder f;
+    const std::string floatFile = meshFile(f, f.floats(kPositions, "VEC3"), f.floats(kNormals, "VEC3"),
+                                           f.floats(kUvs, "VEC2"), R"({"mesh":0})", "");
+    // As gltfpack writes it: positions as normalized UNSIGNED_SHORT over the bounding cube, the
+    // node's translation and uniform scale mapping [0, 1] back onto it; normals as normalized
+    // SHORT, uvs as plain UNSIGNED_SHORT integers.
+    const float lo = -1.5f, extent = 4.0f;
+    std::vector<uint16_t> qp;
+    for (float p : kPositions) qp.push_back(uint16_t(std::lround((p - lo) / extent * 65535.0f)));
+    std::vector<int16_t> qn;
+    for (float n : kNormals) qn.push_back(int16_t(std::lround(n * 32767.0f)));
+    std::vector<uint16_t> qt;
+    for (float t : kUvs) qt.push_back(uint16_t(t));
+    GltfBuilder q;
+    const int pa = q.integers(qp, 5123, "VEC3", true), na = q.integers(qn, 5122, "VEC3", true),
+              ta = q.integers(qt, 5123, "VEC2", false);
+    const std::string node = R"({"mesh":0,"translation":[-1.5,-1.5,-1.5],"scale":[4,4,4]})";
+    const std::string quantizedFile = meshFile(
+        q, pa, na, ta, node, R"("extensionsUsed":["KHR_mesh_quantization"],"extensionsRequired":["KHR_mesh_quantization"],)");
+
+    const Scene fs = loadText(floatFile), qs = loadText(quantizedFile);
+    const std::vector<Vec3> ft = worldTriangles(fs), qt3 = worldTriangles(qs);
+    ASSERT_EQ(ft.size(), kIndices.size());
+    ASSERT_EQ(qt3.size(), ft.size());
+    // One quantization step is 4 m / 65535 = 6.1e-5 m; rounding is at most half of it.
+    for (size_t i = 0; i < ft.size(); ++i)
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(qt3[i][c], ft[i][c], 3.1e-5f) << "corner " << i;
+    ASSERT_EQ(qs.meshes.size(), 1u);
+    for (size_t v = 0; v < 4; ++v) {
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(qs.meshes[0].normals[v][c], fs.meshes[0].normals[v][c], 1e-4f);
+        EXPECT_EQ(qs.meshes[0].uvs[v], fs.meshes[0].uvs[v]);
+    }
+    EXPECT_FALSE(contains(allWarnings(qs), "KHR_mesh_quantization")) << allWarnings(qs);
+}
+
+TEST(GltfQuantization, TypeTheExtensionDoesNotAllowIsRefusedByName) {
+    // NORMAL as normalized UNSIGNED_BYTE: the extension allows only (normalized) BYTE and SHORT.
+    GltfBuilder b;
+    std::vector<uint8_t> qn;
+    for (float n : kNormals) qn.push_back(uint8_t(std::lround((n + 1.0f) * 127.5f)));
+    const int pa = b.floats(kPositions, "VEC3"), na = b.integers(qn, 5121, "VEC3", true), ta = b.floats(kUvs, "VEC2");
+    const SceneError e =
+        loadError(meshFile(b, pa, na, ta, R"({"mesh":0})", R"("extensionsUsed":["KHR_mesh_quantization"],)"));
+    EXPECT_EQ(e.file, "test.gltf");
+    EXPECT_EQ(e.element, "meshes[0].primitives[0].attributes.NORMAL");
+    EXPECT_TRUE(contains(e.what(), "normalized UNSIGNED_BYTE")) << e.what();
+    EXPECT_TRUE(contains(e.what(), "allowed: FLOAT, normalized BYTE, normalized SHORT")) << e.what();
+}
+
+TEST(GltfQuantization, IntegerPositionsWithoutTheExtensionNameIt) {
+    GltfBuilder b;
+    const std::vector<int16_t> qp{0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0};
+    const int pa = b.integers(qp, 5122, "VEC3", false), na = b.floats(kNormals, "VEC3"), ta = b.floats(kUvs, "VEC2");
+    const SceneError e = loadError(meshFile(b, pa, na, ta, R"({"mesh":0})", ""));
+    EXPECT_EQ(e.element, "meshes[0].primitives[0].attributes.POSITION");
+    EXPECT_TRUE(contains(e.what(), "is SHORT, which POSITION may not be")) << e.what();
+    EXPECT_TRUE(contains(e.what(), "KHR_mesh_quantization allows it")) << e.what();
+    // Listed, the same file loads: the integers themselves, in the node's frame.
+    GltfBuilder b2;
+    const int pa2 = b2.integers(qp, 5122, "VEC3", false), na2 = b2.floats(kNormals, "VEC3"), ta2 = b2.floats(kUvs, "VEC2");
+    const Scene s = loadText(meshFile(b2, pa2, na2, ta2, R"({"mesh":0})", R"("extensionsUsed":["KHR_mesh_quantization"],)"));
+    EXPECT_EQ(s.meshes[0].positions[3], Vec3(1, 1, 0));
+}
+
+// ---- Draco ------------------------------------------------------------------------------------
+
+TEST(GltfDraco, RefusalSaysDracoIsUnsupportedAndHowToExportWithoutIt) {
+    GltfBuilder b;
+    const std::string json = meshFile(b, b.floats(kPositions, "VEC3"), b.floats(kNormals, "VEC3"), b.floats(kUvs, "VEC2"),
+                                      R"({"mesh":0})",
+                                      R"("extensionsUsed":["KHR_draco_mesh_compression"],"extensionsRequired":["KHR_draco_mesh_compression"],)");
+    const SceneError e = loadError(json);
+    EXPECT_EQ(e.element, "extensionsRequired");
+    EXPECT_TRUE(contains(e.what(), "Draco-compressed")) << e.what();
+    EXPECT_TRUE(contains(e.what(), "not supported")) << e.what();
+    EXPECT_TRUE(contains(e.what(), "Blender")) << e.what();
+}
+
+// ---- KHR_materials_variants --------------------------------------------------------------------
+
+// One quad whose default material is "red"; variants Red, Green, Blue map to materials 0, 1, 2.
+std::string variantsFile() {
+    GltfBuilder b;
+    const float centre[3] = {0, 0, 0}, u[3] = {1, 0, 0}, v[3] = {0, 1, 0};
+    const std::string prim = b.quadPrimitive(centre, u, v);
+    return b.json(R"("extensionsUsed":["KHR_materials_variants"],
+"extensions":{"KHR_materials_variants":{"variants":[{"name":"Red"},{"name":"Green"},{"name":"Blue"}]}},
+"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+"materials":[{"name":"red","pbrMetallicRoughness":{"baseColorFactor":[1,0,0,1],"metallicFactor":0}},
+{"name":"green","pbrMetallicRoughness":{"baseColorFactor":[0,1,0,1],"metallicFactor":0}},
+{"name":"blue","pbrMetallicRoughness":{"baseColorFactor":[0,0,1,1],"metallicFactor":0}}],
+"meshes":[{"primitives":[)" +
+                  prim + R"(,"material":0,"extensions":{"KHR_materials_variants":{"mappings":[
+{"material":1,"variants":[1]},{"material":2,"variants":[2]},{"material":0,"variants":[0]}]}}}]}])");
+}
+
+std::string meshMaterialName(const Scene& s) { return s.materials[s.meshes.at(0).material].name; }
+
+TEST(GltfVariants, DefaultVariantUsesThePrimitivesOwnMaterial) {
+    const Scene s = loadText(variantsFile());
+    EXPECT_EQ(meshMaterialName(s), "red");
+    EXPECT_FALSE(contains(allWarnings(s), "KHR_materials_variants")) << allWarnings(s);
+}
+
+TEST(GltfVariants, NamedVariantSelectsItsMaterials) {
+    GltfOptions options;
+    options.variant = "Blue";
+    EXPECT_EQ(meshMaterialName(loadText(variantsFile(), options)), "blue");
+    options.variant = "Green";
+    EXPECT_EQ(meshMaterialName(loadText(variantsFile(), options)), "green");
+    options.variant = "Red";
+    EXPECT_EQ(meshMaterialName(loadText(variantsFile(), options)), "red");
+}
+
+TEST(GltfVariants, UnknownVariantIsRefusedListingTheFilesVariants) {
+    GltfOptions options;
+    options.variant = "Purple";
+    const SceneError e = loadError(variantsFile(), options);
+    EXPECT_EQ(e.element, "extensions.KHR_materials_variants");
+    EXPECT_TRUE(contains(e.what(), "'Purple'")) << e.what();
+    EXPECT_TRUE(contains(e.what(), "'Red', 'Green', 'Blue'")) << e.what();
+}
+
+TEST(GltfVariants, MappingToAMissingMaterialNamesTheMapping) {
+    std::string json = variantsFile();
+    json.replace(json.find(R"({"material":2,)"), 14, R"({"material":9,)");
+    const SceneError e = loadError(json);
+    EXPECT_EQ(e.element, "meshes[0].primitives[0].extensions.KHR_materials_variants.mappings[1].material");
+}
+
+TEST(GltfVariants, LoadSceneAppliesTheVariantAndRefusesItOnOtherScenes) {
+    const std::filesystem::path path =
+        std::filesystem::temp_directory_path() / ("rtpm_variants_" + std::to_string(::getpid()) + ".gltf");
+    std::ofstream(path) << variantsFile();
+    SceneOverrides overrides;
+    overrides.variant = "Green";
+    EXPECT_EQ(meshMaterialName(loadScene(path.string(), overrides)), "green");
+    overrides.variant = "Nope";
+    EXPECT_THROW(loadScene(path.string(), overrides), SceneError);
+    std::filesystem::remove(path);
+    overrides.variant = "Green";
+    try {
+        loadScene("RING", overrides);
+        ADD_FAILURE() << "a built-in scene took a variant";
+    } catch (const SceneError& e) {
+        EXPECT_EQ(e.element, "variant");
+    }
+}
+
+// ---- KHR_materials_pbrSpecularGlossiness ------------------------------------------------------
+
+TEST(GltfSpecularGlossiness, MaterialsAreConvertedToMetallicRoughnessWithOneWarning) {
+    GltfBuilder b;
+    const float centre[3] = {0, 0, 0}, u[3] = {1, 0, 0}, v[3] = {0, 1, 0};
+    const std::string prim = b.quadPrimitive(centre, u, v);
+    const std::string json = b.json(R"("extensionsUsed":["KHR_materials_pbrSpecularGlossiness"],
+"scene":0,"scenes":[{"nodes":[0,1,2]}],"nodes":[{"mesh":0},{"mesh":1},{"mesh":2}],
+"materials":[
+{"name":"plastic","extensions":{"KHR_materials_pbrSpecularGlossiness":{"diffuseFactor":[0.5,0.5,0.5,1],"specularFactor":[0.04,0.04,0.04],"glossinessFactor":0.5}}},
+{"name":"gold","extensions":{"KHR_materials_pbrSpecularGlossiness":{"diffuseFactor":[0,0,0,1],"specularFactor":[1,0.766,0.336],"glossinessFactor":1}}},
+{"name":"lacquer","extensions":{"KHR_materials_pbrSpecularGlossiness":{"diffuseFactor":[0.8,0.2,0.2,1],"specularFactor":[0.2,0.2,0.2],"glossinessFactor":0.3}}}],
+"meshes":[{"primitives":[)" + prim + R"(,"material":0}]},{"primitives":[)" + prim +
+                                    R"(,"material":1}]},{"primitives":[)" + prim + R"(,"material":2}]}])");
+    const Scene s = loadText(json);
+    ASSERT_EQ(s.materials.size(), 3u);
+    // A dielectric's specular (0.04) gives metallic 0: the base colour is the diffuse colour.
+    EXPECT_EQ(s.materials[0].type, MaterialType::Diffuse);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(s.materials[0].baseColor[c], 0.5f, 1e-6f);
+    // Black diffuse, coloured specular, glossiness 1: metallic 1, roughness 0, a mirror of the
+    // specular colour.
+    EXPECT_EQ(s.materials[1].type, MaterialType::Mirror);
+    EXPECT_NEAR(s.materials[1].baseColor.x, 1.0f, 1e-5f);
+    EXPECT_NEAR(s.materials[1].baseColor.y, 0.766f, 1e-5f);
+    EXPECT_NEAR(s.materials[1].baseColor.z, 0.336f, 1e-5f);
+    // Worked by hand: brightnesses D = 0.46840, S = 0.2, metallic 0.30617 (a diffuse surface
+    // here, roughness 0.7), base colour (0.92352, 0.27043, 0.27043).
+    EXPECT_EQ(s.materials[2].type, MaterialType::Diffuse);
+    EXPECT_NEAR(s.materials[2].baseColor.x, 0.92352f, 1e-4f);
+    EXPECT_NEAR(s.materials[2].baseColor.y, 0.27043f, 1e-4f);
+    EXPECT_NEAR(s.materials[2].baseColor.z, 0.27043f, 1e-4f);
+    size_t lines = 0;
+    for (const std::string& w : s.warnings)
+        if (contains(w, "KHR_materials_pbrSpecularGlossiness")) {
+            ++lines;
+            EXPECT_TRUE(contains(w, "3 material(s) converted")) << w;
+        }
+    EXPECT_EQ(lines, 1u) << allWarnings(s);
+}
+
+TEST(GltfSpecularGlossiness, OutOfRangeFactorIsRefusedByName) {
+    GltfBuilder b;
+    const float centre[3] = {0, 0, 0}, u[3] = {1, 0, 0}, v[3] = {0, 1, 0};
+    const std::string prim = b.quadPrimitive(centre, u, v);
+    const SceneError e = loadError(b.json(R"("scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+"materials":[{"extensions":{"KHR_materials_pbrSpecularGlossiness":{"specularFactor":[2,0,0]}}}],
+"meshes":[{"primitives":[)" + prim + R"(,"material":0}]}])"));
+    EXPECT_EQ(e.element, "materials[0].extensions.KHR_materials_pbrSpecularGlossiness.specularFactor");
+}
+
+}  // namespace
+}  // namespace rtpm
