@@ -133,5 +133,25 @@ TEST(FlatMirrorProgressive, ErrorDoesNotDependOnHowPhotonsAreSplitIntoPasses) {
         EXPECT_LE(errors[i], 1.15 * best) << splits[i].second << " passes of " << splits[i].first << " paths";
 }
 
+// At the defaults (M = 3, SPT, the box filter and own weights; the scene's own L S D paths) the
+// progressive estimate is no worse than knn's from the same photons at any of 24 frames.
+TEST(FlatMirrorProgressive, AtTheDefaultsNoWorseThanKnnAtAnyFrame) {
+    const FlatMirror fm;
+    const CausticReference ref = fm.reference(kWidth, kHeight);
+    RenderSettings rs;
+    rs.width = kWidth;
+    rs.height = kHeight;
+    rs.photons.maxDepth = 2;
+    rs.photons.diffuseBounces = 0;
+    const Convergence progressive = renderConvergence(fm.scene(), rs, ref, 24);
+    rs.photons.estimator = CausticEstimatorKind::Knn;
+    const Convergence knn = renderConvergence(fm.scene(), rs, ref, 24);
+    for (size_t f = 0; f < progressive.relMae.size(); ++f) {
+        std::printf("flat mirror, defaults, frame %2zu: rel. MAE %.4f (knn %.4f), energy %.4f (knn %.4f)\n", f + 1,
+                    progressive.relMae[f], knn.relMae[f], progressive.energy[f], knn.energy[f]);
+        EXPECT_LE(progressive.relMae[f], knn.relMae[f]) << "frame " << f + 1;
+    }
+}
+
 }  // namespace
 }  // namespace rtpm
