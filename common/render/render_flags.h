@@ -23,7 +23,7 @@ inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string&
         ->capture_default_str();
     app.add_flag("--no-default-light", noDefaultLight,
                  "refuse a scene with no light and no emissive material instead of adding the "
-                 "default spot light above it (see README)");
+                 "default lights (a caustic spot light behind it, a key light on the camera's side; see README)");
     app.add_option("--width", rs.width, "image width in pixels")->capture_default_str();
     app.add_option("--height", rs.height, "image height in pixels")->capture_default_str();
     app.add_option("--photons,-P", rs.photons.photonsPerBatch, "P: photon paths traced per set per frame")

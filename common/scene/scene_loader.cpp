@@ -70,6 +70,29 @@ Light defaultLight(const Bounds& b, const Camera& camera) {
     return l;
 }
 
+Light keyLight(const Bounds& b, const Camera& camera) {
+    const Vec3 centre = b.empty() ? Vec3(0.0f) : b.centre();
+    const float radius = std::max(0.5f * (b.empty() ? 1.0f : b.diagonal()), 1e-3f);
+    const float distance = 3.0f * radius;
+    // From the centre towards the camera, turned 30° to the camera's right and 30° up: the classic
+    // key position, lighting the faces the camera sees with a shading gradient across them.
+    const Vec3 back = -camera.forward;
+    const Vec3 right = glm::normalize(glm::cross(camera.forward, camera.up));
+    const float turn = 30.0f * kPi / 180.0f;
+    const Vec3 toLight = glm::normalize(std::cos(turn) * (std::cos(turn) * back + std::sin(turn) * right) +
+                                        std::sin(turn) * camera.up);
+    Light l;
+    l.name = "default key light";
+    l.type = LightType::Spot;
+    l.position = centre + distance * toLight;
+    l.direction = glm::normalize(centre - l.position);
+    const float halfAngle = std::asin(radius / distance);
+    l.innerConeAngle = halfAngle + 2.0f * kPi / 180.0f;
+    l.outerConeAngle = l.innerConeAngle + 4.0f * kPi / 180.0f;
+    l.intensity = Vec3(0.5f * kPi * distance * distance);
+    return l;
+}
+
 std::vector<std::string> builtinSceneNames() { return {"RING", "GLASS", "EGG", "HEADLIGHT", "CORNELL"}; }
 
 bool isBuiltinScene(const std::string& name) {
@@ -122,16 +145,20 @@ Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides,
         if (!overrides.defaultLight)
             throw SceneError(nameOrPath, "lights",
                              "scene has no light and no emissive material; give one (e.g. --light "
-                             "x y z) or drop --no-default-light to get the default spot light");
+                             "x y z) or drop --no-default-light to get the default lights");
         // The framing camera first: it must frame the geometry, not the light above it.
         if (!scene.camera) scene.camera = defaultCamera(scene.bounds());
-        const Light light = defaultLight(scene.bounds(), *scene.camera);
+        const Bounds bounds = scene.bounds();
+        const Light light = defaultLight(bounds, *scene.camera), key = keyLight(bounds, *scene.camera);
         scene.lights.push_back(light);
+        scene.lights.push_back(key);
+        auto at = [](Vec3 p) {
+            return std::to_string(p.x) + ", " + std::to_string(p.y) + ", " + std::to_string(p.z);
+        };
         scene.warnings.push_back(
-            nameOrPath + ": no light and no emissive material; added the default spot light (at " +
-            std::to_string(light.position.x) + ", " + std::to_string(light.position.y) + ", " +
-            std::to_string(light.position.z) +
-            ", aimed at the scene's centre; see README). --no-default-light refuses such scenes");
+            nameOrPath + ": no light and no emissive material; added the default spot light (at " + at(light.position) +
+            ", behind the scene, for caustics) and a key light from the camera's side (at " + at(key.position) +
+            "), both aimed at the scene's centre; see README. --no-default-light refuses such scenes");
     }
     if (!scene.camera) scene.camera = defaultCamera(scene.bounds());
     scene.validate(nameOrPath);

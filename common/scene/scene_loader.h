@@ -28,7 +28,7 @@ struct PointLightOverride {
 struct SceneOverrides {
     std::optional<CameraOverride> camera;     ///< replaces the scene's camera when set
     std::optional<PointLightOverride> light;  ///< appended to Scene::lights when set
-    /// A scene with no light and no emissive material gets defaultLight() (with a warning);
+    /// A scene with no light and no emissive material gets defaultLight() and keyLight() (with a warning);
     /// false makes such a scene an error instead (--no-default-light).
     bool defaultLight = true;
     /// glTF KHR_materials_variants: the variant whose materials are used (GltfOptions::variant);
@@ -44,6 +44,16 @@ struct SceneOverrides {
 /// white Lambertian surface there facing the light has radiance 1 W/(m²·sr). Pure, O(1).
 Light defaultLight(const Bounds& bounds, const Camera& camera);
 
+/// The second light a scene without lights gets: a key light on the camera's side, so that what
+/// the camera sees is lit (defaultLight stands behind the scene and lights only the faces turned
+/// away from the viewer and upwards). A spot light 3 bounding-sphere radii r from the centre of
+/// `bounds`, in the direction of the camera turned 30° to its right and 30° up (in the camera's
+/// frame), aimed at the centre; its cone covers the bounding sphere as defaultLight's does, and its
+/// intensity π·(3r)²/2 W/sr gives half defaultLight's irradiance at the centre (π/2 W/m²), so the
+/// caustic light stays the stronger. The light is 41° off the view axis, so every surface whose
+/// normal is within 48° of the direction to the camera faces it. Pure, O(1).
+Light keyLight(const Bounds& bounds, const Camera& camera);
+
 /// Names accepted by loadScene as built-in scenes, upper case: RING, GLASS, EGG, HEADLIGHT, CORNELL.
 std::vector<std::string> builtinSceneNames();
 /// True when `name` is a built-in scene name (case-insensitive).
@@ -55,7 +65,7 @@ bool isBuiltinScene(const std::string& name);
 /// Overrides are applied after loading. A scene without a camera gets a default one looking at
 /// the centre of its bounds from the +Z side (so every returned scene has a camera).
 /// A scene with no light and no emissive material (after `overrides.light`) gets defaultLight()
-/// and a warning naming the file, or, with `overrides.defaultLight` false, is an error
+/// and keyLight() (in that order) and a warning naming the file, or, with `overrides.defaultLight` false, is an error
 /// (SceneError naming the file). Warnings (unsupported features) are in Scene::warnings.
 /// Throws SceneError{file, element, message} on any bad input; never crashes on malformed files.
 /// Files are read through SceneFiles under `input`: the files a scene names must lie in its

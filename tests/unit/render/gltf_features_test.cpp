@@ -176,7 +176,7 @@ TEST(GltfFeatures, SceneWithoutLightsGetsTheDefaultSpotAndShowsCaustics) {
     }
 
     Scene s = loadScene(path);
-    ASSERT_EQ(s.lights.size(), 1u);
+    ASSERT_EQ(s.lights.size(), 2u);  // the caustic spot, then the key light
     EXPECT_NE(allWarnings(s).find(path), std::string::npos) << allWarnings(s);
     EXPECT_NE(allWarnings(s).find("default"), std::string::npos) << allWarnings(s);
     const Light& l = s.lights[0];
@@ -192,6 +192,12 @@ TEST(GltfFeatures, SceneWithoutLightsGetsTheDefaultSpotAndShowsCaustics) {
     EXPECT_LT(l.position.z, bounds.centre().z) << "the framing camera is on +Z: the light stands behind";
     // Its cone covers the bounding sphere at full intensity.
     EXPECT_GE(l.innerConeAngle, std::asin(0.5f * bounds.diagonal() / glm::length(bounds.centre() - l.position)));
+    // The key light stands on the camera's side, aimed at the centre, half as strong.
+    const Light& key = s.lights[1];
+    EXPECT_EQ(key.type, LightType::Spot);
+    EXPECT_GT(key.position.z, bounds.centre().z);
+    EXPECT_GT(glm::dot(glm::normalize(bounds.centre() - key.position), key.direction), 0.9999f);
+    EXPECT_NEAR(key.intensity.x, 0.5f * l.intensity.x, 1e-3f * l.intensity.x);
 
     // The picture: lit floor, and a caustic under the glass.
     // Under the box the caustic replaces the direct light glass blocks: ≈ 0.92 of it.
@@ -214,6 +220,66 @@ TEST(GltfFeatures, DefaultLightFollowsTheSceneCamera) {
     // Irradiance π W/m² at the centre, full intensity there.
     EXPECT_NEAR(l.intensity.x / glm::dot(l.position, l.position), kPi, 1e-4f);
     EXPECT_NEAR(spotFalloff(l, 1.0f), 1.0f, 0.0f);
+}
+
+// A Khronos-Box-like file: a white unit cube at the origin, no camera, no light.
+std::string lightlessBox(GltfBuilder& b) {
+    const float faces[6][9] = {{0, 0.5f, 0, 0.5f, 0, 0, 0, 0, -0.5f},  {0, -0.5f, 0, 0.5f, 0, 0, 0, 0, 0.5f},
+                               {0, 0, 0.5f, 0.5f, 0, 0, 0, 0.5f, 0},   {0, 0, -0.5f, -0.5f, 0, 0, 0, 0.5f, 0},
+                               {0.5f, 0, 0, 0, 0, -0.5f, 0, 0.5f, 0},  {-0.5f, 0, 0, 0, 0, 0.5f, 0, 0.5f, 0}};
+    std::string box;
+    for (int f = 0; f < 6; ++f)
+        box += std::string(f ? "," : "") + b.quadPrimitive(faces[f], faces[f] + 3, faces[f] + 6) + R"(,"material":0})";
+    return R"("scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],"meshes":[{"primitives":[)" + box +
+           R"(]}],"materials":[{"pbrMetallicRoughness":{"baseColorFactor":[0.8,0.8,0.8,1],"metallicFactor":0}}])";
+}
+
+TEST(GltfFeatures, DefaultLightsLightTheBoxFacesTheFramingCameraSees) {
+    ScratchDir dir;
+    GltfBuilder b;
+    Scene s = loadScene(dir.write("box.gltf", b.json(lightlessBox(b))));
+    ASSERT_TRUE(s.camera);
+    const Camera cam = *s.camera;
+    const int w = 64, h = 48;
+    const Picture p = render(std::move(s), w, h, 1, 2000);
+    // Which face each pixel sees (a ray–box slab test, independent of the renderer), and the
+    // mean direct radiance over each face's pixels.
+    double sum[6] = {}, count[6] = {};
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            const Vec3 d = cam.rayDirection(i, j, w, h), o = cam.position;
+            float tNear = -1e30f, tFar = 1e30f;
+            int face = -1;
+            for (int a = 0; a < 3; ++a) {
+                const float t0 = (-0.5f - o[a]) / d[a], t1 = (0.5f - o[a]) / d[a];
+                const float lo = std::min(t0, t1), hi = std::max(t0, t1);
+                if (lo > tNear) {
+                    tNear = lo;
+                    face = 2 * a + (d[a] < 0.0f ? 0 : 1);  // 0 +X, 1 −X, 2 +Y, 3 −Y, 4 +Z, 5 −Z
+                }
+                tFar = std::min(tFar, hi);
+            }
+            if (tNear > tFar || tNear <= 0.0f) continue;
+            // Pixels on an edge may belong to either face: keep those clearly inside one.
+            const Vec3 hit = o + tNear * d;
+            int inside = 0;
+            for (int a = 0; a < 3; ++a) inside += std::abs(hit[a]) < 0.45f;
+            if (inside < 2) continue;
+            const Vec3 c = p.at(p.direct, i, j);
+            sum[face] += (c.x + c.y + c.z) / 3.0;
+            count[face] += 1.0;
+        }
+    const char* names[6] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
+    int seen = 0;
+    for (int f = 0; f < 6; ++f) {
+        if (count[f] < 20.0) continue;
+        ++seen;
+        // The front (+Z) face sees only the key light, 58° off its normal: radiance ≈ albedo 0.8 ×
+        // irradiance (π/2) cos 58° / π ≈ 0.21; the top sees both lights. An unlit face shows 0 (the
+        // direct image holds no indirect light): with the caustic spot alone the front was black.
+        EXPECT_GT(sum[f] / count[f], 0.1) << names[f] << " face, seen by the camera, is unlit";
+    }
+    EXPECT_GE(seen, 2) << "the framing camera sees the top and the front: the test would prove little";
 }
 
 // ---- 2. EXT_mesh_gpu_instancing -------------------------------------------------------------
@@ -512,7 +578,7 @@ TEST(GltfFeatures, PartialTransmissionHonoursVolumeAbsorption) {
     auto floorPower = [&](Scene& s) {
         EmbreeScene es(s);
         const std::vector<Emitter> em = buildEmitters(es);
-        EXPECT_EQ(em.size(), 1u);  // the default spot light
+        EXPECT_EQ(em.size(), 2u);  // the default spot light and the key light
         return tracedPower(es, em[0], 100000);
     };
     const Vec3 a = floorPower(clear), b = floorPower(tinted);
@@ -650,7 +716,7 @@ TEST(GltfFeatures, TypicalBlenderExportRendersWithVisibleCaustics) {
     json.replace(json.find(R"(,"KHR_lights_punctual")"), std::string(R"(,"KHR_lights_punctual")").size(), "");
     const std::string path = dir.write("blender.glb.gltf", b.json(json));
     Scene s = loadScene(path);
-    EXPECT_EQ(s.lights.size(), 1u);
+    EXPECT_EQ(s.lights.size(), 2u);
     EXPECT_EQ(s.instances.size(), 37u);
     const Picture p = render(std::move(s), 64, 48, 2, 20000);
     EXPECT_GT(maxOf(p.caustic), 0.2f * maxOf(p.direct)) << "no visible caustic";

@@ -75,10 +75,11 @@ TEST(ObjLoader, SceneWithoutLightGetsTheDefaultLightOrAnOverride) {
         EXPECT_EQ(e.file, path);
         EXPECT_EQ(e.element, "lights");
     }
-    // By default: the default spot light, and a warning naming the file.
+    // By default: the default spot light and the key light, and a warning naming the file.
     Scene d = loadScene(path);
-    ASSERT_EQ(d.lights.size(), 1u);
+    ASSERT_EQ(d.lights.size(), 2u);
     EXPECT_EQ(d.lights[0].type, LightType::Spot);
+    EXPECT_EQ(d.lights[1].type, LightType::Spot);
     ASSERT_FALSE(d.warnings.empty());
     EXPECT_NE(d.warnings.back().find(path), std::string::npos) << d.warnings.back();
     SceneOverrides o;
