@@ -36,6 +36,22 @@ std::string triangle(const std::string& count, bool bufferView) {
 "buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]})";
 }
 
+// A one-triangle glTF using KHR_mesh_quantization (normalized SHORT positions),
+// KHR_materials_variants (a mapping per variant) and KHR_materials_pbrSpecularGlossiness.
+const char* kExtensionsTriangle = R"({"asset":{"version":"2.0"},
+"extensionsUsed":["KHR_mesh_quantization","KHR_materials_variants","KHR_materials_pbrSpecularGlossiness"],
+"extensionsRequired":["KHR_mesh_quantization"],
+"extensions":{"KHR_materials_variants":{"variants":[{"name":"a"},{"name":"b"}]}},
+"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0,"scale":[2,2,2],"translation":[0,1,0]}],
+"materials":[{"emissiveFactor":[1,1,1]},
+{"emissiveFactor":[1,0,0],"extensions":{"KHR_materials_pbrSpecularGlossiness":{"diffuseFactor":[0.8,0.2,0.2,1],
+"specularFactor":[0.2,0.2,0.2],"glossinessFactor":0.3}}}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0},"material":0,
+"extensions":{"KHR_materials_variants":{"mappings":[{"material":1,"variants":[1]},{"material":0,"variants":[0]}]}}}]}],
+"accessors":[{"bufferView":0,"componentType":5122,"normalized":true,"count":3,"type":"VEC3"}],
+"bufferViews":[{"buffer":0,"byteLength":18}],
+"buffers":[{"byteLength":20,"uri":"data:application/octet-stream;base64,AAAAAAAA/38AAAAAAAD/fwAAAAA="}]})";
+
 std::vector<std::vector<uint8_t>> seeds() {
     const std::string data = RTPM_TEST_DATA_DIR;
     std::vector<std::vector<uint8_t>> out = {
@@ -49,6 +65,7 @@ std::vector<std::vector<uint8_t>> seeds() {
         bytesOf(triangle("3", true).replace(triangle("3", true).find("data:"), 5, "../../etc/passwd#")),
         bytesOf("mtllib ../../etc/passwd\nmtllib /dev/zero\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
         bytesOf("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1\nf -1 -2 -3\n"),
+        bytesOf(kExtensionsTriangle),
     };
     for (const auto& s : out) EXPECT_FALSE(s.empty());
     return out;
