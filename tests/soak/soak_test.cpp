@@ -15,8 +15,10 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <deque>
 #include <filesystem>
+#include <stdexcept>
 #include <thread>
 
 #include "client/worker.h"
@@ -33,10 +35,16 @@ using namespace std::chrono_literals;
 
 const std::string kToken = "3e8a1f5c90d27b64e1c8a3f05d9b27e6";  // `openssl rand -hex 16`
 
+/// RTPM_SOAK_SECONDS, or 150 when unset. A value that is not a whole number of seconds in
+/// [30, 3600] fails the test by name rather than running some other length.
 int soakSeconds() {
     const char* env = std::getenv("RTPM_SOAK_SECONDS");
-    const int s = env ? std::atoi(env) : 150;
-    return std::clamp(s, 30, 3600);
+    if (!env) return 150;
+    char* end = nullptr;
+    const long s = std::strtol(env, &end, 10);
+    if (end == env || *end != '\0' || s < 30 || s > 3600)
+        throw std::invalid_argument(std::string("RTPM_SOAK_SECONDS=") + env + ": need whole seconds in [30, 3600]");
+    return int(s);
 }
 
 /// Resident set size of `pid` in KiB (VmRSS), 0 if unreadable.
