@@ -12,7 +12,6 @@ namespace rtpm::proto {
 namespace {
 
 // Settings limits that only the decoder uses (PROTOCOL.md §5.5).
-constexpr uint32_t kMaxPhotonsPerSetPerFrame = 1u << 26;
 constexpr uint32_t kMaxCapPhotonsPerSet = 1u << 30;
 constexpr uint32_t kMaxCores = 1u << 16;
 
@@ -338,7 +337,7 @@ void get(Reader& r, Settings& m) {
     getBool(r, m.gatherVisibility, "settings.gatherVisibility");
     getEnum8(r, m.estimator, kMaxCausticEstimator, "settings.estimator");
     r.f32Finite(m.progressiveGamma, "settings.progressiveGamma");
-    if (r.ok() && !(m.progressiveGamma > 0.0f && m.progressiveGamma <= 16.0f))
+    if (r.ok() && !(m.progressiveGamma > 0.0f && m.progressiveGamma <= kMaxProgressiveGamma))
         r.fail(ErrorCode::BadValue, "settings.progressiveGamma not in (0, 16]");
     inRange(r, m.photonMaxDepth, 0, kMaxDepthLimit, "settings.photonMaxDepth");
     inRange(r, m.areaLightSamples, 1, kMaxAreaLightSamples, "settings.areaLightSamples");
@@ -346,7 +345,7 @@ void get(Reader& r, Settings& m) {
     inRange(r, m.height, 1, kMaxImageSide, "settings.height");
     inRange(r, m.m, 1, kMaxInterleave, "settings.m");
     inRange(r, m.f, 1, kMaxFilterWidth, "settings.f");
-    inRange(r, m.photonsPerBatch, 0, kMaxPhotonsPerSetPerFrame, "settings.photonsPerBatch");
+    inRange(r, m.photonsPerBatch, 0, kMaxPhotonsPerBatch, "settings.photonsPerBatch");
     inRange(r, m.k, 1, kMaxK, "settings.k");
     inRange(r, m.maxDepth, 0, kMaxDepthLimit, "settings.maxDepth");
     inRange(r, m.diffuseBounces, 0, kMaxDiffuseBounces, "settings.diffuseBounces");

@@ -15,17 +15,20 @@
 
 namespace rtpm::proto {
 
-// Field limits (PROTOCOL.md §4). Decoders reject anything above them.
+// Field limits (PROTOCOL.md §4). Decoders reject anything above them. Those of live knobs equal
+// their rows in common/core/knobs.h (static_assert in proto/bridge/bridge.cpp).
 inline constexpr size_t kMaxTokenBytes = 256;        ///< the shared secret (never on the wire; proto/auth.h)
 inline constexpr size_t kNonceBytes = 32;            ///< Challenge.nonce
 inline constexpr size_t kMacBytes = 32;              ///< Auth.mac (HMAC-SHA256)
 inline constexpr size_t kMaxNameBytes = 256;         ///< Hello.clientName, Scene.builtinName
 inline constexpr size_t kMaxTextBytes = 1024;        ///< Reject.text, Bye.text
-inline constexpr uint32_t kMaxInterleave = 64;       ///< Settings.m: at most 64×64 sets
+inline constexpr uint32_t kMaxInterleave = 16;       ///< Settings.m: at most 16×16 sets
 inline constexpr uint32_t kMaxSets = kMaxInterleave * kMaxInterleave;  ///< set ids are < this
 inline constexpr uint32_t kMaxImageSide = 16384;     ///< Settings.width/height
 inline constexpr uint32_t kMaxFilterWidth = 64;      ///< Settings.f
 inline constexpr uint32_t kMaxK = 4096;              ///< Settings.k
+inline constexpr uint32_t kMaxPhotonsPerBatch = 50000000;  ///< Settings.photonsPerBatch
+inline constexpr float kMaxProgressiveGamma = 16.0f;     ///< Settings.progressiveGamma
 inline constexpr uint32_t kMaxDepthLimit = 1024;     ///< Settings.maxDepth
 inline constexpr uint32_t kMaxDiffuseBounces = 16;   ///< Settings.diffuseBounces
 inline constexpr uint32_t kMaxEditsPerScene = 65536; ///< Scene.edits

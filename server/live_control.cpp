@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "common/core/knobs.h"
 #include "common/scene/gltf_export.h"
 #include "proto/bridge/bridge.h"
 #include "server/animation.h"
@@ -70,23 +71,22 @@ void LiveControl::apply(const ScriptEdit& e, const std::string& source, uint64_t
     session_.push_back(recorded);
 }
 
-// A change of M waits for the frames in flight; any other change is sent to the clients now.
+// What a change resets is the changed knobs' rows' (common/core/knobs.h): a resize waits for the
+// frames in flight; any other change is sent to the clients now, and an epoch starts with the
+// next frame unless only the master's output stage changed.
 void LiveControl::applySettings(const ScriptEdit& e, const std::string& source) {
     RenderSettings s = settingsShown();
     applySettingsEdit(e, source, s);
-    if (s.interleave != settings_.interleave || pendingResize_) {
+    const std::optional<KnobReset> reset = knobChangeReset(settings_, s);
+    if (reset == KnobReset::Resize || pendingResize_) {
         pendingResize_ = s;
         return;
     }
-    const bool photonsChange = s.photons.k != settings_.photons.k ||
-                               s.photons.photonsPerBatch != settings_.photons.photonsPerBatch ||
-                               s.photons.tree != settings_.photons.tree ||
-                               s.photons.estimator != settings_.photons.estimator;
     if (s.filterSize() != settings_.filterSize()) output_.reconfigure(s.interleave, s.filterSize());
     settings_ = s;
     settingsMessage_ = encodeSettings(settings_, opt_.encoding);
     peers_.sendToAll(settingsMessage_);
-    settingsChanged_ = settingsChanged_ || photonsChange;
+    settingsChanged_ = settingsChanged_ || (reset && *reset >= KnobReset::Epoch);
 }
 
 const RenderSettings& LiveControl::applyResize() {

@@ -30,9 +30,9 @@ struct FrameStart {
     bool still = false;         ///< the camera is where the previous FrameBegin had it, and no edit moved it
 };
 
-/// Owns the live scene and settings. Settings changes other than M reach the clients at once
-/// (a change of k, P, the index or the estimator also starts an epoch with the next frame; F
-/// alone only changes the master's filter); a change of M waits until no frame is in flight
+/// Owns the live scene and settings. What a settings change resets is the changed knobs' row
+/// (common/core/knobs.h, KnobReset): Output and Epoch changes reach the clients at once (Epoch
+/// also starts an epoch with the next frame); a Resize (M) waits until no frame is in flight
 /// (resizePending, applyResize). Scene and camera edits go out with the next frame.
 /// Lives on the I/O thread; not thread-safe.
 class LiveControl {

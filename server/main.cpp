@@ -40,7 +40,8 @@ int run(int argc, char** argv) {
                       {server::kExitImageNotWritten, "frames rendered but an image could not be written"},
                       {server::kExitNoCompleteFrame, "frames shown but none complete (clients missing)"},
                       {130, "a finite run interrupted by SIGINT or SIGTERM (the last image is written)"}});
-    // Rendering settings: the same names, meanings and defaults as rtpm-render.
+    // Rendering settings: the same names, meanings and defaults as rtpm-render. --help lists the
+    // groups scene, image, photons, estimator (these), cluster, viewer, security, output.
     addRenderFlags(app, rs, o.sceneName, plain, noDefaultLight);
     SceneInputPolicy sceneInput;
     addSceneInputFlags(app, sceneInput);
@@ -48,69 +49,102 @@ int run(int argc, char** argv) {
     addSceneChoiceFlags(app, overrides);
     ConvergenceFlags convergence;
     addConvergenceFlags(app, convergence);
-    auto* framesOpt = app.add_option("--frames", o.frames,
-                                     "frames to render; the last one is written to --out; 0 = until SIGINT/SIGTERM "
-                                     "(the default with --http)")
-                          ->capture_default_str();
     // Cluster.
-    app.add_option("--listen", o.listen, "address to listen on")->capture_default_str();
-    app.add_option("--port", o.port, "TCP port (0 = any free port; see --port-file)")->capture_default_str();
-    app.add_option("--port-file", o.portFile, "write the bound port here (atomically) once listening");
-    app.add_option("--token", o.token, "shared secret clients must present (default: $RTPM_TOKEN)");
-    app.add_flag("--insecure-no-token", o.insecureNoToken, "accept clients without a token (trusted networks only)");
+    app.add_option("--listen", o.listen, "address to listen on")->capture_default_str()
+        ->group("cluster");
+    app.add_option("--port", o.port, "TCP port, [0, 65535] (0 = any free port; see --port-file)")->capture_default_str()
+        ->group("cluster");
+    app.add_option("--port-file", o.portFile, "write the bound port here (atomically) once listening")
+        ->group("cluster");
+    // Browser viewer.
+    app.add_option("--http", o.http,
+                   "serve the browser viewer on HOST:PORT (port 0 = any free port; the URL is printed as "
+                   "'viewer: http://HOST:PORT/'); e.g. 127.0.0.1:0")
+        ->group("viewer");
+    app.add_option("--viewer-token", o.viewerToken,
+                   "token the viewer's controls need (default: the cluster token; required with --insecure-no-token)")
+        ->group("viewer");
+    app.add_flag("--viewer-public", o.viewerPublic, "viewers without a token may watch (controls still need it)")
+        ->group("viewer");
+    app.add_option("--viewer-origin", o.viewerOrigins,
+                   "an origin (http://HOST[:PORT]) whose pages may open the viewer besides the address it is served "
+                   "on, e.g. the name or published port a browser uses; repeatable")
+        ->group("viewer");
+    app.add_option("--max-viewers", o.maxViewers, "viewers connected at once, >= 1")->capture_default_str()
+        ->group("viewer");
+    app.add_option("--viewer-fps", o.viewerFps,
+                   "frames per second sent to a viewer at most, [0, 1000] (0 = every frame the master composes)")
+        ->capture_default_str()
+        ->group("viewer");
+    // Security and admission.
+    app.add_option("--token", o.token, "shared secret clients must present (default: $RTPM_TOKEN)")
+        ->group("security");
+    app.add_flag("--insecure-no-token", o.insecureNoToken, "accept clients without a token (trusted networks only)")
+        ->group("security");
     int handshakeMs = int(o.handshakeTimeout.count()), readMs = int(o.readTimeout.count());
-    app.add_option("--handshake-timeout-ms", handshakeMs, "a new connection must authenticate within this")
-        ->capture_default_str();
+    app.add_option("--handshake-timeout-ms", handshakeMs, "a new connection must authenticate within this, >= 1")
+        ->capture_default_str()
+        ->group("security");
     app.add_option("--read-timeout-ms", readMs,
-                   "drop a client that stops sending in the middle of a message for this long (0 = never)")
-        ->capture_default_str();
-    app.add_option("--tls-cert", o.tlsCert, "PEM certificate chain: clients connect over TLS (with --tls-key)");
-    app.add_option("--tls-key", o.tlsKey, "PEM private key of --tls-cert");
-    app.add_option("--max-clients", o.maxPeers, "authenticated clients at once; more are refused (capacity)")
-        ->capture_default_str();
-    app.add_option("--max-pending", o.admission.maxPending, "connections in their handshake at once, all addresses")
-        ->capture_default_str();
+                   "drop a client that stops sending in the middle of a message for this long, >= 0 (0 = never)")
+        ->capture_default_str()
+        ->group("security");
+    app.add_option("--tls-cert", o.tlsCert, "PEM certificate chain: clients connect over TLS (with --tls-key)")
+        ->group("security");
+    app.add_option("--tls-key", o.tlsKey, "PEM private key of --tls-cert")
+        ->group("security");
+    app.add_option("--max-clients", o.maxPeers, "authenticated clients at once, >= 1; more are refused (capacity)")
+        ->capture_default_str()
+        ->group("security");
+    app.add_option("--max-pending", o.admission.maxPending, "connections in their handshake at once, all addresses, >= 1")
+        ->capture_default_str()
+        ->group("security");
     app.add_option("--max-pending-per-source", o.admission.maxPendingPerSource,
-                   "connections in their handshake at once from one address (IPv6: one /64)")
-        ->capture_default_str();
-    app.add_option("--min-clients", o.minClients, "start frames once this many clients joined")->capture_default_str();
+                   "connections in their handshake at once from one address (IPv6: one /64), >= 1")
+        ->capture_default_str()
+        ->group("security");
+    // Cluster: the frame loop.
+    app.add_option("--min-clients", o.minClients, "start frames once this many clients joined, >= 1")->capture_default_str()
+        ->group("cluster");
     app.add_option("--deadline-ms", deadline,
                    "a frame still missing data this long after it became the oldest is shown with the sets' "
                    "previous values; auto = 4 x the median measured frame time within [1000, 10000] ms (the "
                    "ceiling for a frame that starts an epoch, moves sets or is the last of the run)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->group("cluster");
     app.add_option("--evict-after", o.evictAfter,
-                   "evict a client late or skipped this many frames in a row (it is told why and may rejoin)")
-        ->capture_default_str();
+                   "evict a client late or skipped this many frames in a row, >= 1 (it is told why and may rejoin)")
+        ->capture_default_str()
+        ->group("cluster");
     app.add_option("--encoding", encoding,
                    "pixels on the wire (default rgb9e5-zstd: HDR in ~4 B/px; use float32 for a bit-exact copy of rtpm-render): float32 (exact, 24 B/px), rgb9e5 (8 B/px, <= 2^-9 relative error), "
                    "rgb9e5-zstd (rgb9e5 with a compressed caustic plane), rgb8 (6 B/px, clamped to [0,1])")
-        ->capture_default_str();
-    app.add_flag("--walkthrough", o.walkthrough, "no photon shooting after the first frame of each epoch");
+        ->capture_default_str()
+        ->group("cluster");
+    app.add_flag("--walkthrough", o.walkthrough, "no photon shooting after the first frame of each epoch")
+        ->group("photons");
+    app.add_option("--animate", animate, "live edit preset: orbit (camera), light, ior or object (scene edits)")
+        ->group("scene");
+    app.add_option("--edit-script", editScript, "file of 'frame <n> camera|light|material|transform|settings ...' lines (server/script/script_edit.h)")
+        ->group("scene");
+    // Output.
+    auto* framesOpt = app.add_option("--frames", o.frames,
+                                     "frames to render; the last one is written to --out; 0 = until SIGINT/SIGTERM "
+                                     "(the default with --http)")
+                          ->capture_default_str()
+                          ->group("output");
     app.add_option("--out", o.out,
                    "final image NAME.exr or NAME.png: both NAME.exr (every layer, linear) and NAME.png "
-                   "(tone-mapped) are written (default out/<scene>.exr)");
-    app.add_option("--save-every", o.saveEvery, "also write every n-th frame as <out>_<frame>.exr/.png (0 = off)")
-        ->capture_default_str();
+                   "(tone-mapped) are written (default out/<scene>.exr)")
+        ->group("output");
+    app.add_option("--save-every", o.saveEvery, "also write every n-th frame as <out>_<frame>.exr/.png, >= 0 (0 = off)")
+        ->capture_default_str()
+        ->group("output");
     app.add_option("--csv", o.csv,
-                   "append per-frame figures: frame, fps, photons per set, mode, bytes, slowest client and ms");
-    app.add_option("--animate", animate, "live edit preset: orbit (camera), light, ior or object (scene edits)");
-    app.add_option("--edit-script", editScript, "file of 'frame <n> camera|light|material|transform|settings ...' lines (server/script/script_edit.h)");
-    app.add_flag("--quiet", o.quiet, "no per-frame line");
-    // Browser viewer.
-    app.add_option("--http", o.http,
-                   "serve the browser viewer on HOST:PORT (port 0 = any free port; the URL is printed as "
-                   "'viewer: http://HOST:PORT/'); e.g. 127.0.0.1:0");
-    app.add_option("--viewer-token", o.viewerToken,
-                   "token the viewer's controls need (default: the cluster token; required with --insecure-no-token)");
-    app.add_flag("--viewer-public", o.viewerPublic, "viewers without a token may watch (controls still need it)");
-    app.add_option("--viewer-origin", o.viewerOrigins,
-                   "an origin (http://HOST[:PORT]) whose pages may open the viewer besides the address it is served "
-                   "on, e.g. the name or published port a browser uses; repeatable");
-    app.add_option("--max-viewers", o.maxViewers, "viewers connected at once")->capture_default_str();
-    app.add_option("--viewer-fps", o.viewerFps,
-                   "frames per second sent to a viewer at most (0 = every frame the master composes)")
-        ->capture_default_str();
+                   "append per-frame figures: frame, fps, photons per set, mode, bytes, slowest client and ms")
+        ->group("output");
+    app.add_flag("--quiet", o.quiet, "no per-frame line")
+        ->group("output");
     if (auto code = parseCommandLine(app, argc, argv)) return *code;
     rs.photons.selective = !plain;
     o.frameBudgetMs = convergence.frameBudgetMs;

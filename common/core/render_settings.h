@@ -126,7 +126,8 @@ struct RenderSettings {
 void validateSettings(const RenderSettings& settings);
 
 /// The settings that decide an image, as the flags that give them ("--width 640 --height 480 -M 3
-/// -F 3 -P 20000 --k 64 ..."), for image metadata and logs. One line, stable order.
+/// -F 3 -P 20000 --k 64 ...": the live knobs in the order of their rows, common/core/knobs.h, then
+/// the others), for image metadata and logs. One line, stable order.
 std::string describeSettings(const RenderSettings& settings);
 
 }  // namespace rtpm

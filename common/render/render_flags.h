@@ -3,15 +3,50 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <string>
 
+#include "common/core/knobs.h"
 #include "common/core/render_settings.h"
 #include "common/scene/scene_files.h"
 #include "common/scene/scene_loader.h"
 
 namespace rtpm {
 
-/// Adds every flag that decides what a frame looks like to `app`, bound to `settings`.
+/// Adds one flag per live knob (common/core/knobs.h: its name, short form, help group, range and
+/// default come from its row), bound to `settings`. A value outside the row's limits is refused
+/// by the parser (CLI::ValidationError naming the flag).
+inline void addKnobFlags(CLI::App& app, RenderSettings& settings) {
+    for (const KnobRow& row : kKnobs) {
+        std::string names(row.flag);
+        if (!row.shortFlag.empty()) names += "," + std::string(row.shortFlag);
+        std::string help = std::string(row.help) + ", " + knobRange(row);
+        if (!row.unit.empty()) help += " " + std::string(row.unit);
+        help += ", default " + formatKnobValue(row, row.defaultValue);
+        // Refusals in the parser's own words, as for every other flag ("--photons: Value 0 not in
+        // range 1 to 50000000").
+        auto set = [&settings, &row](const std::string& text) {
+            const std::optional<double> v = parseKnobValue(row, text);
+            if (!v)
+                throw CLI::ValidationError(std::string(row.flag), "'" + text + "' is not " +
+                                                                      (row.isChoice() ? "one of " : "a number in ") +
+                                                                      knobRange(row));
+            if (knobValueError(row, *v))
+                throw CLI::ValidationError(std::string(row.flag),
+                                           row.integer && std::floor(*v) != *v
+                                               ? "Value " + text + " is not a whole number"
+                                               : "Value " + text + " not in range " + formatKnobValue(row, row.min) +
+                                                     " to " + formatKnobValue(row, row.max));
+            row.set(settings, *v);
+        };
+        app.add_option_function<std::string>(names, set, help)
+            ->type_name(row.isChoice() ? "NAME" : row.integer ? "INT" : "FLOAT")
+            ->group(std::string(row.group));
+    }
+}
+
+/// Adds every flag that decides what a frame looks like to `app`, bound to `settings`, in the
+/// --help groups scene, image, photons and estimator (the live knobs through addKnobFlags).
 /// `plainShooting` receives --no-spt; the caller sets settings.photons.selective = !plainShooting
 /// after parsing. `sceneName` receives --scene, `noDefaultLight` --no-default-light (the caller
 /// passes SceneOverrides::defaultLight = !noDefaultLight to loadScene).
@@ -20,58 +55,42 @@ inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string&
     RenderSettings& rs = settings;
     app.add_option("--scene", sceneName,
                    "built-in scene (RING GLASS EGG HEADLIGHT CORNELL) or .gltf/.glb/.obj file")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->group("scene");
     app.add_flag("--no-default-light", noDefaultLight,
                  "refuse a scene with no light and no emissive material instead of adding the "
-                 "default lights (a caustic spot light behind it, a key light on the camera's side; see README)");
-    app.add_option("--width", rs.width, "image width in pixels")->capture_default_str();
-    app.add_option("--height", rs.height, "image height in pixels")->capture_default_str();
-    app.add_option("--photons,-P", rs.photons.photonsPerBatch, "P: photon paths traced per set per frame")
-        ->capture_default_str()
-        ->check(CLI::Range(1u, 50'000'000u));
-    app.add_option("--k", rs.photons.k, "photons per density estimate")->capture_default_str();
-    app.add_option("--rmax", rs.photons.rMax,
-                   "maximum gather radius in metres (0 = 2% of the scene diagonal)")
-        ->capture_default_str();
-    app.add_option("--interleave,-M", rs.interleave, "M: M×M interleaving sets, one photon map each")
-        ->capture_default_str();
-    app.add_option("--filter,-F", rs.filter, "F: caustic box filter size in pixels (0 = M)")
-        ->capture_default_str();
+                 "default lights (a caustic spot light behind it, a key light on the camera's side; see README)")
+        ->group("scene");
+    app.add_option("--width", rs.width, "image width in pixels")->capture_default_str()
+        ->group("image");
+    app.add_option("--height", rs.height, "image height in pixels")->capture_default_str()
+        ->group("image");
     app.add_flag("--no-spt", plainShooting,
-                 "plain QMC photon shooting instead of Selective Photon Tracing");
+                 "plain QMC photon shooting instead of Selective Photon Tracing")
+        ->group("photons");
+    addKnobFlags(app, settings);  // after one flag of each group: --help lists scene, image, photons, estimator
     app.add_option("--diffuse-bounces", rs.photons.diffuseBounces,
                    "diffuse bounces a photon may take (0 = only L S+ D caustics)")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->group("photons");
     app.add_option("--cap", rs.photons.capPhotons,
                    "stored photons per set at which accumulation stops (0 = none)")
-        ->capture_default_str();
-    app.add_option("--depth", rs.eye.maxDepth, "specular depth limit of eye paths")->capture_default_str();
-    app.add_option("--photon-depth", rs.photons.maxDepth, "ray segments per photon path")
-        ->capture_default_str();
-    app.add_option("--area-samples", rs.eye.areaLightSamples, "shadow samples per emissive triangle for a near, large light; a small or far one takes fewer, by its solid angle (down to 1 per pixel)")
-        ->capture_default_str();
-    app.add_option("--seed", rs.photons.seed, "seed of the Halton rotations")->capture_default_str();
-    // PhotonTree; every variant gives the same estimate, they differ in build/query cost.
-    app.add_option_function<std::string>(
-           "--tree", [&rs](const std::string& name) { rs.photons.tree = *parsePhotonTree(name); },
-           "photon map index: middle (incremental middle-split kd-tree), median (balanced "
-           "kd-tree rebuilt each frame) or grid (uniform grid rebuilt each frame); default middle")
-        ->check(CLI::IsMember({"middle", "median", "grid"}));
-    app.add_option_function<std::string>(
-           "--estimator",
-           [&rs](const std::string& name) { rs.photons.estimator = *parseCausticEstimator(name); },
-           "caustic estimator: progressive (while the view is still, every photon of every pass "
-           "counted, each pixel's gather disc chosen from them; converges) or knn (the paper's k nearest photons and "
-           "box filter); default progressive")
-        ->check(CLI::IsMember({"progressive", "knn"}));
-    app.add_option("--confidence", rs.photons.progressiveGamma,
-                   "progressive: confidence width Γ (standard deviations) by which each pixel "
-                   "chooses its gather disc; larger is smoother, smaller sharper; in (0, 16]")
         ->capture_default_str()
-        ->check(CLI::Range(1e-3f, kMaxProgressiveGamma));
+        ->group("photons");
+    app.add_option("--depth", rs.eye.maxDepth, "specular depth limit of eye paths")->capture_default_str()
+        ->group("image");
+    app.add_option("--photon-depth", rs.photons.maxDepth, "ray segments per photon path")
+        ->capture_default_str()
+        ->group("photons");
+    app.add_option("--area-samples", rs.eye.areaLightSamples, "shadow samples per emissive triangle for a near, large light; a small or far one takes fewer, by its solid angle (down to 1 per pixel)")
+        ->capture_default_str()
+        ->group("image");
+    app.add_option("--seed", rs.photons.seed, "seed of the Halton rotations")->capture_default_str()
+        ->group("photons");
     app.add_flag("--gather-visibility", rs.photons.gatherVisibility,
                  "count only photons visible from the shaded point (a shadow ray per gathered "
-                 "photon): no caustic leaks through thin walls, k more rays per pixel");
+                 "photon): no caustic leaks through thin walls, k more rays per pixel")
+        ->group("estimator");
 }
 
 /// How a still view converges: the frame-time budget its passes grow to (PassBudget) and the
@@ -88,19 +107,22 @@ inline void addConvergenceFlags(CLI::App& app, ConvergenceFlags& flags) {
                    "frame takes less than half this, so the view keeps 1000/budget updates a second; "
                    "0 = one batch per pass (the frames then do not depend on the machine's speed)")
         ->capture_default_str()
-        ->check(CLI::Range(0.0, 60000.0));
+        ->check(CLI::Range(0.0, 60000.0))
+        ->group("estimator");
     app.add_option("--target-error", flags.targetError,
                    "progressive: end a still render once the estimated relative error of the caustic "
                    "(printed per frame) is at most this, e.g. 0.02; 0 = off")
         ->capture_default_str()
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(CLI::Range(0.0, 1.0))
+        ->group("estimator");
 }
 
 /// Adds the flags that choose among what a scene file offers (--variant), bound to `overrides`.
 inline void addSceneChoiceFlags(CLI::App& app, SceneOverrides& overrides) {
     app.add_option("--variant", overrides.variant,
                    "glTF material variant (KHR_materials_variants) to render, by name; default: the "
-                   "file's default materials. An unknown name is refused with the file's variant names");
+                   "file's default materials. An unknown name is refused with the file's variant names")
+        ->group("scene");
 }
 
 /// Adds the flags that say which files a scene may read and how much it may decode
@@ -110,12 +132,14 @@ inline void addSceneInputFlags(CLI::App& app, SceneInputPolicy& input) {
                    "folder a scene file may read buffers, textures and MTL files from besides its "
                    "own (repeatable; symlinks are resolved before the check)")
         ->allow_extra_args(false)
-        ->take_all();
+        ->take_all()
+        ->group("scene");
     app.add_option("--max-scene-bytes", input.maxSceneBytes,
                    "bytes a scene may read from files plus decode into arrays (meshes, textures) "
                    "before loading stops with an error")
         ->capture_default_str()
-        ->check(CLI::Range(uint64_t(1), uint64_t(1) << 40));
+        ->check(CLI::Range(uint64_t(1), uint64_t(1) << 40))
+        ->group("scene");
 }
 
 }  // namespace rtpm

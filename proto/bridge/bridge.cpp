@@ -7,9 +7,18 @@
 
 #include <glm/gtc/type_ptr.hpp>
 
+#include "common/core/knobs.h"
+
 namespace rtpm::bridge {
 
 // The codec addresses a pixel as six floats: direct RGB, then caustic RGB.
+// The wire's limits of the live knobs are their rows' (common/core/knobs.h): one ceiling each.
+static_assert(knobRow(Knob::Interleave).max == proto::kMaxInterleave, "M: knob row and Settings.m differ");
+static_assert(knobRow(Knob::Filter).max == proto::kMaxFilterWidth, "F: knob row and Settings.f differ");
+static_assert(knobRow(Knob::K).max == proto::kMaxK, "k: knob row and Settings.k differ");
+static_assert(knobRow(Knob::Photons).max == proto::kMaxPhotonsPerBatch, "P: knob row and Settings.photonsPerBatch differ");
+static_assert(knobRow(Knob::Confidence).max == proto::kMaxProgressiveGamma,
+              "confidence: knob row and Settings.progressiveGamma differ");
 static_assert(sizeof(Vec3) == 3 * sizeof(float), "Vec3 is three packed floats");
 static_assert(sizeof(PixelRadiance) == 6 * sizeof(float), "PixelRadiance is six packed floats");
 static_assert(offsetof(PixelRadiance, caustic) == 3 * sizeof(float), "caustic follows direct");

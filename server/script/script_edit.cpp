@@ -75,6 +75,23 @@ void setOnce(LineParser& p, std::optional<T>& slot, T value, const std::string& 
     slot = value;
 }
 
+// `settings` keywords: one per live knob, its value a number or a choice name (limits are checked
+// when the edit is applied, with the rest of the settings).
+void setKnob(LineParser& p, ScriptEdit& e, const std::string& key) {
+    for (const KnobRow& row : kKnobs) {
+        if (key != row.scriptKey) continue;
+        std::optional<double>& slot = e.settings[size_t(row.id)];
+        if (slot) p.fail("'" + key + "' given twice");
+        const std::string text = p.word(row.isChoice() ? "a name" : "a number");
+        slot = parseKnobValue(row, text);
+        if (!slot)
+            p.fail((row.isChoice() ? "unknown " : "expected a number for ") + std::string(row.name) + " '" +
+                   printableText(text) + "' (expected " + knobRange(row) + ")");
+        return;
+    }
+    p.fail("unknown keyword '" + printableText(key) + "' for a settings edit");
+}
+
 std::string lineEl(int line) { return line > 0 ? "line " + std::to_string(line) : "edit"; }
 
 [[noreturn]] void fail(const std::string& file, int line, const std::string& msg) {
@@ -155,24 +172,8 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
                 for (int c = 0; c < 4; ++c)
                     for (int r = 0; r < 4; ++r) m[c][r] = p.number("matrix");
                 setOnce(p, e.matrix, m, key);
-            } else if (e.kind == K::Settings && key == "M") {
-                setOnce(p, e.interleave, int(std::min<uint64_t>(p.integer("M"), 1u << 20)), key);
-            } else if (e.kind == K::Settings && key == "F") {
-                setOnce(p, e.filter, int(std::min<uint64_t>(p.integer("F"), 1u << 20)), key);
-            } else if (e.kind == K::Settings && key == "k") {
-                setOnce(p, e.k, uint32_t(std::min<uint64_t>(p.integer("k"), 0xffffffffu)), key);
-            } else if (e.kind == K::Settings && key == "P") {
-                setOnce(p, e.photons, uint32_t(std::min<uint64_t>(p.integer("P"), 0xffffffffu)), key);
-            } else if (e.kind == K::Settings && key == "tree") {
-                std::string t = p.word("middle, median or grid");
-                std::optional<PhotonTree> tree = parsePhotonTree(t);
-                if (!tree) p.fail("unknown tree '" + t + "' (expected middle, median or grid)");
-                setOnce(p, e.tree, *tree, key);
-            } else if (e.kind == K::Settings && key == "estimator") {
-                std::string t = p.word("progressive or knn");
-                std::optional<CausticEstimatorKind> estimator = parseCausticEstimator(t);
-                if (!estimator) p.fail("unknown estimator '" + printableText(t) + "' (expected progressive or knn)");
-                setOnce(p, e.estimator, *estimator, key);
+            } else if (e.kind == K::Settings) {
+                setKnob(p, e, key);
             } else {
                 p.fail("unknown keyword '" + printableText(key) + "' for a " + kind + " edit");
             }
@@ -241,23 +242,19 @@ std::string formatScriptEdit(const ScriptEdit& e) {
         for (int c = 0; c < 4; ++c)
             for (int r = 0; r < 4; ++r) o << ' ' << (*e.matrix)[c][r];
     }
-    if (e.interleave) o << " M " << *e.interleave;
-    if (e.filter) o << " F " << *e.filter;
-    if (e.k) o << " k " << *e.k;
-    if (e.photons) o << " P " << *e.photons;
-    if (e.tree) o << " tree " << photonTreeName(*e.tree);
-    if (e.estimator) o << " estimator " << causticEstimatorName(*e.estimator);
+    for (const KnobRow& row : kKnobs)
+        if (const auto& v = e.settings[size_t(row.id)]) o << ' ' << row.scriptKey << ' ' << formatKnobValue(row, *v);
     return o.str();
 }
 
 void applySettingsEdit(const ScriptEdit& e, const std::string& file, RenderSettings& settings) {
     RenderSettings s = settings;
-    if (e.interleave) s.interleave = *e.interleave;
-    if (e.filter) s.filter = *e.filter;
-    if (e.k) s.photons.k = *e.k;
-    if (e.photons) s.photons.photonsPerBatch = *e.photons;
-    if (e.tree) s.photons.tree = *e.tree;
-    if (e.estimator) s.photons.estimator = *e.estimator;
+    for (const KnobRow& row : kKnobs)
+        if (const auto& v = e.settings[size_t(row.id)]) {
+            // Checked before it is stored: a value the field cannot hold must not wrap into range.
+            if (auto error = knobValueError(row, *v)) fail(file, e.line, "settings refused: " + *error);
+            row.set(s, *v);
+        }
     try {
         validateSettings(s);
     } catch (const std::invalid_argument& ex) {

@@ -7,6 +7,7 @@
 #include <string_view>
 #include <vector>
 
+#include "common/core/knobs.h"
 #include "common/core/render_settings.h"
 #include "common/scene/scene.h"
 
@@ -22,17 +23,16 @@ namespace rtpm::server {
 ///                            [absorption r g b] [emission r g b]
 ///     frame <n> transform <i> [translate x y z] [rotate ax ay az degrees] [scale s]
 ///                             [matrix m0 … m15]
-///     frame <n> settings [M m] [F f] [k k] [P paths] [tree middle|median|grid]
-///                           [estimator progressive|knn]
+///     frame <n> settings [<key> <value>]…   (one pair per live knob: common/core/knobs.h,
+///                                            e.g. M 4 F 0 k 32 P 20000 rmax 0.05 tree grid
+///                                            estimator knn)
 ///
 /// `transform` builds T·R·S from its keywords and applies it to the instance's transform as
 /// loaded (not to the current one), so a script can state absolute poses; `matrix` (16 floats,
 /// column-major object → world) replaces the loaded transform and excludes the other three.
 /// `camera eye` alone translates the camera (orientation kept); with `target` the camera looks at
-/// that point (up stays near +Y). `settings` changes rendering settings (interleave M, filter F,
-/// photons per estimate k, paths per set per frame P, photon index, caustic estimator): the master
-/// sends every client new Settings and starts a new epoch (F alone changes only the master's
-/// filter). Edits take
+/// that point (up stays near +Y). `settings` changes live knobs (their keys, values and limits
+/// are the rows of common/core/knobs.h; what a change resets is the row's too). Edits take
 /// effect at the start of frame n.
 struct ScriptEdit {
     enum class Kind { Camera, Light, Material, Transform, Settings };
@@ -51,10 +51,9 @@ struct ScriptEdit {
     std::optional<glm::vec4> rotate;  ///< axis xyz, angle in degrees
     std::optional<float> scale;
     std::optional<Mat4> matrix;
-    std::optional<int> interleave, filter;          ///< settings: M, F (0 = M)
-    std::optional<uint32_t> k, photons;             ///< settings: k, P
-    std::optional<PhotonTree> tree;                 ///< settings: photon index
-    std::optional<CausticEstimatorKind> estimator;  ///< settings: caustic estimator
+    KnobValues settings;  ///< settings: the live knobs this edit sets
+
+    std::optional<double> knob(Knob k) const { return settings[size_t(k)]; }
 };
 
 /// Largest edit script file read, and most edits one script may hold (each ScriptEdit is a few

@@ -1,6 +1,10 @@
 // Validation of viewer controls: JSON (nlohmann) → ViewerCommand, refusing anything doubtful.
 #include "server/viewer/viewer_command.h"
 
+#include <algorithm>
+
+#include "common/core/knobs.h"
+
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -149,24 +153,28 @@ ViewerCommand parseObject(const json& j) {
         if (!j.contains("translate")) throw Refused{"a transform control needs translate"};
         e.translate = vec3(j, "translate", -kMaxCoord, kMaxCoord);
     } else if (type == "settings") {
-        onlyKeys(j, {"M", "F", "k", "P", "tree", "estimator"});
+        // One key per live knob (common/core/knobs.h): its viewer key, its limits, its choices.
         e.kind = K::Settings;
-        if (j.contains("M")) e.interleave = int(integer(j, "M", 1, 16));
-        if (j.contains("F")) e.filter = int(integer(j, "F", 0, 64));
-        if (j.contains("k")) e.k = uint32_t(integer(j, "k", 1, 1024));
-        if (j.contains("P")) e.photons = uint32_t(integer(j, "P", 1, 10000000));
-        if (j.contains("tree")) {
-            const std::string t = string(j, "tree", 16);
-            e.tree = parsePhotonTree(t);
-            if (!e.tree) throw Refused{"\"tree\" must be middle, median or grid, got \"" + t + "\""};
+        for (auto it = j.begin(); it != j.end(); ++it) {
+            if (it.key() == "type") continue;
+            const KnobRow* row = nullptr;
+            for (const KnobRow& r : kKnobs)
+                if (it.key() == r.viewerKey) row = &r;
+            if (!row) throw Refused{"unknown field \"" + it.key() + "\""};
+            const std::string key(row->viewerKey);
+            std::optional<double> v;
+            if (row->isChoice()) {
+                const std::string t = string(j, key.c_str(), 16);
+                v = parseKnobValue(*row, t);
+                if (!v) throw Refused{"\"" + key + "\" must be " + knobRange(*row) + ", got \"" + t + "\""};
+            } else {
+                v = row->integer ? double(integer(j, key.c_str(), int64_t(row->min), int64_t(row->max)))
+                                 : number(j, key.c_str(), row->min, row->max);
+            }
+            e.settings[size_t(row->id)] = v;
         }
-        if (j.contains("estimator")) {
-            const std::string t = string(j, "estimator", 16);
-            e.estimator = parseCausticEstimator(t);
-            if (!e.estimator) throw Refused{"\"estimator\" must be progressive or knn, got \"" + t + "\""};
-        }
-        if (!e.interleave && !e.filter && !e.k && !e.photons && !e.tree && !e.estimator)
-            throw Refused{"a settings control needs M, F, k, P, tree or estimator"};
+        if (std::none_of(e.settings.begin(), e.settings.end(), [](const auto& v) { return v.has_value(); }))
+            throw Refused{"a settings control needs one of its keys"};
     } else {
         throw Refused{"unknown control type \"" + type.substr(0, 32) + "\""};
     }

@@ -53,8 +53,8 @@ struct ViewerParse {
 ///    "emission":[r,g,b]≥0}
 ///   {"type":"transform","index":i,"translate":[x,y,z]}   (instance i moved from its loaded pose;
 ///    how the viewer moves an emissive object, the area light of scenes without a punctual one)
-///   {"type":"settings","M":[1,16],"F":[0,64],"k":[1,1024],"P":[1,10^7],"tree":"middle|median|grid",
-///    "estimator":"progressive|knn"}
+///   {"type":"settings", <viewer key>: <value>, …}   (one key per live knob, with the limits and
+///    choices of its row in common/core/knobs.h: M, F, k, P, rmax, tree, estimator)
 ///   {"type":"pause","paused":bool}   {"type":"snapshot"}   {"type":"script"}
 /// Coordinates are bounded by |v| ≤ 1e6, intensities by 1e9, absorption by 1e6. Pure.
 ViewerParse parseViewerCommand(std::string_view text);

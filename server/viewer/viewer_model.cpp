@@ -3,6 +3,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/core/knobs.h"
+
 namespace rtpm::server {
 
 namespace {
@@ -18,6 +20,41 @@ Vec3 instanceCentre(const Scene& s, size_t i) {
     const Instance& in = s.instances[i];
     for (const Vec3& p : s.meshes[in.mesh].positions) b.extend(Vec3(in.transform * glm::vec4(p, 1.0f)));
     return b.centre();
+}
+
+// A knob's value as the viewer's settings control takes it: a whole number, a number or a name.
+nlohmann::json knobJson(const KnobRow& row, double v) {
+    if (row.isChoice()) return formatKnobValue(row, v);
+    if (row.integer) return int64_t(v);
+    return v;
+}
+
+nlohmann::json knobValuesJson(const RenderSettings& rs) {
+    nlohmann::json values = nlohmann::json::object();
+    for (const KnobRow& row : kKnobs) values[std::string(row.viewerKey)] = knobJson(row, row.get(rs));
+    return values;
+}
+
+// The settings form, one field per live knob row, in table order.
+nlohmann::json knobFormJson() {
+    nlohmann::json form = nlohmann::json::array();
+    for (const KnobRow& row : kKnobs) {
+        nlohmann::json field{{"key", row.viewerKey}, {"name", row.name}, {"unit", row.unit},
+                             {"resets", row.resets == KnobReset::Resize ? "resize"
+                                        : row.resets == KnobReset::Epoch ? "epoch" : "output"}};
+        if (row.isChoice()) {
+            nlohmann::json choices = nlohmann::json::array();
+            for (std::string_view c : row.choices)
+                if (!c.empty()) choices.push_back(c);
+            field["choices"] = choices;
+        } else {
+            field["min"] = knobJson(row, row.min);
+            field["max"] = knobJson(row, row.max);
+            field["step"] = row.integer ? nlohmann::json(1) : nlohmann::json("any");
+        }
+        form.push_back(field);
+    }
+    return form;
 }
 
 }  // namespace
@@ -53,9 +90,7 @@ std::string sceneJson(const std::string& sceneName, const Scene& loaded, const S
         {"type", "scene"}, {"name", sceneName}, {"width", rs.width}, {"height", rs.height},
         {"centre", vec(b.centre())}, {"diagonal", b.diagonal()}, {"lights", lights}, {"emitters", emitters},
         {"materials", materials},
-        {"settings", {{"M", rs.interleave}, {"F", rs.filter}, {"k", rs.photons.k}, {"P", rs.photons.photonsPerBatch},
-                      {"tree", photonTreeName(rs.photons.tree)},
-                      {"estimator", causticEstimatorName(rs.photons.estimator)}}}}
+        {"settings", knobValuesJson(rs)}, {"knobs", knobFormJson()}}
         .dump();
 }
 

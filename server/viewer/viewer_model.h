@@ -61,7 +61,9 @@ struct ViewerStatus {
 std::string clientEventJson(const ViewerClientEvent& event);
 
 /// {"type":"scene",…}: lights, materials and emissive instances (at most 64 of each; an emitter's
-/// centre is given as loaded and now), the image size and the live settings.
+/// centre is given as loaded and now), the image size, the live knobs' values ("settings", by
+/// viewer key) and the settings form ("knobs": key, name, unit, limits or choices, what a change
+/// resets; one field per row of common/core/knobs.h).
 std::string sceneJson(const std::string& sceneName, const Scene& loaded, const Scene& current,
                       const RenderSettings& settings);
 

@@ -211,10 +211,33 @@ function onScene(s) {
   fillSelect($('material-index'), s.materials.map((m) => `material ${m.index} (${m.type})`));
   showLight();
   showMaterial();
+  if (first) buildSettingsForm(s.knobs);
   if (first || !document.activeElement || !document.activeElement.id.startsWith('set-')) {
-    $('set-M').value = s.settings.M; $('set-F').value = s.settings.F; $('set-k').value = s.settings.k;
-    $('set-P').value = s.settings.P; $('set-tree').value = s.settings.tree;
-    $('set-estimator').value = s.settings.estimator;
+    for (const f of s.knobs) $(`set-${f.key}`).value = s.settings[f.key];
+  }
+}
+
+// One field per live knob, as the master's knob table describes it (name, limits or choices,
+// what a change resets).
+function buildSettingsForm(knobs) {
+  const box = $('settings-fields');
+  box.textContent = '';
+  for (const f of knobs) {
+    const label = document.createElement('label');
+    label.title = `${f.name}${f.unit ? ` (${f.unit})` : ''}; a change resets: ${f.resets}`;
+    label.append(`${f.key} `);
+    let input;
+    if (f.choices) {
+      input = document.createElement('select');
+      for (const c of f.choices) input.append(new Option(c, c));
+    } else {
+      input = document.createElement('input');
+      input.type = 'number';
+      input.min = f.min; input.max = f.max; input.step = f.step;
+    }
+    input.id = `set-${f.key}`;
+    label.append(input);
+    box.append(label, ' ');
   }
 }
 
@@ -381,13 +404,12 @@ function setup() {
            color: colourOf($('material-color')), absorption: [a, a, a] });
   };
   $('settings-apply').onclick = () => {
-    const s = state.scene && state.scene.settings, msg = { type: 'settings' };
-    for (const k of ['M', 'F', 'k', 'P']) {
-      const v = Number($(`set-${k}`).value);
-      if (!s || v !== s[k]) msg[k] = v;
+    if (!state.scene) return;
+    const s = state.scene.settings, msg = { type: 'settings' };
+    for (const f of state.scene.knobs) {
+      const raw = $(`set-${f.key}`).value, v = f.choices ? raw : Number(raw);
+      if (v !== s[f.key]) msg[f.key] = v;
     }
-    if (!s || $('set-tree').value !== s.tree) msg.tree = $('set-tree').value;
-    if (!s || $('set-estimator').value !== s.estimator) msg.estimator = $('set-estimator').value;
     send(msg);
   };
   $('token-form').onsubmit = (e) => {

@@ -48,11 +48,11 @@ TEST(EditScript, SettingsLinesParseAndValidate) {
     auto e = parseEditScript("frame 4 settings M 2 F 5 k 32 P 1000 tree grid\n", "s.txt");
     ASSERT_EQ(e.size(), 1u);
     EXPECT_EQ(e[0].kind, ScriptEdit::Kind::Settings);
-    EXPECT_EQ(*e[0].interleave, 2);
-    EXPECT_EQ(*e[0].filter, 5);
-    EXPECT_EQ(*e[0].k, 32u);
-    EXPECT_EQ(*e[0].photons, 1000u);
-    EXPECT_EQ(*e[0].tree, PhotonTree::UniformGrid);
+    EXPECT_EQ(*e[0].knob(Knob::Interleave), 2);
+    EXPECT_EQ(*e[0].knob(Knob::Filter), 5);
+    EXPECT_EQ(*e[0].knob(Knob::K), 32);
+    EXPECT_EQ(*e[0].knob(Knob::Photons), 1000);
+    EXPECT_EQ(*e[0].knob(Knob::Tree), double(PhotonTree::UniformGrid));
     RenderSettings rs;
     applySettingsEdit(e[0], "s.txt", rs);
     EXPECT_EQ(rs.interleave, 2);
@@ -62,19 +62,37 @@ TEST(EditScript, SettingsLinesParseAndValidate) {
     EXPECT_THROW(applySettingsEdit(bad[0], "s.txt", rs), SceneError);
     EXPECT_EQ(rs.photons.k, 32u);
     EXPECT_THROW(parseEditScript("frame 1 settings tree oak\n", "s.txt"), SceneError);
+    // P has one ceiling (its knob row): 5e7 passes, one more is refused without wrapping.
+    auto most = parseEditScript("frame 1 settings P 50000000\n", "s.txt");
+    applySettingsEdit(most[0], "s.txt", rs);
+    EXPECT_EQ(rs.photons.photonsPerBatch, 50'000'000u);
+    auto over = parseEditScript("frame 1 settings P 4294967297 k 2.5\n", "s.txt");
+    EXPECT_THROW(applySettingsEdit(over[0], "s.txt", rs), SceneError);
+    EXPECT_EQ(rs.photons.photonsPerBatch, 50'000'000u);
+    // The gather radius is a live knob too.
+    auto radius = parseEditScript("frame 2 settings rmax 0.25\n", "s.txt");
+    applySettingsEdit(radius[0], "s.txt", rs);
+    EXPECT_FLOAT_EQ(rs.photons.rMax, 0.25f);
+    EXPECT_EQ(formatScriptEdit(radius[0]), "frame 2 settings rmax 0.25");
+    // So is the progressive estimator's confidence width, and P's floor is the flag's.
+    auto gamma = parseEditScript("frame 3 settings confidence 0.75\n", "s.txt");
+    applySettingsEdit(gamma[0], "s.txt", rs);
+    EXPECT_FLOAT_EQ(rs.photons.progressiveGamma, 0.75f);
+    auto none = parseEditScript("frame 4 settings P 0\n", "s.txt");
+    EXPECT_THROW(applySettingsEdit(none[0], "s.txt", rs), SceneError);
 }
 
 TEST(EditScript, TheEstimatorIsASetting) {
     auto e = parseEditScript("frame 9 settings estimator knn\n", "s.txt");
     ASSERT_EQ(e.size(), 1u);
-    ASSERT_TRUE(e[0].estimator);
-    EXPECT_EQ(*e[0].estimator, CausticEstimatorKind::Knn);
+    ASSERT_TRUE(e[0].knob(Knob::Estimator));
+    EXPECT_EQ(*e[0].knob(Knob::Estimator), double(CausticEstimatorKind::Knn));
     RenderSettings rs;
     ASSERT_EQ(rs.photons.estimator, CausticEstimatorKind::Progressive);
     applySettingsEdit(e[0], "s.txt", rs);
     EXPECT_EQ(rs.photons.estimator, CausticEstimatorKind::Knn);
     EXPECT_EQ(formatScriptEdit(e[0]), "frame 9 settings estimator knn");
-    EXPECT_NE(errorOf("frame 1 settings estimator sppm").find("unknown estimator 'sppm'"), std::string::npos);
+    EXPECT_NE(errorOf("frame 1 settings estimator sppm").find("unknown estimator 'sppm' (expected progressive|knn)"), std::string::npos);
     EXPECT_NE(errorOf("frame 1 settings estimator knn estimator knn").find("estimator"), std::string::npos);
 }
 
@@ -84,7 +102,7 @@ TEST(EditScript, FormattedEditsParseBackToTheSameEdit) {
         "frame 4 light 0 position 1.25 -2 3.0000001 intensity 10 20 30\n"
         "frame 5 material 1 type dielectric color 0.5 0.25 1 ior 1.33333 absorption 0.1 0 0 emission 0 0 0\n"
         "frame 6 transform 0 translate 0.1 0 -0.2 rotate 0 1 0 45 scale 2\n"
-        "frame 7 settings M 4 F 0 k 16 P 12345 tree median estimator knn\n";
+        "frame 7 settings M 4 F 0 k 16 P 12345 rmax 0.0375 tree median estimator knn\n";
     const auto edits = parseEditScript(text, "a.txt");
     std::string formatted;
     for (const ScriptEdit& e : edits) formatted += formatScriptEdit(e) + "\n";
@@ -96,8 +114,7 @@ TEST(EditScript, FormattedEditsParseBackToTheSameEdit) {
         EXPECT_EQ(again[i].position, edits[i].position);
         EXPECT_EQ(again[i].ior, edits[i].ior);
         EXPECT_EQ(again[i].rotate, edits[i].rotate);
-        EXPECT_EQ(again[i].photons, edits[i].photons);
-        EXPECT_EQ(again[i].estimator, edits[i].estimator);
+        EXPECT_EQ(again[i].settings, edits[i].settings);
     }
 }
 

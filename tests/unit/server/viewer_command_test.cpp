@@ -23,12 +23,20 @@ TEST(ViewerCommand, AcceptsEveryControl) {
     ASSERT_TRUE(tr.ok()) << tr.error();
     ViewerParse set = parseViewerCommand(R"({"type":"settings","M":4,"k":32,"tree":"grid"})");
     ASSERT_TRUE(set.ok()) << set.error();
-    EXPECT_EQ(*edit(set).interleave, 4);
-    EXPECT_EQ(*edit(set).tree, PhotonTree::UniformGrid);
-    EXPECT_FALSE(edit(set).estimator);
+    EXPECT_EQ(*edit(set).knob(Knob::Interleave), 4);
+    EXPECT_EQ(*edit(set).knob(Knob::Tree), double(PhotonTree::UniformGrid));
+    EXPECT_FALSE(edit(set).knob(Knob::Estimator));
     ViewerParse est = parseViewerCommand(R"({"type":"settings","estimator":"knn"})");
     ASSERT_TRUE(est.ok()) << est.error();
-    EXPECT_EQ(*edit(est).estimator, CausticEstimatorKind::Knn);
+    EXPECT_EQ(*edit(est).knob(Knob::Estimator), double(CausticEstimatorKind::Knn));
+    // The knob table's limits: k up to 4096 (was 1024 here), P up to 5e7 (was 1e7), r_max a number.
+    ViewerParse big = parseViewerCommand(R"({"type":"settings","k":4096,"P":50000000,"rmax":0.5})");
+    ASSERT_TRUE(big.ok()) << big.error();
+    EXPECT_EQ(*edit(big).knob(Knob::K), 4096);
+    EXPECT_EQ(*edit(big).knob(Knob::RMax), 0.5);
+    ViewerParse gamma = parseViewerCommand(R"({"type":"settings","confidence":0.75})");
+    ASSERT_TRUE(gamma.ok()) << gamma.error();
+    EXPECT_EQ(*edit(gamma).knob(Knob::Confidence), 0.75);
     ViewerParse d = parseViewerCommand(R"({"type":"display","layer":"caustic_unfiltered","exposure":-1.5})");
     ASSERT_TRUE(d.ok()) << d.error();
     EXPECT_EQ(std::get<ViewerDisplay>(d.command()).layer, ViewerLayer::CausticUnfiltered);
@@ -64,6 +72,11 @@ TEST(ViewerCommand, RefusesMalformedControlsNamingWhatIsWrong) {
     refused(R"({"type":"material","index":0,"ior":0.5})", "ior");
     refused(R"({"type":"settings","M":0})", "\"M\"");
     refused(R"({"type":"settings","P":100000000})", "\"P\"");
+    refused(R"({"type":"settings","k":4097})", "\"k\"");
+    refused(R"({"type":"settings","confidence":0})", "\"confidence\"");
+    refused(R"({"type":"settings","tree":"oak"})", "middle|median|grid");
+    refused(R"({"type":"settings","Q":1})", "unknown field \"Q\"");
+    refused(R"({"type":"settings"})", "needs one of its keys");
     refused(R"({"type":"settings","tree":"oak"})", "tree");
     refused(R"({"type":"settings","estimator":"sppm"})", "estimator");
     refused(R"({"type":"settings","estimator":1})", "estimator");
