@@ -219,6 +219,9 @@ void FrameLoop::beginFrame(TimePoint now) {
     const bool last = opt_.frames > 0 && f + 1 == static_cast<uint64_t>(opt_.frames);
     lastDeadline_ = deadlines_.forFrame(plan.mode == proto::FrameMode::Interaction || plan.reassigned || last,
                                         frameCost(plan.mode));
+    // A message that stops halfway is no client building maps: it gets the measured deadline
+    // even when this frame waits the ceiling.
+    peers_.boundReadStall(deadlines_.forFrame(false, frameCost(plan.mode)));
     assembler_.beginFrame(f, plan.owners, now, lastDeadline_);
 }
 

@@ -86,7 +86,8 @@ int run(int argc, char** argv) {
         ->capture_default_str()
         ->group("security");
     app.add_option("--read-timeout-ms", readMs,
-                   "drop a client that stops sending in the middle of a message for this long, >= 0 (0 = never)")
+                   "drop a client that stops sending in the middle of a message for this long at most, >= 0; once "
+                   "frames are measured, for the frame deadline (at least 1 s) (0 = never)")
         ->capture_default_str()
         ->group("security");
     app.add_option("--tls-cert", o.tlsCert, "PEM certificate chain: clients connect over TLS (with --tls-key)")

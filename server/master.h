@@ -45,8 +45,9 @@ struct MasterOptions {
     std::chrono::milliseconds handshakeTimeout{3000};
     int maxPeers = 256;                ///< authenticated clients; more are refused with Reject{Capacity}
     AdmissionLimits admission;         ///< pending-handshake budgets, failed-authentication limits
-    /// An authenticated peer that stops mid-message for this long is dropped (0 = never); a
-    /// message must also arrive at kMinReadBytesPerSecond on average (proto/net/connection.h).
+    /// An authenticated peer that stops mid-message for this long is dropped (0 = never), or for
+    /// the measured frame deadline if shorter (at least 1 s: Peers::boundReadStall); a message
+    /// must also arrive at kMinReadBytesPerSecond on average (proto/net/connection.h).
     std::chrono::milliseconds readTimeout{10000};
     /// TLS on the cluster link: PEM certificate chain and private key (both or neither).
     std::string tlsCert, tlsKey;

@@ -24,7 +24,8 @@ Peers::Peers(asio::io_context& io, const MasterOptions& options, PeerEvents& eve
                 [this](asio::ip::tcp::socket sock) { admit(std::move(sock)); }),
       admission_(options.admission),
       admissionLogTimer_(io),
-      heartbeatTimer_(io) {}
+      heartbeatTimer_(io),
+      readStall_(options.readTimeout) {}
 
 void Peers::start() {
     acceptor_.start();
@@ -241,7 +242,7 @@ void Peers::join(net::Connection& c, const HandshakeSession& session) {
     const unsigned cores = session.cores();
     endPending(c, Admission::End::Authenticated);  // destroys `session`
     c.markAuthenticated();
-    c.setReadDeadline(opt_.readTimeout, kMinReadBytesPerSecond);
+    c.setReadDeadline(readStall_, kMinReadBytesPerSecond);
     c.capPayload(clientPayloadCap_);
     const ClientId id = registry_.add(ownerOf(c), name, cores);
     ++counts_.joined;
@@ -260,6 +261,17 @@ void Peers::raisePayloadCap(const RenderSettings& settings) {
     if (cap <= clientPayloadCap_) return;
     clientPayloadCap_ = uint32_t(cap);
     for (const auto& [id, info] : registry_.clients()) info.connection->capPayload(clientPayloadCap_);
+}
+
+// A frame that moved sets to a client waits the deadline's ceiling for it (new owners build maps);
+// without this bound, a client that joined and stopped halfway through a message held that frame,
+// and every frame behind it, for the whole read timeout: 10 s per join.
+void Peers::boundReadStall(std::chrono::milliseconds frameDeadline) {
+    if (opt_.readTimeout.count() <= 0) return;  // --read-timeout-ms 0: never
+    const auto stall = std::min(opt_.readTimeout, std::max(kMinReadStall, frameDeadline));
+    if (stall == readStall_) return;
+    readStall_ = stall;
+    for (const auto& [id, info] : registry_.clients()) info.connection->setReadDeadline(readStall_, kMinReadBytesPerSecond);
 }
 
 std::shared_ptr<net::Connection> Peers::ownerOf(const net::Connection& c) const {

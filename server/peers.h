@@ -65,6 +65,14 @@ public:
     /// refused before its payload is buffered. The bound only grows during a run, so data of a
     /// frame rendered before a resize to fewer pixels still fits.
     void raisePayloadCap(const RenderSettings& settings);
+    /// A client whose message stops arriving holds the frames waiting for it, so its stall is
+    /// bounded by the frame deadline the frames measure now (`frameDeadline`, the adaptive one
+    /// even for a frame given the ceiling), never by more than --read-timeout-ms nor less than
+    /// kMinReadStall. Applies to every client from its next byte on.
+    void boundReadStall(std::chrono::milliseconds frameDeadline);
+    /// Below this a healthy peer's TCP retransmissions (200 ms at the least, doubling) could
+    /// look like a stall.
+    static constexpr std::chrono::milliseconds kMinReadStall{1000};
 
     /// The run is ending: no more accepts, heartbeats or messages handled.
     void quiesce();
@@ -105,6 +113,7 @@ private:
     asio::steady_timer admissionLogTimer_;
     asio::steady_timer heartbeatTimer_;
     uint32_t clientPayloadCap_ = 0;  // largest message a client may announce (raisePayloadCap)
+    std::chrono::milliseconds readStall_;  // a client's mid-message stall bound (boundReadStall)
     uint64_t nextPendingId_ = 1;
     bool admissionLogArmed_ = false;
     bool closing_ = false;

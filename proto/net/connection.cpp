@@ -93,17 +93,25 @@ void Connection::updateReadDeadline() {
     const auto now = std::chrono::steady_clock::now();
     if (!partialSince_) partialSince_ = now;
     // Progress re-arms the stall deadline; the whole message is bounded by its size at the minimum rate.
-    auto deadline = now + readStall_;
+    auto messageEnd = std::chrono::steady_clock::time_point::max();
     if (minBytesPerSecond_ > 0) {
         const uint64_t bytes = kHeaderBytesForDeadline + splitter_.pendingPayloadBytes();
         const auto allowance = std::chrono::milliseconds(bytes * 1000 / minBytesPerSecond_);
-        deadline = std::min(deadline, *partialSince_ + readStall_ + allowance);
+        messageEnd = *partialSince_ + readStall_ + allowance;
     }
     const uint64_t generation = ++readDeadlineGeneration_;
-    readTimer_.expires_at(deadline);
+    readTimer_.expires_at(std::min(now + readStall_, messageEnd));
     auto self = shared_from_this();
-    readTimer_.async_wait([self, generation](const asio::error_code& ec) {
+    readTimer_.async_wait([self, generation, messageEnd](const asio::error_code& ec) {
         if (ec || self->finished_ || generation != self->readDeadlineGeneration_) return;
+        // Bytes that arrived while this thread was busy are progress whose read has not run yet:
+        // they re-arm the stall deadline, never the message's own bound.
+        asio::error_code availableError;
+        if (self->lowest().available(availableError) > 0 && !availableError &&
+            std::chrono::steady_clock::now() < messageEnd) {
+            self->updateReadDeadline();
+            return;
+        }
         const auto waited = std::chrono::duration_cast<std::chrono::milliseconds>(
             std::chrono::steady_clock::now() - *self->partialSince_);
         self->close("stalled mid-message: " + std::to_string(self->splitter_.buffered()) + " of " +

@@ -1,12 +1,13 @@
 // Hostile peers against a real rtpm-server (issue 13): a flood of idle and reconnecting sockets
 // while real clients join, tokenless large announcements, the guess rate, a stalled
-// authenticated peer, the challenge–response (wrong token, replayed Auth, no token on the wire)
+// authenticated peer and a stalled join, the challenge–response (wrong token, replayed Auth, no token on the wire)
 // and the optional TLS link (same image, nothing readable on the wire, certificates checked).
 // Loopback only; the flood uses other 127.0.0.0/8 addresses than the real clients (different
 // hosts, as on a real network: one address's budget is not another's).
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cctype>
 #include <atomic>
 #include <deque>
 #include <cstring>
@@ -374,6 +375,80 @@ TEST(Admission, AuthenticatedPeerStallingOrTricklingMidMessageIsDropped) {
                           10s))
         << srv.child->logs();
     EXPECT_NE(srv.child->err().find("(staller) left: stalled mid-message"), std::string::npos) << srv.child->logs();
+}
+
+/// Per-frame lines the master has printed so far ("frame N  fps ...").
+size_t framesShown(const std::string& out) {
+    size_t n = 0;
+    for (size_t at = out.find("\nframe "); at != std::string::npos; at = out.find("\nframe ", at + 1)) {
+        const size_t digit = out.find_first_not_of(' ', at + 7);
+        n += digit != std::string::npos && std::isdigit(uint8_t(out[digit]));
+    }
+    return n;
+}
+
+// Before: a client holding the token that joined and stopped halfway through a message froze
+// every frame for about 10 s per join: the frame that moved sets to it waits the deadline's
+// ceiling (10 s: new owners build maps) and its stalled message was dropped only after the read
+// timeout (10 s). Now a message stalled for longer than the measured frame deadline (≥ 1 s) drops
+// its client, and with it the wait. About 5 s.
+TEST(Admission, ClientStallingMidMessageAfterJoiningDoesNotFreezeFrames) {
+    TempDir dir;
+    Child server({binaryPath("server/rtpm-server"), "--port", "0", "--port-file", dir.file("port"), "--min-clients",
+                  "2", "--scene", "RING", "--width", "48", "--height", "36", "-M", "3", "-P", "500", "--frames", "0",
+                  "--encoding", "float32", "--frame-budget-ms", "0"},
+                 dir.file("server"), {"RTPM_TOKEN=" + kToken});
+    const uint16_t port = waitForPortFile(dir.file("port"), server, 60s);
+    ASSERT_NE(port, 0) << server.logs();
+    std::vector<std::unique_ptr<Child>> clients;
+    for (const char* name : {"a", "b"})
+        clients.push_back(std::make_unique<Child>(
+            std::vector<std::string>{binaryPath("client/rtpm-client"), "--server", "127.0.0.1:" + std::to_string(port),
+                                     "--token", kToken, "--threads", "1", "--name", name},
+            dir.file(name)));
+    // Enough frames for the adaptive deadline to have measured some.
+    ASSERT_TRUE(waitUntil([&] { return framesShown(server.out()) >= 12 || server.poll(); }, 120s)) << server.logs();
+
+    Socket s = connectFrom("127.0.0.1", port);
+    auto m = authenticate(s, kToken, "staller");
+    ASSERT_TRUE(m && std::holds_alternative<proto::Welcome>(*m)) << server.logs();
+    proto::Writer w;
+    // 4000 bytes: below the master's bound for this run's sets (48x36, M=3: 4896 bytes).
+    proto::encodeHeader(proto::Header{proto::kMagic, proto::kProtocolVersion, proto::MessageType::FrameData, 0, 4000},
+                        w);
+    std::vector<uint8_t> half = w.take();
+    half.resize(half.size() + 2000, 0);
+    ASSERT_TRUE(s.sendAll(half));
+    const auto joined = Clock::now();
+
+    // Frames as they are shown, until the staller is gone and ten more frames were shown.
+    auto lastFrameAt = joined;
+    size_t lastCount = framesShown(server.out());
+    Clock::duration longestGap{0};
+    std::optional<Clock::duration> droppedAfter;
+    size_t framesAfterDrop = 0;
+    while (Clock::now() - joined < 30s && framesAfterDrop < 10 && !server.poll()) {
+        std::this_thread::sleep_for(20ms);
+        const auto now = Clock::now();
+        const size_t count = framesShown(server.out());
+        if (count != lastCount) {
+            if (droppedAfter) framesAfterDrop += count - lastCount;
+            lastCount = count;
+            lastFrameAt = now;
+        }
+        longestGap = std::max(longestGap, now - lastFrameAt);
+        if (!droppedAfter && server.err().find("(staller) left: stalled mid-message") != std::string::npos)
+            droppedAfter = now - joined;
+    }
+    const auto ms = [](Clock::duration d) { return (long long)std::chrono::duration_cast<std::chrono::milliseconds>(d).count(); };
+    std::printf("stalled join: dropped after %lld ms, longest time without a frame %lld ms\n",
+                droppedAfter ? ms(*droppedAfter) : -1LL, ms(longestGap));
+    ASSERT_TRUE(droppedAfter) << "the stalled client was not dropped\n" << server.logs();
+    // The bound is the measured deadline (1 s here, its floor); 4 s leaves room for a loaded machine.
+    EXPECT_LT(*droppedAfter, 4s) << server.logs();
+    EXPECT_LT(longestGap, 4s) << server.logs();
+    EXPECT_GE(framesAfterDrop, 10u) << server.logs();
+    EXPECT_TRUE(s.waitClosed(5s));
 }
 
 // Before: an authenticated client could announce up to 256 MiB per FrameData whatever its set's
