@@ -132,13 +132,18 @@ OutputResult ImageOutput::process(OutputJob& job) {
     }
     if (!opt_.quiet) {
         progress_.clear();
+        // The estimator's own error and the pass size, when they say something.
+        char extra[64] = "";
+        if (job.errorEstimate > 0.0)
+            std::snprintf(extra, sizeof extra, "  est. error %.4f", job.errorEstimate);
+        if (job.passBatches > 1)
+            std::snprintf(extra + std::strlen(extra), sizeof extra - std::strlen(extra), "  batches %u",
+                          job.passBatches);
         std::printf("frame %5llu  %7.2f fps  %-11s  photons/set %10.0f  sets %3zu/%-3u  %8.2f MB  "
-                    "slowest %s %.1f ms  master %.2f ms%s%s%s\n",
+                    "slowest %s %.1f ms  master %.2f ms%s%s\n",
                     (unsigned long long)job.frame, job.fps, proto::frameModeName(job.mode), job.photonsPerSet,
                     job.arrived, job.setCount, double(job.bytes) / 1e6, job.slowest.c_str(), job.slowestMs,
-                    result.masterMs, job.deadlineHit ? "  (deadline)" : "",
-                    job.errorEstimate > 0.0 ? ("  est. error " + std::to_string(job.errorEstimate).substr(0, 6)).c_str() : "",
-                    job.passBatches > 1 ? ("  batches " + std::to_string(job.passBatches)).c_str() : "");
+                    result.masterMs, job.deadlineHit ? "  (deadline)" : "", extra);
         std::fflush(stdout);
         // i/N, elapsed and ETA on stderr: on a terminal always; otherwise only for a finite run
         // (a service's plain log is the frame line above, not a stderr line a second forever).

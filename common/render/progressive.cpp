@@ -124,10 +124,10 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
     for (size_t p = 0; p < out.size(); ++p) fixedDirect_[p] = out[p].direct;
     state_.assign(records_.hits.size(), HitState{});
     const float rMax2 = maps.gatherRadius() * maps.gatherRadius();
-    // The ladder's outer disc has kOuterArea × the area of the map's k-NN disc: hits in groups of 8 consecutive ones
-    // (neighbouring pixels) share their k-NN search (PhotonMaps::gatherMapGroup); the hint runs
-    // through a fixed block of groups, so neither the groups nor the hints depend on the thread
-    // count. Then the map's photons within it fill the rings.
+    // The ladder's outer disc has kOuterArea × the area of the map's k-NN disc: hits in groups of
+    // 8 consecutive ones (neighbouring pixels) share their k-NN search (PhotonMaps::gatherMapGroup);
+    // the hint runs through a fixed block of groups, so neither the groups nor the hints depend on
+    // the thread count. Then the map's photons within it fill the rings.
     constexpr size_t kGroup = 8, kBlock = 64 * kGroup;
     const size_t hitCount = records_.hits.size();
     tbb::parallel_for(size_t(0), (hitCount + kBlock - 1) / kBlock, [&](size_t block) {
