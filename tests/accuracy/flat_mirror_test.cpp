@@ -143,14 +143,9 @@ TEST(FlatMirrorProgressive, AtTheDefaultsNoWorseThanKnnAtAnyFrame) {
     rs.height = kHeight;
     rs.photons.maxDepth = 2;
     rs.photons.diffuseBounces = 0;
-    const Convergence progressive = renderConvergence(fm.scene(), rs, ref, 24);
-    rs.photons.estimator = CausticEstimatorKind::Knn;
-    const Convergence knn = renderConvergence(fm.scene(), rs, ref, 24);
-    for (size_t f = 0; f < progressive.relMae.size(); ++f) {
-        std::printf("flat mirror, defaults, frame %2zu: rel. MAE %.4f (knn %.4f), energy %.4f (knn %.4f)\n", f + 1,
-                    progressive.relMae[f], knn.relMae[f], progressive.energy[f], knn.energy[f]);
+    const auto [progressive, knn] = againstKnn([&] { return fm.scene(); }, rs, ref, 24, "flat mirror, defaults");
+    for (size_t f = 0; f < progressive.relMae.size(); ++f)
         EXPECT_LE(progressive.relMae[f], knn.relMae[f]) << "frame " << f + 1;
-    }
 }
 
 }  // namespace

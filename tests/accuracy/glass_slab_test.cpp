@@ -118,16 +118,9 @@ TEST(GlassSlabProgressive, AtTheDefaultsNoWorseThanKnnFromTheSixthFrame) {
     rs.width = kWidth;
     rs.height = kHeight;
     rs.photons.diffuseBounces = 0;
-    const Convergence progressive = renderConvergence(gs.scene(), rs, ref, 24);
-    rs.photons.estimator = CausticEstimatorKind::Knn;
-    const Convergence knn = renderConvergence(gs.scene(), rs, ref, 24);
-    for (size_t f = 0; f < progressive.relMae.size(); ++f) {
-        std::printf("glass slab, defaults, frame %2zu: rel. MAE %.4f (knn %.4f), energy %.4f (knn %.4f)\n", f + 1,
-                    progressive.relMae[f], knn.relMae[f], progressive.energy[f], knn.energy[f]);
-        if (f >= 5) {
-            EXPECT_LE(progressive.relMae[f], knn.relMae[f]) << "frame " << f + 1;
-        }
-    }
+    const auto [progressive, knn] = againstKnn([&] { return gs.scene(); }, rs, ref, 24, "glass slab, defaults");
+    for (size_t f = 5; f < progressive.relMae.size(); ++f)
+        EXPECT_LE(progressive.relMae[f], knn.relMae[f]) << "frame " << f + 1;
     EXPECT_LT(progressive.relMae.back(), 0.7 * knn.relMae.back());
 }
 

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <numbers>
 #include <numeric>
 #include <utility>
@@ -112,6 +113,21 @@ CausticReference floorReference(const Camera& camera, int width, int height, int
             ref.rgb[3 * p] = ref.rgb[3 * p + 1] = ref.rgb[3 * p + 2] = l;
         }
     return ref;
+}
+
+/// The defaults' estimator against knn from the same photons: `frames` still frames of the
+/// scene `makeScene()` returns, rendered with `rs` and with `rs` but the knn estimator; prints
+/// both per frame under `label`.
+template <class MakeScene>
+std::pair<Convergence, Convergence> againstKnn(MakeScene makeScene, RenderSettings rs, const CausticReference& ref,
+                                               int frames, const char* label) {
+    const Convergence progressive = renderConvergence(makeScene(), rs, ref, frames);
+    rs.photons.estimator = CausticEstimatorKind::Knn;
+    const Convergence knn = renderConvergence(makeScene(), rs, ref, frames);
+    for (size_t f = 0; f < progressive.relMae.size(); ++f)
+        std::printf("%s, frame %2zu: rel. MAE %.4f (knn %.4f), energy %.4f (knn %.4f)\n", label, f + 1,
+                    progressive.relMae[f], knn.relMae[f], progressive.energy[f], knn.energy[f]);
+    return {progressive, knn};
 }
 
 }  // namespace rtpm::testscenes
