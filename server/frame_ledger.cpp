@@ -84,9 +84,7 @@ std::pair<OutputJob, ViewerFrame> FrameLedger::retire(const RetiredFrame& r, Tim
     CausticErrorSums error;
     for (const proto::FrameData& d : info.data) {
         passes = std::min(passes, d.passes);
-        error.sigma += d.errorSigma;
-        error.radiance += d.errorRadiance;
-        error.pixels += d.errorPixels;
+        error += CausticErrorSums{d.errorSigma, d.errorRadiance, d.errorPixels};
     }
     // Only a frame every set arrived for says how the whole image stands.
     job.errorEstimate = r.missing.empty() ? causticErrorEstimate(error) : 0.0;

@@ -86,6 +86,16 @@ TEST(FlatMirrorReference, PhotonsCarryTheMirrorsFlux) {
     EXPECT_NEAR(flux / expected, 1.0, 0.01);
 }
 
+// The defaults at this file's size, with the flat mirror's own photon paths.
+RenderSettings sceneSettings() {
+    RenderSettings rs;
+    rs.width = kWidth;
+    rs.height = kHeight;
+    rs.photons.maxDepth = 2;
+    rs.photons.diffuseBounces = 0;
+    return rs;
+}
+
 // The progressive estimator as the curved mirror's test runs it (progressive_estimator_test.cpp):
 // M = 1, plain shooting, L S D photons, 3.2 M paths as 160 passes of 20 000, 8 of 400 000 and
 // 2 of 1.6 M, shown as rtpm-render shows them.
@@ -106,13 +116,9 @@ TEST(FlatMirrorReference, PhotonsCarryTheMirrorsFlux) {
 TEST(FlatMirrorProgressive, ErrorDoesNotDependOnHowPhotonsAreSplitIntoPasses) {
     const FlatMirror fm;
     const CausticReference ref = fm.reference(kWidth, kHeight);
-    RenderSettings rs;
-    rs.width = kWidth;
-    rs.height = kHeight;
+    RenderSettings rs = sceneSettings();
     rs.interleave = 1;
     rs.photons.selective = false;
-    rs.photons.maxDepth = 2;
-    rs.photons.diffuseBounces = 0;
     const std::pair<uint32_t, int> splits[] = {{20000, 160}, {400000, 8}, {1600000, 2}};
     std::vector<double> errors;
     for (const auto& [paths, passes] : splits) {
@@ -138,11 +144,7 @@ TEST(FlatMirrorProgressive, ErrorDoesNotDependOnHowPhotonsAreSplitIntoPasses) {
 TEST(FlatMirrorProgressive, AtTheDefaultsNoWorseThanKnnAtAnyFrame) {
     const FlatMirror fm;
     const CausticReference ref = fm.reference(kWidth, kHeight);
-    RenderSettings rs;
-    rs.width = kWidth;
-    rs.height = kHeight;
-    rs.photons.maxDepth = 2;
-    rs.photons.diffuseBounces = 0;
+    RenderSettings rs = sceneSettings();
     const auto [progressive, knn] = againstKnn([&] { return fm.scene(); }, rs, ref, 24, "flat mirror, defaults");
     for (size_t f = 0; f < progressive.relMae.size(); ++f)
         EXPECT_LE(progressive.relMae[f], knn.relMae[f]) << "frame " << f + 1;

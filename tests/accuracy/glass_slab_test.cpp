@@ -52,6 +52,15 @@ TEST(GlassSlabReference, ImageHoldsTheFluxTheLightSendsThere) {
     EXPECT_NEAR(flux / expected, 1.0, 1e-3);
 }
 
+// The defaults at this file's size, with the glass slab's own photon paths.
+RenderSettings sceneSettings() {
+    RenderSettings rs;
+    rs.width = kWidth;
+    rs.height = kHeight;
+    rs.photons.diffuseBounces = 0;
+    return rs;
+}
+
 // The progressive estimator as the curved mirror's test runs it (progressive_estimator_test.cpp):
 // M = 1, plain shooting, L S+ D photons (internal reflections included), 3.2 M paths as 160
 // passes of 20 000, 8 of 400 000 and 2 of 1.6 M, shown as rtpm-render shows them.
@@ -72,12 +81,9 @@ TEST(GlassSlabReference, ImageHoldsTheFluxTheLightSendsThere) {
 TEST(GlassSlabProgressive, ErrorDoesNotDependOnHowPhotonsAreSplitEnergyStaysAndErrorFalls) {
     const GlassSlab gs;
     const CausticReference ref = gs.reference(kWidth, kHeight);
-    RenderSettings rs;
-    rs.width = kWidth;
-    rs.height = kHeight;
+    RenderSettings rs = sceneSettings();
     rs.interleave = 1;
     rs.photons.selective = false;
-    rs.photons.diffuseBounces = 0;
     const std::pair<uint32_t, int> splits[] = {{20000, 160}, {400000, 8}, {1600000, 2}};
     std::vector<double> errors;
     for (const auto& [paths, passes] : splits) {
@@ -114,10 +120,7 @@ TEST(GlassSlabProgressive, ErrorDoesNotDependOnHowPhotonsAreSplitEnergyStaysAndE
 TEST(GlassSlabProgressive, AtTheDefaultsNoWorseThanKnnFromTheSixthFrame) {
     const GlassSlab gs;
     const CausticReference ref = gs.reference(kWidth, kHeight);
-    RenderSettings rs;
-    rs.width = kWidth;
-    rs.height = kHeight;
-    rs.photons.diffuseBounces = 0;
+    RenderSettings rs = sceneSettings();
     const auto [progressive, knn] = againstKnn([&] { return gs.scene(); }, rs, ref, 24, "glass slab, defaults");
     for (size_t f = 5; f < progressive.relMae.size(); ++f)
         EXPECT_LE(progressive.relMae[f], knn.relMae[f]) << "frame " << f + 1;
