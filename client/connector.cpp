@@ -1,0 +1,146 @@
+// Connector: one connection attempt at a time, exponential backoff, within a connect or rejoin window.
+#include "client/connector.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+
+#include "proto/messages.h"
+
+namespace rtpm::client {
+
+namespace {
+
+using asio::ip::tcp;
+
+/// How often a client that cannot reach its master says whom it is waiting for.
+constexpr auto kWaitNoticeInterval = std::chrono::seconds(5);
+/// One connection attempt may not take longer than this (a silent host drops SYNs).
+constexpr auto kAttemptTimeout = std::chrono::seconds(5);
+
+}  // namespace
+
+Connector::Clock::duration secondsDuration(double s) {
+    return std::chrono::duration_cast<Connector::Clock::duration>(std::chrono::duration<double>(std::max(0.0, s)));
+}
+
+Connector::Connector(asio::io_context& io, const WorkerOptions& options, Connected connected,
+                     std::function<void()> gaveUp)
+    : io_(io), opt_(options), connected_(std::move(connected)), gaveUp_(std::move(gaveUp)), socket_(io),
+      attemptTimer_(io), retryTimer_(io) {}
+
+void Connector::openWindow(double seconds, bool rejoin) {
+    deadline_ = Clock::now() + secondsDuration(seconds);
+    nextWaitNotice_ = {};
+    rejoin_ = rejoin;
+}
+
+double Connector::secondsLeft() const {
+    return std::max(0.0, std::chrono::duration<double>(deadline_ - Clock::now()).count());
+}
+
+void Connector::start() {
+    active_ = true;
+    asio::post(io_, [this] { attempt(); });
+}
+
+void Connector::retry(const std::string& why) {
+    lastError_ = why;
+    active_ = true;
+    scheduleRetry();
+}
+
+void Connector::cancel() {
+    active_ = false;
+    asio::error_code ignored;
+    socket_.close(ignored);  // a connection attempt in progress
+    attemptTimer_.cancel();
+    retryTimer_.cancel();
+}
+
+std::string Connector::address() const {
+    const std::string p = port_ ? std::to_string(port_) : (opt_.port ? std::to_string(opt_.port) : "?");
+    return (opt_.host.find(':') != std::string::npos ? "[" + opt_.host + "]" : opt_.host) + ":" + p;
+}
+
+bool Connector::readPortFile(uint16_t& out) {
+    std::ifstream in(opt_.portFile);
+    if (!in) {
+        lastError_ = "port file " + opt_.portFile + " does not exist yet";
+        return false;
+    }
+    std::string text;
+    in >> text;
+    std::string h = "x";
+    if (!parseHostPort("x:" + text, h, out)) {
+        if (text.size() > proto::kMaxTextBytes) text.resize(proto::kMaxTextBytes);
+        lastError_ = "port file " + opt_.portFile + " holds no port yet (\"" + text + "\")";
+        return false;
+    }
+    return true;
+}
+
+void Connector::attempt() {
+    if (!active_) return;
+    if (windowClosed()) {
+        std::fprintf(stderr, "rtpm-client: could not %s %s within %.1f s (%d attempts): %s\n",
+                     rejoin_ ? "rejoin" : "connect to", address().c_str(),
+                     rejoin_ ? opt_.rejoinTimeoutSeconds : opt_.connectTimeoutSeconds, attempts_, lastError_.c_str());
+        active_ = false;
+        return gaveUp_();
+    }
+    ++attempts_;
+    port_ = opt_.port;
+    if (port_ == 0 && !readPortFile(port_)) return scheduleRetry();
+    asio::error_code ec;
+    tcp::resolver resolver(io_);
+    auto endpoints = resolver.resolve(opt_.host, std::to_string(port_), ec);
+    if (ec) {
+        lastError_ = "cannot resolve " + opt_.host + ": " + ec.message();
+        return scheduleRetry();
+    }
+    socket_ = tcp::socket(io_);
+    const int id = attempts_;
+    asio::async_connect(socket_, endpoints, [this, id](const asio::error_code& e, const tcp::endpoint&) {
+        if (id != attempts_ || !active_) return;
+        attemptTimer_.cancel();
+        if (e) {
+            lastError_ = e == asio::error::operation_aborted ? "connection attempt timed out" : e.message();
+            asio::error_code ignored;
+            socket_.close(ignored);
+            return scheduleRetry();
+        }
+        active_ = false;
+        connected_(std::move(socket_));
+    });
+    attemptTimer_.expires_after(std::min<Clock::duration>(kAttemptTimeout, deadline_ - Clock::now()));
+    attemptTimer_.async_wait([this, id](const asio::error_code& e) {
+        if (e || id != attempts_ || !active_) return;
+        asio::error_code ignored;
+        socket_.close(ignored);  // completes the pending connect with operation_aborted
+    });
+}
+
+void Connector::scheduleRetry() {
+    // Says whom it waits for and why, at the first failed attempt and every few seconds after,
+    // so a client started before its master is not silent for the whole window.
+    const auto now = Clock::now();
+    if (now >= nextWaitNotice_ && deadline_ > now) {
+        nextWaitNotice_ = now + kWaitNoticeInterval;
+        const double left = std::chrono::duration<double>(deadline_ - now).count();
+        if (port_ == 0 && opt_.port == 0)
+            std::fprintf(stderr, "rtpm-client: waiting for the server at %s, port from %s (%s); retrying for %.0f s "
+                         "more\n", opt_.host.c_str(), opt_.portFile.c_str(), lastError_.c_str(), left);
+        else
+            std::fprintf(stderr, "rtpm-client: waiting for the server at %s (%s); retrying for %.0f s more\n",
+                         address().c_str(), lastError_.c_str(), left);
+    }
+    const auto wait = std::min<Clock::duration>(backoff_, std::max<Clock::duration>(deadline_ - Clock::now(), {}));
+    backoff_ = std::min<Clock::duration>(backoff_ * 2, kMaxBackoff);
+    retryTimer_.expires_after(wait);
+    retryTimer_.async_wait([this](const asio::error_code& e) {
+        if (!e && active_) attempt();
+    });
+}
+
+}  // namespace rtpm::client
