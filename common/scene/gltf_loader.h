@@ -37,7 +37,7 @@ struct GltfOptions {
 /// extension allows, dequantized at load (other types are errors naming the attribute).
 /// KHR_materials_variants: `options.variant`'s mapping, else each primitive's own material.
 /// KHR_materials_pbrSpecularGlossiness: converted to metallic-roughness (see
-/// fromSpecularGlossiness in the source), one warning per file. Primitives other than TRIANGLES are skipped with a warning; missing
+/// fromSpecularGlossiness in gltf_materials.cpp), one warning per file. Primitives other than TRIANGLES are skipped with a warning; missing
 /// normals are computed (area-weighted smooth). Unsupported required extensions are errors,
 /// unsupported used ones warnings (Scene::warnings); README lists every feature.
 /// Throws SceneError{file, element, message} for any malformed input (bad JSON or GLB framing,

@@ -16,7 +16,7 @@
 
 #include "common/core/printable_text.h"
 #include "common/scene/scene_files.h"
-#include "common/scene/scene_loader.h"
+#include "common/scene/texture_decode.h"
 
 namespace rtpm {
 

@@ -77,23 +77,3 @@ Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides =
                 const SceneInputPolicy& input = {});
 
 }  // namespace rtpm
-
-namespace rtpm {
-
-/// Area-weighted smooth vertex normals: every triangle adds its unnormalised geometric normal
-/// (so its area) to its three vertices; vertices touched by no non-degenerate triangle get +Z.
-/// Used by every loader and builder. Cost O(vertices + indices). Precondition: indices valid.
-std::vector<Vec3> smoothVertexNormals(const std::vector<Vec3>& positions,
-                                      const std::vector<uint32_t>& indices);
-
-/// Decodes an encoded image (PNG, JPEG, BMP, TGA, … any format stb_image reads, recognised by its
-/// signature) holding sRGB colour to a linear RGB Texture (grey replicated, alpha dropped).
-/// `formatHint` (a file name or extension) names the expected format in error messages.
-/// Throws SceneError{file, element, …} for undecodable or absurdly large (> 2^26 texels) images.
-/// When `files` is given, the decoded texture (width·height·3 floats) is charged to its budget
-/// before any pixel is decoded; the decode needs as much again while it runs.
-Texture decodeSrgbTexture(const std::vector<uint8_t>& encoded, const std::string& formatHint,
-                          const std::string& file, const std::string& element,
-                          SceneFiles* files = nullptr);
-
-}  // namespace rtpm
