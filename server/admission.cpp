@@ -94,7 +94,8 @@ std::optional<std::string> Admission::refuseAttempt(const std::string& key, Time
     return rateLimitText(key, s);
 }
 
-Admission::Verdict Admission::onConnect(uint64_t id, const std::string& key, TimePoint now) {
+Admission::Verdict Admission::onConnect(uint64_t id, const std::string& key, TimePoint now,
+                                        const SentBytes& sentBytes) {
     if (!intervalStart_) intervalStart_ = now;
     count(&AdmissionCounts::connections);
     Verdict v;
@@ -110,7 +111,7 @@ Admission::Verdict Admission::onConnect(uint64_t id, const std::string& key, Tim
     if (s.pending.size() >= limits_.maxPendingPerSource) {
         // The source's own oldest idle slot (the newcomer may be a real client sharing the
         // address of an idle flood); refused when every one of them has made progress.
-        v.evict = oldestIdle(s);
+        v.evict = oldestIdle(s, sentBytes);
         if (!v.evict) {
             v.decision = AdmissionDecision::RefuseCapacity;
             v.text = "too many handshakes in progress from " + key + " (" + std::to_string(s.pending.size()) +
@@ -126,7 +127,7 @@ Admission::Verdict Admission::onConnect(uint64_t id, const std::string& key, Tim
         double biggestRate = -1.0;
         for (auto& [k, other] : sources_) {
             if (other.pending.size() < s.pending.size() + 2) continue;
-            const auto idle = oldestIdle(other);
+            const auto idle = oldestIdle(other, sentBytes);
             if (!idle) continue;
             const double rate = decayed(other, now);
             if (rate > biggestRate) {
@@ -148,12 +149,15 @@ Admission::Verdict Admission::onConnect(uint64_t id, const std::string& key, Tim
     return v;
 }
 
-std::optional<uint64_t> Admission::oldestIdle(const Source& s) const {
+std::optional<uint64_t> Admission::oldestIdle(const Source& s, const SentBytes& sentBytes) const {
+    std::optional<uint64_t> started;  // the oldest idle one whose first bytes are in
     for (uint64_t id : s.pending) {
         auto it = pendingById_.find(id);
-        if (it != pendingById_.end() && !it->second.progressed) return id;
+        if (it == pendingById_.end() || it->second.progressed) continue;
+        if (!sentBytes || !sentBytes(id)) return id;
+        if (!started) started = id;
     }
-    return std::nullopt;
+    return started;
 }
 
 void Admission::onProgress(uint64_t id) {

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -69,15 +70,19 @@ public:
         std::optional<uint64_t> evict;  ///< when admitted: close this pending connection first
         std::string text;               ///< when refused: what to tell the peer
     };
+    /// Whether pending connection `id` has sent any byte yet (read or waiting to be read).
+    using SentBytes = std::function<bool(uint64_t id)>;
     /// A new connection from `source`. Admitted connections count as pending until
     /// onPendingEnded(). Only idle slots (no onProgress yet) are ever taken from another
-    /// connection, oldest first: a peer that sent a valid Hello never loses its slot to one that
-    /// sent nothing. When the source's slots are all taken, the newcomer takes its source's
+    /// connection, those that sent nothing at all (`sentBytes`, when given) before those whose
+    /// first bytes are in but not yet a valid Hello (a real client's Hello may wait unread behind
+    /// a flood's accepts), oldest first: a peer that sent a valid Hello never loses its slot to
+    /// one that sent nothing. When the source's slots are all taken, the newcomer takes its source's
     /// oldest idle slot (so an idle flood from a shared address cannot keep a real client of that
     /// address out), else it is refused. When every slot is taken, it takes the oldest idle slot
     /// of a source holding at least two more than the newcomer's — of those, the one that
     /// connected most often lately (a flooder, not a host starting several clients at once).
-    Verdict onConnect(uint64_t id, const std::string& source, TimePoint now);
+    Verdict onConnect(uint64_t id, const std::string& source, TimePoint now, const SentBytes& sentBytes = {});
 
     /// The pending connection `id` made progress (sent a valid Hello, a whole request): its slot
     /// is no longer taken for a newcomer. Unknown ids are ignored.
@@ -123,8 +128,8 @@ private:
         std::string source;
         bool progressed = false;
     };
-    /// The oldest pending connection of `s` without progress, if any.
-    std::optional<uint64_t> oldestIdle(const Source& s) const;
+    /// The oldest pending connection of `s` without progress, one that sent nothing first.
+    std::optional<uint64_t> oldestIdle(const Source& s, const SentBytes& sentBytes) const;
     Source& source(const std::string& key, TimePoint now);
     void refill(Source& s, TimePoint now) const;
     void count(uint64_t AdmissionCounts::*field);

@@ -55,7 +55,14 @@ void Peers::admit(asio::ip::tcp::socket sock) {
     if (ec) return;  // already gone
     const std::string source = Admission::sourceKey(ep.address().to_string());
     const uint64_t id = nextPendingId_++;
-    const Admission::Verdict v = admission_.onConnect(id, source, Admission::Clock::now());
+    // A slot given to the newcomer is taken from a connection that sent nothing before one whose
+    // first bytes (a real client's Hello, perhaps) wait unread behind the accepts.
+    const Admission::Verdict v = admission_.onConnect(id, source, Admission::Clock::now(), [this](uint64_t pending) {
+        for (const auto& [conn, p] : pending_)
+            if (p.session.id() == pending)
+                if (auto owned = ownerOf(*conn)) return owned->peerSentBytes();
+        return false;
+    });
     armAdmissionLog();
     if (v.decision != AdmissionDecision::Admit) {
         ++counts_.refused;

@@ -230,4 +230,11 @@ void Connection::finish(const std::string& why) {
     asio::post(timer_.get_executor(), [self, why] { self->handler_.onClosed(*self, why); });
 }
 
+bool Connection::peerSentBytes() {
+    if (bytesReceived_ > 0 || splitter_.buffered() > 0) return true;
+    asio::error_code ec;
+    const size_t waiting = lowest().available(ec);
+    return !ec && waiting > 0;
+}
+
 }  // namespace rtpm::net

@@ -88,6 +88,8 @@ public:
     bool handshakeTimedOut() const { return handshakeTimedOut_; }
     size_t queuedBytes() const { return queuedBytes_; }
     uint64_t bytesReceived() const { return bytesReceived_; }
+    /// The peer has sent at least one byte: read already, or waiting in the socket unread.
+    bool peerSentBytes();
 
 private:
     void readMore();

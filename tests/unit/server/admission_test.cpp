@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <set>
+
 namespace rtpm::server {
 namespace {
 
@@ -37,6 +39,31 @@ TEST(Admission, OneSourceCannotTakeMoreThanItsBudget) {
     a.onPendingEnded(1, Admission::End::TimedOut);
     EXPECT_EQ(a.onConnect(6, "10.0.0.9", t0).decision, AdmissionDecision::Admit);
     EXPECT_EQ(a.pendingFrom("10.0.0.9"), 3u);
+}
+
+// A real client's Hello may be in its socket, unread, while a flood's accepts come first: a slot
+// is then taken from a connection that sent nothing at all, whatever their ages (before: the
+// oldest idle slot, here the real client's, whose Hello the master had not read yet).
+TEST(Admission, ASlotIsTakenFromAConnectionThatSentNothingBeforeOneWhoseBytesWaitUnread) {
+    Admission a(small());
+    const TP t0{};
+    std::set<uint64_t> sent;
+    auto sentBytes = [&](uint64_t id) { return sent.count(id) > 0; };
+    ASSERT_EQ(a.onConnect(100, "10.0.0.9", t0, sentBytes).decision, AdmissionDecision::Admit);  // the real client
+    sent.insert(100);  // its Hello arrived, not yet read
+    for (uint64_t id = 1; id <= 2; ++id) ASSERT_EQ(a.onConnect(id, "10.0.0.9", t0, sentBytes).decision, AdmissionDecision::Admit);
+    for (uint64_t id = 3; id <= 40; ++id) {
+        const auto v = a.onConnect(id, "10.0.0.9", t0, sentBytes);
+        ASSERT_EQ(v.decision, AdmissionDecision::Admit);
+        ASSERT_TRUE(v.evict.has_value());
+        ASSERT_NE(*v.evict, 100u) << "a peer whose Hello was in lost its slot to one that sent nothing";
+    }
+    // The same across addresses (fair share) and when only senders are left, the oldest of them.
+    Admission b(small());
+    std::set<uint64_t> all{1, 2, 3};
+    auto allSent = [&](uint64_t id) { return all.count(id) > 0; };
+    for (uint64_t id = 1; id <= 3; ++id) ASSERT_EQ(b.onConnect(id, "10.0.0.9", t0, allSent).decision, AdmissionDecision::Admit);
+    EXPECT_EQ(b.onConnect(4, "10.0.0.9", t0, allSent).evict, std::optional<uint64_t>(1));
 }
 
 TEST(Admission, AnIdleFloodFromAClientsOwnAddressDoesNotKeepItOut) {
