@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 
 #include "common/core/check.h"
+#include "common/trace/microfacet.h"
 #include "common/trace/optics.h"
 
 namespace rtpm {
@@ -18,7 +19,9 @@ namespace {
 constexpr double kPiD = std::numbers::pi;
 
 // Purposes of hashed random numbers (the fifth hash key), so two uses at one bounce never share.
-enum Purpose : uint64_t { kFresnelChoice = 1, kRoulette = 2, kBounceU = 3, kBounceV = 4, kLobeChoice = 5 };
+enum Purpose : uint64_t {
+    kFresnelChoice = 1, kRoulette = 2, kBounceU = 3, kBounceV = 4, kLobeChoice = 5, kGlossyU = 6, kGlossyV = 7
+};
 
 
 // Orthonormal basis around unit n (Duff et al. 2017, branchless and continuous except at n.z = -1).
@@ -393,6 +396,23 @@ int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const Tra
         Vec3 next;
         switch (lobe) {
             case MaterialType::Mirror: {
+                if (mat.isGlossy()) {
+                    // GGX conductor: a direction from the normals visible to the photon, power ×
+                    // F G2/G1 (≤ 1, so no roulette is needed). A direction below the true surface
+                    // (a shading normal far from it) absorbs the photon.
+                    const ShadingFrame frame(ns);
+                    BsdfSample s;
+                    if (!roughConductorSample(frame.toLocal(-dir), ggxAlpha(mat.roughness), mat.baseColor,
+                                              Vec2(hashed(depth, kGlossyU), hashed(depth, kGlossyV)), s)) {
+                        next = Vec3(0.0f);
+                        break;
+                    }
+                    next = glm::normalize(frame.toWorld(s.wi));
+                    if (glm::dot(next, ng) <= 0.0f) next = Vec3(0.0f);
+                    power *= s.weight;
+                    specularSinceDiffuse = true;
+                    break;
+                }
                 next = reflect(dir, ns);
                 // A shading normal can send the reflection below the surface; use the true one.
                 if (glm::dot(next, ng) <= 0.0f) next = reflect(dir, ng);
@@ -404,6 +424,25 @@ int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const Tra
                 const DielectricInterface side = dielectricInterface(dir, hit.geometricNormal, mat.ior);
                 // A back-face hit ends a segment that ran inside this medium.
                 if (!side.entering && !attenuated) power *= beerLambert(mat.absorption, hit.t);
+                if (mat.isGlossy()) {
+                    // GGX rough dielectric in the frame of the outward shading normal: reflection
+                    // or refraction about a visible microfacet normal, chosen by its Fresnel
+                    // reflectance, power × G2/G1 (the Importance form: flux is not scaled by η²).
+                    // A direction on the wrong side of the true surface absorbs the photon.
+                    const ShadingFrame frame(hit.shadingNormal);
+                    BsdfSample s;
+                    if (!roughDielectricSample(frame.toLocal(-dir), ggxAlpha(mat.roughness), mat.ior,
+                                               hashed(depth, kFresnelChoice),
+                                               Vec2(hashed(depth, kGlossyU), hashed(depth, kGlossyV)), s)) {
+                        next = Vec3(0.0f);
+                        break;
+                    }
+                    next = glm::normalize(frame.toWorld(s.wi));
+                    if ((glm::dot(next, ng) > 0.0f) == s.transmitted) next = Vec3(0.0f);
+                    power *= s.weight;
+                    specularSinceDiffuse = true;
+                    break;
+                }
                 const float f = fresnelDielectric(side.cosI, side.etaI, side.etaT);
                 if (hashed(depth, kFresnelChoice) < f ||
                     !refract(dir, ns, side.etaI / side.etaT, next)) {

@@ -106,10 +106,10 @@ std::vector<uint8_t> encodeGlb(const Scene& scene) {
         pbr.roughnessFactor = 1.0;
         if (m.type == MaterialType::Mirror) {
             pbr.metallicFactor = 1.0;
-            pbr.roughnessFactor = 0.0;
+            pbr.roughnessFactor = double(m.roughness);
         } else if (m.type == MaterialType::Dielectric) {
             if (!m.isPartlyDiffuse()) pbr.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
-            pbr.roughnessFactor = 0.0;
+            pbr.roughnessFactor = double(m.roughness);
             gm.extensions["KHR_materials_transmission"] =
                 Value(Value::Object{{"transmissionFactor", Value(double(m.transmission))}});
             gm.extensions["KHR_materials_ior"] = Value(Value::Object{{"ior", Value(double(m.ior))}});

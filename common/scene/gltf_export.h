@@ -12,7 +12,7 @@ namespace rtpm {
 /// Encodes `scene` as GLB bytes. One glTF mesh (one primitive) per rtpm Mesh, one node per
 /// Instance (matrix), one node per light (KHR_lights_punctual; intensity = max channel, colour
 /// = intensity / max, so colour × intensity is exact) and one for the camera. Materials follow
-/// docs/ARCHITECTURE.md §9 in reverse: Mirror → metallic 1 / roughness 0; Dielectric →
+/// docs/ARCHITECTURE.md §9 in reverse: Mirror → metallic 1 / its roughness; Dielectric → its roughness,
 /// KHR_materials_transmission (its factor) + KHR_materials_ior + KHR_materials_volume
 /// (attenuationColor = exp(−σ·d) with d = 1 m); emission → emissiveFactor ×
 /// KHR_materials_emissive_strength (× emissiveTexture); unlit → KHR_materials_unlit (required);

@@ -195,8 +195,11 @@ void validateLight(const Light& l, const std::string& fileName, const std::strin
 
 void validateMaterial(const Material& m, size_t textureCount, const std::string& fileName,
                       const std::string& el) {
-    if (!finite(m.baseColor) || !finite(m.emission) || !finite(m.absorption) || !std::isfinite(m.ior))
+    if (!finite(m.baseColor) || !finite(m.emission) || !finite(m.absorption) || !std::isfinite(m.ior) ||
+        !std::isfinite(m.roughness))
         throw SceneError(fileName, el, "non-finite value");
+    if (!(m.roughness >= 0.0f && m.roughness <= 1.0f))
+        throw SceneError(fileName, el, "roughness " + std::to_string(m.roughness) + " outside [0, 1]");
     if (glm::any(glm::lessThan(m.emission, Vec3(0.0f))) || glm::any(glm::lessThan(m.absorption, Vec3(0.0f))))
         throw SceneError(fileName, el, "negative emission or absorption");
     if (!inRange(m.emission, 0.0f, kMaxRadiantValue))

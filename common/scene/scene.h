@@ -52,9 +52,16 @@ struct Texture {
 
 enum class MaterialType : uint8_t {
     Diffuse,     ///< Lambertian, albedo baseColor (times texture)
-    Mirror,      ///< perfect specular reflector, reflectance baseColor
-    Dielectric,  ///< smooth glass/liquid: exact Fresnel, refraction, Beer–Lambert inside
+    Mirror,      ///< metal: perfect specular reflector of reflectance baseColor, or with roughness
+                 ///< a GGX conductor with Schlick Fresnel F0 = baseColor
+    Dielectric,  ///< glass/liquid: exact Fresnel, refraction, Beer–Lambert inside; with roughness
+                 ///< a GGX rough dielectric (Walter et al. 2007)
 };
+
+/// glTF perceptual roughness at or below which a Mirror or Dielectric is the exact smooth specular
+/// surface (deterministic splits in the eye pass, exact reflection and refraction of photons).
+/// Above it the surface is a GGX microfacet surface (common/trace/microfacet.h).
+inline constexpr float kSmoothRoughness = 0.01f;
 
 /// glTF KHR_texture_transform of a texture lookup: uv' = T(offset) · R(rotation) · S(scale) · uv,
 /// with the extension's rotation convention (counter-clockwise in uv space, radians).
@@ -82,6 +89,9 @@ struct Material {
     /// Dielectric: share t ∈ (0, 1] of the smooth dielectric lobe; the rest (1 − t) is Lambertian
     /// with albedo baseColor × texture (glTF KHR_materials_transmission factor). 1 = clear glass.
     float transmission = 1.0f;
+    /// Mirror and Dielectric: glTF perceptual roughness in [0, 1] (GGX α = roughness²); at most
+    /// kSmoothRoughness is a smooth surface. Ignored by Diffuse.
+    float roughness = 0.0f;
     Vec3 emission{0.0f};        ///< emitted radiance W/(m²·sr) from the front face; > 0 → area light
     int32_t emissiveTexture = -1;  ///< index into Scene::textures multiplying emission, -1 for none
     /// Diffuse only, ignored for other types (glTF KHR_materials_unlit): seen as baseColor × texture, receives no light,
@@ -89,6 +99,8 @@ struct Material {
     bool unlit = false;
     bool isEmissive() const { return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f; }
     bool isSpecular() const { return type != MaterialType::Diffuse; }
+    /// A rough Mirror or Dielectric: scattered by the GGX BSDF instead of exactly.
+    bool isGlossy() const { return type != MaterialType::Diffuse && roughness > kSmoothRoughness; }
     /// A Dielectric with a Lambertian share (transmission < 1).
     bool isPartlyDiffuse() const { return type == MaterialType::Dielectric && transmission < 1.0f; }
 };
@@ -207,7 +219,7 @@ Bounds meshBounds(const Mesh& mesh);
 /// spot/directional direction a unit vector; spot cones 0 ≤ inner < outer ≤ π/2.
 void validateLight(const Light& light, const std::string& fileName, const std::string& element);
 /// Material: finite; colour, emission ≤ kMaxRadiantValue and absorption ≤ kMaxAbsorption
-/// non-negative; a dielectric's ior in [1, 4]; texture index < `textureCount`.
+/// non-negative; a dielectric's ior in [1, 4]; roughness in [0, 1]; texture index < `textureCount`.
 void validateMaterial(const Material& material, size_t textureCount, const std::string& fileName,
                       const std::string& element);
 /// Instance transform: finite; affine (last row 0 0 0 1); every column of the linear part of

@@ -32,6 +32,20 @@
 //   estimate, albedo baseColor × texture), the dielectric share t continues through the Fresnel
 //   split below. The photon tracer makes the same choice stochastically (photon_tracer.cpp).
 // * Unlit materials (KHR_materials_unlit) return baseColor × texture and end the path.
+// * Glossy materials (a Mirror or Dielectric rougher than kSmoothRoughness, common/trace/
+//   microfacet.h) end the pixel's split path: what arrives at a glossy vertex is estimated from
+//   kGlossySamples visible microfacet normals (stratified in the first number). At each, a
+//   conductor reflects and a dielectric splits into both lobes with weights F·G2/G1 and
+//   (1 − F)·G2/G1, which in the smooth limit is the smooth dielectric's Fresnel split above; the
+//   branches then go on as a split tree like the pixel's own (further glossy vertices take one
+//   microfacet each). Numbers come from the pixel's hashed rotation at the vertex and the pass,
+//   never from threads. In record mode (the progressive estimator) the glossy vertex is recorded
+//   with the direct light of its restart samples, and each pass draws kGlossySamples fresh normals
+//   (the rotation advanced along the R3 sequence, as for area lights), so a still view's glossy
+//   reflections converge as the passes' running mean. The caustic seen through a glossy vertex
+//   is refined at the end points the restart's samples reached (recorded for their caustic only),
+//   so it converges in photons but keeps those directions; with the knn estimator it is looked up
+//   at each frame's end points and box-filtered as every caustic is.
 #include "common/trace/eye_pass.h"
 
 #include <tbb/blocked_range.h>
@@ -41,11 +55,13 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <vector>
 
 #include "common/core/check.h"
+#include "common/trace/microfacet.h"
 #include "common/trace/optics.h"
 #include "common/core/halton.h"
 #include "common/core/math.h"
@@ -59,6 +75,8 @@ constexpr int kMaxTrianglesSampledEach = 16;
 /// Solid angle (sr) of emitter one shadow sample stands for (a cone of half-angle ≈ 3.2°).
 constexpr float kSolidAnglePerSample = 0.01f;
 constexpr int kStackSize = 64;
+/// BSDF samples per glossy vertex (per pass in the progressive estimator).
+constexpr int kGlossySamples = 4;
 
 
 float wrap01(float x) {
@@ -253,6 +271,167 @@ struct PathState {
     int depth;
 };
 
+/// What arrives at a glossy vertex, times the throughput from it: direct light (and emission met
+/// on the way) and, when looked up, the caustic estimate at the diffuse end points.
+struct GlossyRadiance {
+    Vec3 direct{0.0f};
+    Vec3 caustic{0.0f};
+};
+
+/// Where the caustic of a glossy tree's diffuse end points goes.
+enum class GlossyCaustic : uint8_t {
+    Lookup,  ///< asked of ctx.caustics (if any) into GlossyRadiance::caustic
+    Record,  ///< each end point appended to `record` as an EyeHit::Kind::CausticOnly hit
+    Skip,    ///< not estimated (a progressive pass: the recorded end points refine it)
+};
+
+constexpr int kGlossyStackSize = 32;
+
+/// The paths on from glossy vertex `hit` of material index hit.material (arriving along `dir`,
+/// `ng` and `ns` facing the viewer, at specular depth `depth`; file comment). kGlossySamples
+/// visible normals, stratified in their first number and advanced per pass; each scatters the
+/// path: a conductor reflects about it, a dielectric splits into both lobes about it (the smooth
+/// dielectric's Fresnel split in the limit). Further on, the tree splits at dielectrics (smooth
+/// ones about the normal, glossy ones about one sampled microfacet) and follows mirrors and
+/// conductors, as shadePixel does, down to the diffuse end points' direct light. Numbers after
+/// the first vertex are hashed from the rotation, the pass and a counter. With Record, `base`
+/// gives the recorded end points' pixel, set and the throughput before the vertex.
+GlossyRadiance glossyTree(const Context& ctx, uint32_t set, const SurfaceHit& hit, Vec3 dir, Vec3 ng,
+                          Vec3 ns, int depth, const std::array<float, 3>& rot, uint32_t pass,
+                          GlossyCaustic caustic, Counters& count, std::vector<EyeHit>* record = nullptr,
+                          const EyeHit* base = nullptr) {
+    const EmbreeScene& es = ctx.es;
+    const Scene& scene = ctx.scene;
+    GlossyRadiance out;
+    uint32_t b0, b1;
+    std::memcpy(&b0, &rot[0], 4);
+    std::memcpy(&b1, &rot[1], 4);
+    const uint64_t key = splitMix64((uint64_t(b0) << 32 | b1) ^ splitMix64(0x676c6f7373ull + pass));
+    uint64_t counter = 0;
+    auto uniform = [&] { return hashToUnit(splitMix64(key ^ splitMix64(++counter))); };
+    PathState stack[kGlossyStackSize];
+    int top = 0;
+    auto push = [&](const SurfaceHit& h, Vec3 hng, Vec3 next, Vec3 throughput, int d) {
+        if (maxComponent(throughput) < kMinThroughput) return;
+        if (top == kGlossyStackSize) {
+            ++count.stackOverflow;
+            return;
+        }
+        stack[top++] = PathState{Ray{es.offsetOrigin(h.position, hng, next), next}, throughput, d};
+    };
+    // Scatters at glossy `h` with the visible normal drawn by `u`: one branch for a conductor,
+    // up to two for a dielectric. A direction on the wrong side of the true surface is dropped.
+    auto scatter = [&](const SurfaceHit& h, Vec3 rdir, Vec3 hng, Vec3 hns, Vec2 u, Vec3 throughput, int d) {
+        const Material& m = scene.materials[h.material];
+        const Vec3 wo = -glm::normalize(rdir);
+        if (m.type == MaterialType::Mirror) {
+            const ShadingFrame frame(hns);
+            BsdfSample s;
+            if (!roughConductorSample(frame.toLocal(wo), ggxAlpha(m.roughness), m.baseColor, u, s)) return;
+            const Vec3 next = glm::normalize(frame.toWorld(s.wi));
+            if (glm::dot(next, hng) > 0.0f) push(h, hng, next, throughput * s.weight, d);
+            return;
+        }
+        // The dielectric's frame has its normal out of the medium (the convention of optics.h).
+        const ShadingFrame frame(h.shadingNormal);
+        BsdfSample r, t;
+        const int lobes = roughDielectricSplit(frame.toLocal(wo), ggxAlpha(m.roughness), m.ior, u, r, t);
+        if (lobes & 1) {
+            const Vec3 next = glm::normalize(frame.toWorld(r.wi));
+            if (glm::dot(next, hng) > 0.0f) push(h, hng, next, throughput * r.weight, d);
+        }
+        if (lobes & 2) {
+            const Vec3 next = glm::normalize(frame.toWorld(t.wi));
+            if (glm::dot(next, hng) < 0.0f) push(h, hng, next, throughput * t.weight, d);
+        }
+    };
+    // Throughputs are per sample (so branches are pruned as in shadePixel); the mean over the
+    // samples is taken at the end points.
+    constexpr float kShare = 1.0f / float(kGlossySamples);
+    for (int k = 0; k < kGlossySamples; ++k) {
+        const Vec2 u((float(k) + rot[0]) * kShare, wrap01(rot[1] + 0.618034f * float(k)));
+        scatter(hit, dir, ng, ns, u, Vec3(1.0f), depth + 1);
+    }
+    while (top > 0) {
+        PathState path = stack[--top];
+        for (;;) {
+            SurfaceHit h;
+            ++count.secondary;
+            if (!es.intersect(path.ray, h)) break;
+            const Material& m = scene.materials[h.material];
+            const Vec3 rdir = path.ray.dir;
+            const float cosGeo = glm::dot(rdir, h.geometricNormal);
+            if (m.type == MaterialType::Dielectric && cosGeo > 0.0f && m.absorption != Vec3(0.0f))
+                path.throughput *= beerLambert(m.absorption, h.t * glm::length(rdir));
+            if (m.isEmissive() && cosGeo < 0.0f)
+                out.direct += (path.throughput * kShare) *
+                              (m.emissiveTexture >= 0 ? emissionAt(m, scene.textures, h.uv) : m.emission);
+            const Vec3 hng = cosGeo > 0.0f ? -h.geometricNormal : h.geometricNormal;
+            const Vec3 hns = cosGeo > 0.0f ? -h.shadingNormal : h.shadingNormal;
+            auto endPoint = [&](Vec3 throughput) {
+                const Vec3 albedo = baseColorAt(m, scene.textures, h.uv);
+                const std::array<float, 3> r{uniform(), uniform(), uniform()};
+                out.direct += (throughput * kShare) * directLight(ctx, h, hns, hng, albedo, r, count);
+                if (caustic == GlossyCaustic::Lookup && ctx.caustics) {
+                    out.caustic += (throughput * kShare) * ctx.caustics->radiance(es, set, h, hns, albedo);
+                } else if (caustic == GlossyCaustic::Record) {
+                    EyeHit& e = record->emplace_back();
+                    e.hit = h;
+                    e.normal = hns;
+                    e.geometricNormal = hng;
+                    e.albedo = albedo;
+                    e.throughput = base->throughput * (throughput * kShare);
+                    e.pixel = base->pixel;
+                    e.set = base->set;
+                    e.kind = EyeHit::Kind::CausticOnly;
+                }
+            };
+            if (m.type == MaterialType::Diffuse) {
+                if (m.unlit)
+                    out.direct += (path.throughput * kShare) * baseColorAt(m, scene.textures, h.uv);
+                else
+                    endPoint(path.throughput);
+                break;
+            }
+            if (m.isPartlyDiffuse()) {
+                endPoint(path.throughput * (1.0f - m.transmission));
+                path.throughput *= m.transmission;
+                if (maxComponent(path.throughput) < kMinThroughput) break;
+            }
+            if (path.depth >= ctx.settings.maxDepth) break;
+            if (m.isGlossy()) {
+                const float u0 = uniform();
+                scatter(h, rdir, hng, hns, Vec2(u0, uniform()), path.throughput, path.depth + 1);
+                break;
+            }
+            if (m.type == MaterialType::Mirror) {
+                Vec3 r = glm::normalize(reflect(rdir, hns));
+                if (glm::dot(r, hng) <= 0.0f) r = glm::normalize(reflect(rdir, hng));
+                path.throughput *= m.baseColor;
+                path.ray = Ray{es.offsetOrigin(h.position, hng, r), r};
+                ++path.depth;
+                if (maxComponent(path.throughput) < kMinThroughput) break;
+                continue;
+            }
+            // Smooth dielectric: both branches, weighted by Fresnel (as shadePixel).
+            const DielectricInterface side = dielectricInterface(rdir, h.geometricNormal, m.ior);
+            const float cosI = std::clamp(-glm::dot(rdir, hns), 0.0f, 1.0f);
+            Vec3 t;
+            const bool canRefract = refract(rdir, hns, side.etaI / side.etaT, t) && glm::dot(t, hng) < 0.0f;
+            const float fr = canRefract ? fresnelDielectric(cosI, side.etaI, side.etaT) : 1.0f;
+            Vec3 r = glm::normalize(reflect(rdir, hns));
+            if (glm::dot(r, hng) <= 0.0f) r = glm::normalize(reflect(rdir, hng));
+            push(h, hng, r, path.throughput * fr, path.depth + 1);
+            if (!canRefract) break;
+            path.throughput *= 1.0f - fr;
+            path.ray = Ray{es.offsetOrigin(h.position, hng, t), t};
+            ++path.depth;
+            if (maxComponent(path.throughput) < kMinThroughput) break;
+        }
+    }
+    return out;
+}
+
 /// A caustic lookup a pixel of the packet asks for: shadePixel queues them, renderSet answers a
 /// packet's lookups as one group (CausticEstimator::radianceGroup) and adds throughput × radiance
 /// to the pixel's caustic in queue order.
@@ -284,6 +463,7 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
     stack[top++] = PathState{primaryRay, Vec3(1.0f), 0};
     const uint64_t pixelKey = (uint64_t(uint32_t(y)) << 32) | uint32_t(x);
     uint32_t diffuseVertex = 0;
+    uint32_t glossyVertex = 0;
     bool primary = true;
 
     while (top > 0) {
@@ -357,6 +537,40 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
                 if (maxComponent(path.throughput) < kMinThroughput) break;
             }
             if (path.depth >= ctx.settings.maxDepth) break;
+
+            if (mat.isGlossy()) {
+                // A glossy vertex ends the split path; what arrives here is sampled (file comment).
+                const uint64_t h = splitMix64(pixelKey ^ splitMix64(0x676c6f7373ull + glossyVertex++));
+                const std::array<float, 3> rot{hashToUnit(h), hashToUnit(splitMix64(h + 1)), hashToUnit(splitMix64(h + 2))};
+                if (hits) {
+                    // The end points' caustic hits first, then the glossy vertex (its direct light
+                    // refined per pass): a pixel's first hit stays a diffuse one where it has one.
+                    EyeHit vertex;
+                    vertex.hit = hit;
+                    vertex.normal = ns;
+                    vertex.geometricNormal = ng;
+                    vertex.throughput = path.throughput;
+                    vertex.rotation = rot;
+                    vertex.pixel = pixel;
+                    vertex.wo = -glm::normalize(dir);
+                    vertex.set = uint16_t(ctx.set);
+                    vertex.depth = uint16_t(path.depth);
+                    vertex.kind = EyeHit::Kind::Glossy;
+                    vertex.areaDirect = glossyTree(ctx, uint32_t(ctx.set), hit, dir, ng, ns, path.depth, rot, 0,
+                                                   GlossyCaustic::Record, count, hits, &vertex).direct;
+                    if (!finite(vertex.areaDirect)) {
+                        vertex.areaDirect = Vec3(0.0f);
+                        ++count.nonFinite;
+                    }
+                    hits->push_back(vertex);
+                } else {
+                    const GlossyRadiance g = glossyTree(ctx, uint32_t(ctx.set), hit, dir, ng, ns, path.depth, rot, 0,
+                                                        GlossyCaustic::Lookup, count);
+                    result.direct += path.throughput * g.direct;
+                    result.caustic += path.throughput * g.caustic;
+                }
+                break;
+            }
 
             if (mat.type == MaterialType::Mirror) {
                 // Reflect about the shading normal; if that sends the ray into the surface (strong
@@ -494,14 +708,17 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
 
 struct AreaLightSampler::Impl {
     Context ctx;
+    bool glossy;  // the scene has a glossy material
 };
 
 AreaLightSampler::AreaLightSampler(const EmbreeScene& scene, const EyeSettings& settings)
-    : impl_(std::make_unique<Impl>(Impl{makeContext(scene, settings, nullptr, 0)})) {}
+    : impl_(std::make_unique<Impl>(Impl{makeContext(scene, settings, nullptr, 0),
+                                        std::any_of(scene.scene().materials.begin(), scene.scene().materials.end(),
+                                                    [](const Material& m) { return m.isGlossy(); })})) {}
 
 AreaLightSampler::~AreaLightSampler() = default;
 
-bool AreaLightSampler::empty() const { return impl_->ctx.es.emissiveTriangles().empty(); }
+bool AreaLightSampler::empty() const { return impl_->ctx.es.emissiveTriangles().empty() && !impl_->glossy; }
 
 Vec3 AreaLightSampler::sample(const EyeHit& e, uint32_t pass, uint64_t& shadowRays) const {
     // Pass p rotates the pixel's rotation by p steps of the R3 sequence (Roberts 2018: the
@@ -514,7 +731,13 @@ Vec3 AreaLightSampler::sample(const EyeHit& e, uint32_t pass, uint64_t& shadowRa
         rot[d] = wrap01(float(shifted - std::floor(shifted)));
     }
     Counters count;
-    Vec3 v = areaLight(impl_->ctx, e.hit, e.normal, e.geometricNormal, e.albedo, rot, count, Vec3(0.0f));
+    Vec3 v(0.0f);
+    if (e.kind == EyeHit::Kind::Glossy) {
+        v = glossyTree(impl_->ctx, e.set, e.hit, -e.wo, e.geometricNormal, e.normal, int(e.depth), rot, pass,
+                       GlossyCaustic::Skip, count).direct;
+    } else if (e.kind == EyeHit::Kind::EndPoint) {
+        v = areaLight(impl_->ctx, e.hit, e.normal, e.geometricNormal, e.albedo, rot, count, Vec3(0.0f));
+    }
     shadowRays += count.shadow;
     return finite(v) ? v : Vec3(0.0f);
 }

@@ -24,17 +24,33 @@ struct EyeStats {
     uint64_t stackOverflows = 0; ///< dielectric branches dropped because the split stack was full
 };
 
-/// One diffuse end point of a pixel's eye path: what a progressive pass needs to refine the
-/// pixel without re-tracing it (docs/ARCHITECTURE.md §6.2: a still frame re-traces no eye ray).
+/// One diffuse end point of a pixel's eye path, or a glossy vertex (a rough mirror or dielectric):
+/// what a progressive pass needs to refine the pixel without re-tracing it up to there
+/// (docs/ARCHITECTURE.md §6.2: a still frame re-traces no eye ray to its recorded hits). A pass
+/// samples a glossy vertex's BSDF afresh and traces on from it for direct light
+/// (AreaLightSampler::sample); the caustic behind it is refined at the end points its restart
+/// reached (Kind::CausticOnly).
 struct EyeHit {
     SurfaceHit hit;            ///< as Embree reported it (geometricNormal not flipped)
     Vec3 normal{0.0f};         ///< shading normal facing the viewer
     Vec3 geometricNormal{0.0f};///< geometric normal facing the viewer
-    Vec3 albedo{0.0f};         ///< diffuse reflectance (texture applied)
+    Vec3 albedo{0.0f};         ///< diffuse reflectance (texture applied); 0 at a glossy vertex
     Vec3 throughput{0.0f};     ///< of the specular chain from the camera to here
-    Vec3 areaDirect{0.0f};     ///< area-light radiance here from the eye pass's samples (pass 0)
+    Vec3 areaDirect{0.0f};     ///< area-light radiance here from the eye pass's samples (pass 0);
+                               ///< at a glossy vertex, the radiance of its pass-0 BSDF sample
     std::array<float, 3> rotation{};  ///< the pixel's Cranley–Patterson rotation at this vertex
     uint32_t pixel = 0;        ///< index of the pixel within its set (row-major)
+    Vec3 wo{0.0f};             ///< glossy vertex: unit direction toward the viewer
+    uint16_t set = 0;          ///< the pixel's interleaving set
+    uint16_t depth = 0;        ///< glossy vertex: specular bounces before it
+    enum class Kind : uint8_t {
+        EndPoint,     ///< a diffuse end point: direct light and caustic
+        Glossy,       ///< a glossy vertex: what arrives there, sampled afresh per pass; no caustic
+                      ///< of its own (albedo 0)
+        CausticOnly,  ///< a diffuse end point behind a glossy vertex: its caustic only (the
+                      ///< glossy vertex's samples carry its direct light)
+    };
+    Kind kind = Kind::EndPoint;
 };
 
 /// The eye-pass records of one set: every diffuse end point, in pixel order.
@@ -50,28 +66,35 @@ struct EyeRecords {
 /// Cost per pixel: one primary ray, ≤ 2^depth specular rays (pruned at throughput 1e-3), and per
 /// diffuse end point one shadow ray per punctual light plus, for the emitters, between 1 and
 /// areaLightSamples per emissive triangle (at most 16·areaLightSamples in total) chosen by the
-/// solid angle they subtend (see eye_pass.cpp). Primary rays go to Embree in packets of 8, and
+/// solid angle they subtend (see eye_pass.cpp). A glossy vertex ends the pixel's split path and
+/// traces kGlossySamples trees on from sampled microfacet normals (eye_pass.cpp), each split like
+/// the pixel's own, to diffuse end points with their direct light and caustic lookup. Primary rays go to Embree in packets of 8, and
 /// the caustic lookups of a packet's pixels go to `caustics` as one group (radianceGroup).
 void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings& settings,
                const Interleave& pattern, int set, const CausticEstimator* caustics,
                std::span<PixelRadiance> out, EyeStats* stats = nullptr,
                EyeRecords* records = nullptr);
 
-/// Record mode (`records` given to renderSet): the diffuse end points go to `records`; out[p].direct
-/// then holds everything but the area-light term at those points (each EyeHit::areaDirect holds
-/// it, unweighted by the throughput), and no caustic is looked up (out[p].caustic = 0).
+/// Record mode (`records` given to renderSet): the diffuse end points and glossy vertices go to
+/// `records` (behind a glossy vertex, the end points its restart samples reached, for their
+/// caustic only); out[p].direct then holds everything but the area-light term at the end points
+/// and what arrives at the glossy vertices (each EyeHit::areaDirect holds it, unweighted by the
+/// throughput), and no caustic is looked up (out[p].caustic = 0).
 
-/// Samples the area lights (emissive triangles) at recorded eye hits, for progressive passes.
-/// Thread-safe (const); holds the scene's triangle-selection table.
+/// The per-pass samples at recorded eye hits, for progressive passes: the area lights
+/// (emissive triangles) at a diffuse end point, fresh BSDF samples and the direct light along the
+/// paths on from them at a glossy vertex. Thread-safe (const); holds the scene's
+/// triangle-selection table.
 class AreaLightSampler {
 public:
     AreaLightSampler(const EmbreeScene& scene, const EyeSettings& settings);
     ~AreaLightSampler();
-    /// True when the scene has no emissive triangle (every sample is 0).
+    /// True when every sample is 0: the scene has no emissive triangle and no glossy material.
     bool empty() const;
-    /// Area-light radiance at `hit` (unweighted by its throughput) from the same sample pattern
-    /// as the eye pass, rotated for pass `pass` (pass 0 = EyeHit::areaDirect exactly). Adds the
-    /// shadow rays cast to `shadowRays`. Always finite.
+    /// Radiance at `hit` (unweighted by its throughput) from the same sample pattern as the eye
+    /// pass, rotated for pass `pass` (pass 0 = EyeHit::areaDirect exactly): area light at a
+    /// diffuse end point, the direct light along fresh BSDF samples at a glossy vertex, 0 at a
+    /// caustic-only end point. Adds the shadow rays cast to `shadowRays`. Always finite.
     Vec3 sample(const EyeHit& hit, uint32_t pass, uint64_t& shadowRays) const;
 
 private:

@@ -188,6 +188,36 @@ bool roughDielectricSample(Vec3 wo, float alpha, float eta, float uChoice, Vec2 
     return out.pdf > 0.0f;
 }
 
+int roughDielectricSplit(Vec3 wo, float alpha, float eta, Vec2 u, BsdfSample& reflected,
+                         BsdfSample& transmitted) {
+    if (wo.z == 0.0f) return 0;
+    const Ggx g{alpha};
+    const Vec3 m = g.sampleVisibleNormal(wo, u);
+    const float cosOM = glm::dot(wo, m);
+    if (cosOM * wo.z <= 0.0f) return 0;
+    const float r = fresnelDielectric(cosOM, 1.0f, eta);
+    const float g1 = g.g1(wo);
+    int out = 0;
+    const Vec3 wr = reflectAbout(wo, m);
+    if (wr.z * wo.z > 0.0f && r > 0.0f) {
+        reflected.wi = wr;
+        reflected.weight = Vec3(r * g.g2(wo, wr) / g1);
+        reflected.pdf = 0.0f;  // a split, not a sample
+        reflected.transmitted = false;
+        out |= 1;
+    }
+    float etap;
+    Vec3 wt;
+    if (r < 1.0f && refractAbout(wo, m, eta, etap, wt) && wt.z * wo.z < 0.0f) {
+        transmitted.wi = wt;
+        transmitted.weight = Vec3((1.0f - r) * g.g2(wo, wt) / g1);
+        transmitted.pdf = 0.0f;
+        transmitted.transmitted = true;
+        out |= 2;
+    }
+    return out;
+}
+
 ShadingFrame::ShadingFrame(Vec3 normal) : n(normal) {
     const float sign = std::copysign(1.0f, n.z);
     const float a = -1.0f / (sign + n.z);

@@ -17,12 +17,7 @@
 
 namespace rtpm {
 
-/// glTF perceptual roughness at or below which a Mirror or Dielectric is the exact smooth
-/// specular surface (the eye pass's deterministic splits, the photon tracer's exact reflection and
-/// refraction). Above it the surface is a GGX microfacet surface of α = ggxAlpha(roughness).
-inline constexpr float kSmoothRoughness = 0.01f;
-
-/// GGX α from glTF perceptual roughness (glTF: α = roughness²), clamped to [1e-4, 1] so that D and
+/// GGX α from glTF perceptual roughness (glTF: α = roughness²; above kSmoothRoughness, scene.h), clamped to [1e-4, 1] so that D and
 /// its sampling stay finite in float. Pure, O(1).
 float ggxAlpha(float roughness);
 
@@ -86,6 +81,14 @@ float roughDielectricPdf(Vec3 wo, Vec3 wi, float alpha, float eta);
 /// interfaces, and the factors cancel). False when the sampled direction is not on the side the
 /// choice requires (a microfacet facing away).
 bool roughDielectricSample(Vec3 wo, float alpha, float eta, float uChoice, Vec2 u, BsdfSample& out);
+
+/// Both lobes of a rough dielectric at one visible normal drawn with `u`: `reflected` with weight
+/// F(wo·m) G2/G1(wo), `transmitted` with (1 − F) G2/G1(wo) (Importance form). Each is set only when
+/// it exists on its side (bit 0: reflected, bit 1: transmitted; 0 = nothing). Their expected sum
+/// is roughDielectricSample's expected weight, with less variance: an eye path that splits here
+/// is, in the smooth limit, the smooth dielectric's deterministic Fresnel split.
+int roughDielectricSplit(Vec3 wo, float alpha, float eta, Vec2 u, BsdfSample& reflected,
+                         BsdfSample& transmitted);
 
 /// The local frame of a unit normal `n`: world = x·t + y·b + z·n (Duff et al. 2017, continuous
 /// except at n.z = −1).

@@ -186,6 +186,29 @@ TEST(Microfacet, NearlySmoothDielectricIsLosslessWithFresnelSplit) {
     }
 }
 
+TEST(Microfacet, SplitAtOneMicrofacetHasTheSamplersExpectedWeights) {
+    // The eye pass's split (both lobes at one visible normal) and the photons' random choice
+    // estimate the same reflected and transmitted energy.
+    for (float cosO : {0.8f, 0.3f, -0.6f}) {
+        const Vec3 wo = direction(cosO, 0.5f);
+        const float alpha = ggxAlpha(0.5f), eta = 1.5f;
+        const int n = 40000;
+        double splitR = 0.0, splitT = 0.0, sampleR = 0.0, sampleT = 0.0;
+        for (int i = 0; i < n; ++i) {
+            BsdfSample r, t, s;
+            const Vec2 u(rnd(30, i, 0), rnd(30, i, 1));
+            const int lobes = roughDielectricSplit(wo, alpha, eta, u, r, t);
+            if (lobes & 1) splitR += r.weight.x;
+            if (lobes & 2) splitT += t.weight.x;
+            if (roughDielectricSample(wo, alpha, eta, rnd(31, i, 2), Vec2(rnd(31, i, 0), rnd(31, i, 1)), s))
+                (s.transmitted ? sampleT : sampleR) += s.weight.x;
+        }
+        EXPECT_NEAR(splitR / n, sampleR / n, 0.01) << cosO;
+        EXPECT_NEAR(splitT / n, sampleT / n, 0.01) << cosO;
+        if (cosO > 0.0f) EXPECT_GT(splitT / n, 0.3) << cosO;  // inside, beyond the critical angle, little passes
+    }
+}
+
 TEST(Microfacet, ReflectionIsReciprocalAndTransmissionGeneralisedReciprocal) {
     int transmissions = 0;
     for (int i = 0; i < 2000; ++i) {
