@@ -25,10 +25,11 @@ struct GltfOptions {
 /// scene (glTF cameras look down local −Z with +Y up). KHR_lights_punctual: point/spot intensity in
 /// W/sr, directional in W/m², times colour; spot cone angles; direction = the node's local −Z.
 /// Materials: KHR_materials_unlit → unlit Diffuse; KHR_materials_transmission t > 0 → Dielectric
-/// with transmission t (t < 1: the rest Lambertian with the base colour and texture;
-/// KHR_materials_ior, default 1.5; absorption σ = −ln(attenuationColor)/attenuationDistance from
-/// KHR_materials_volume, read whatever the thicknessFactor, because rtpm traces the real
-/// geometry); metallic ≥ 0.99 and roughness ≤ 0.01 → Mirror (reflectance baseColorFactor);
+/// with transmission t and roughnessFactor (t < 1: the rest Lambertian with the base colour and
+/// texture; KHR_materials_ior, default 1.5; absorption σ = −ln(attenuationColor)/attenuationDistance
+/// from KHR_materials_volume, read whatever the thicknessFactor, because rtpm traces the real
+/// geometry); metallic ≥ 0.99 → Mirror with roughnessFactor (reflectance or Schlick F0
+/// baseColorFactor; a roughness outside [0, 1] is an error);
 /// otherwise Diffuse with baseColorFactor times the sRGB-decoded baseColorTexture, through its
 /// KHR_texture_transform. emissiveFactor × KHR_materials_emissive_strength (× emissiveTexture) →
 /// emission. A mesh's uv set is the TEXCOORD_n its material's base-colour (else emissive) texture

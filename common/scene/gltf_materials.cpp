@@ -239,6 +239,12 @@ void GltfImporter::convertMaterials() {
         }
         base = glm::clamp(base, Vec3(0.0f), Vec3(1.0f));
         m.baseColor = base;
+        // The roughness of a metal or a transmissive material (GGX α = roughness², scene.h).
+        auto checkedRoughness = [&](double r, const std::string& e) {
+            if (!std::isfinite(r) || r < 0.0 || r > 1.0)
+                fail(e + ".pbrMetallicRoughness.roughnessFactor", "roughnessFactor " + std::to_string(r) + " outside [0, 1]");
+            return float(r);
+        };
 
         const tinygltf::Value* transmission = extension(gm.extensions, "KHR_materials_transmission");
         double transmissionFactor =
@@ -265,6 +271,7 @@ void GltfImporter::convertMaterials() {
             useBaseColorTexture();
         } else if (transmissionFactor > 0.0) {
             m.type = MaterialType::Dielectric;
+            m.roughness = checkedRoughness(roughness, el);
             m.transmission = float(transmissionFactor);
             if (m.transmission >= 1.0f) {
                 m.baseColor = Vec3(1.0f);  // clear glass: the tint is not modelled
@@ -277,8 +284,11 @@ void GltfImporter::convertMaterials() {
             if (transmission && transmission->Has("transmissionTexture"))
                 warn(el + ": transmissionTexture ignored (transmissionFactor used everywhere)");
             readIorAndVolume(gm, el, m);
-        } else if (metallic >= 0.99 && roughness <= 0.01) {
+        } else if (metallic >= 0.99) {
+            // A metal: a perfect mirror up to kSmoothRoughness, a GGX conductor above (Schlick's
+            // Fresnel with F0 = the base colour, glTF's metal BRDF).
             m.type = MaterialType::Mirror;
+            m.roughness = checkedRoughness(roughness, el);
         } else {
             m.type = MaterialType::Diffuse;
             useBaseColorTexture();

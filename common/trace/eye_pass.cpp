@@ -40,9 +40,10 @@
 //   branches then go on as a split tree like the pixel's own (further glossy vertices take one
 //   microfacet each). Numbers come from the pixel's hashed rotation at the vertex and the pass,
 //   never from threads. In record mode (the progressive estimator) the glossy vertex is recorded
-//   with the direct light of its restart samples, and each pass draws kGlossySamples fresh normals
-//   (the rotation advanced along the R3 sequence, as for area lights), so a still view's glossy
-//   reflections converge as the passes' running mean. The caustic seen through a glossy vertex
+//   with the direct light of its restart samples, and each pass draws one fresh normal (the
+//   rotation advanced along the R3 sequence, as for area lights) and re-traces its tree, so a
+//   still view's glossy reflections converge as the passes' running mean (a pass then costs
+//   about one eye pass over the glossy pixels). The caustic seen through a glossy vertex
 //   is refined at the end points the restart's samples reached (recorded for their caustic only),
 //   so it converges in photons but keeps those directions; with the knn estimator it is looked up
 //   at each frame's end points and box-filtered as every caustic is.
@@ -75,7 +76,8 @@ constexpr int kMaxTrianglesSampledEach = 16;
 /// Solid angle (sr) of emitter one shadow sample stands for (a cone of half-angle ≈ 3.2°).
 constexpr float kSolidAnglePerSample = 0.01f;
 constexpr int kStackSize = 64;
-/// BSDF samples per glossy vertex (per pass in the progressive estimator).
+/// BSDF samples per glossy vertex in an eye pass; a progressive pass adds one more (it re-traces
+/// the glossy pixels' trees, where a smooth scene's pass traces no eye ray at all).
 constexpr int kGlossySamples = 4;
 
 
@@ -288,7 +290,7 @@ enum class GlossyCaustic : uint8_t {
 constexpr int kGlossyStackSize = 32;
 
 /// The paths on from glossy vertex `hit` of material index hit.material (arriving along `dir`,
-/// `ng` and `ns` facing the viewer, at specular depth `depth`; file comment). kGlossySamples
+/// `ng` and `ns` facing the viewer, at specular depth `depth`; file comment). `samples`
 /// visible normals, stratified in their first number and advanced per pass; each scatters the
 /// path: a conductor reflects about it, a dielectric splits into both lobes about it (the smooth
 /// dielectric's Fresnel split in the limit). Further on, the tree splits at dielectrics (smooth
@@ -297,7 +299,7 @@ constexpr int kGlossyStackSize = 32;
 /// the first vertex are hashed from the rotation, the pass and a counter. With Record, `base`
 /// gives the recorded end points' pixel, set and the throughput before the vertex.
 GlossyRadiance glossyTree(const Context& ctx, uint32_t set, const SurfaceHit& hit, Vec3 dir, Vec3 ng,
-                          Vec3 ns, int depth, const std::array<float, 3>& rot, uint32_t pass,
+                          Vec3 ns, int depth, const std::array<float, 3>& rot, uint32_t pass, int samples,
                           GlossyCaustic caustic, Counters& count, std::vector<EyeHit>* record = nullptr,
                           const EyeHit* base = nullptr) {
     const EmbreeScene& es = ctx.es;
@@ -347,9 +349,9 @@ GlossyRadiance glossyTree(const Context& ctx, uint32_t set, const SurfaceHit& hi
     };
     // Throughputs are per sample (so branches are pruned as in shadePixel); the mean over the
     // samples is taken at the end points.
-    constexpr float kShare = 1.0f / float(kGlossySamples);
-    for (int k = 0; k < kGlossySamples; ++k) {
-        const Vec2 u((float(k) + rot[0]) * kShare, wrap01(rot[1] + 0.618034f * float(k)));
+    const float share = 1.0f / float(samples);
+    for (int k = 0; k < samples; ++k) {
+        const Vec2 u((float(k) + rot[0]) * share, wrap01(rot[1] + 0.618034f * float(k)));
         scatter(hit, dir, ng, ns, u, Vec3(1.0f), depth + 1);
     }
     while (top > 0) {
@@ -364,23 +366,23 @@ GlossyRadiance glossyTree(const Context& ctx, uint32_t set, const SurfaceHit& hi
             if (m.type == MaterialType::Dielectric && cosGeo > 0.0f && m.absorption != Vec3(0.0f))
                 path.throughput *= beerLambert(m.absorption, h.t * glm::length(rdir));
             if (m.isEmissive() && cosGeo < 0.0f)
-                out.direct += (path.throughput * kShare) *
+                out.direct += (path.throughput * share) *
                               (m.emissiveTexture >= 0 ? emissionAt(m, scene.textures, h.uv) : m.emission);
             const Vec3 hng = cosGeo > 0.0f ? -h.geometricNormal : h.geometricNormal;
             const Vec3 hns = cosGeo > 0.0f ? -h.shadingNormal : h.shadingNormal;
             auto endPoint = [&](Vec3 throughput) {
                 const Vec3 albedo = baseColorAt(m, scene.textures, h.uv);
                 const std::array<float, 3> r{uniform(), uniform(), uniform()};
-                out.direct += (throughput * kShare) * directLight(ctx, h, hns, hng, albedo, r, count);
+                out.direct += (throughput * share) * directLight(ctx, h, hns, hng, albedo, r, count);
                 if (caustic == GlossyCaustic::Lookup && ctx.caustics) {
-                    out.caustic += (throughput * kShare) * ctx.caustics->radiance(es, set, h, hns, albedo);
+                    out.caustic += (throughput * share) * ctx.caustics->radiance(es, set, h, hns, albedo);
                 } else if (caustic == GlossyCaustic::Record) {
                     EyeHit& e = record->emplace_back();
                     e.hit = h;
                     e.normal = hns;
                     e.geometricNormal = hng;
                     e.albedo = albedo;
-                    e.throughput = base->throughput * (throughput * kShare);
+                    e.throughput = base->throughput * (throughput * share);
                     e.pixel = base->pixel;
                     e.set = base->set;
                     e.kind = EyeHit::Kind::CausticOnly;
@@ -388,7 +390,7 @@ GlossyRadiance glossyTree(const Context& ctx, uint32_t set, const SurfaceHit& hi
             };
             if (m.type == MaterialType::Diffuse) {
                 if (m.unlit)
-                    out.direct += (path.throughput * kShare) * baseColorAt(m, scene.textures, h.uv);
+                    out.direct += (path.throughput * share) * baseColorAt(m, scene.textures, h.uv);
                 else
                     endPoint(path.throughput);
                 break;
@@ -557,7 +559,7 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
                     vertex.depth = uint16_t(path.depth);
                     vertex.kind = EyeHit::Kind::Glossy;
                     vertex.areaDirect = glossyTree(ctx, uint32_t(ctx.set), hit, dir, ng, ns, path.depth, rot, 0,
-                                                   GlossyCaustic::Record, count, hits, &vertex).direct;
+                                                   kGlossySamples, GlossyCaustic::Record, count, hits, &vertex).direct;
                     if (!finite(vertex.areaDirect)) {
                         vertex.areaDirect = Vec3(0.0f);
                         ++count.nonFinite;
@@ -565,7 +567,7 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
                     hits->push_back(vertex);
                 } else {
                     const GlossyRadiance g = glossyTree(ctx, uint32_t(ctx.set), hit, dir, ng, ns, path.depth, rot, 0,
-                                                        GlossyCaustic::Lookup, count);
+                                                        kGlossySamples, GlossyCaustic::Lookup, count);
                     result.direct += path.throughput * g.direct;
                     result.caustic += path.throughput * g.caustic;
                 }
@@ -733,7 +735,7 @@ Vec3 AreaLightSampler::sample(const EyeHit& e, uint32_t pass, uint64_t& shadowRa
     Counters count;
     Vec3 v(0.0f);
     if (e.kind == EyeHit::Kind::Glossy) {
-        v = glossyTree(impl_->ctx, e.set, e.hit, -e.wo, e.geometricNormal, e.normal, int(e.depth), rot, pass,
+        v = glossyTree(impl_->ctx, e.set, e.hit, -e.wo, e.geometricNormal, e.normal, int(e.depth), rot, pass, 1,
                        GlossyCaustic::Skip, count).direct;
     } else if (e.kind == EyeHit::Kind::EndPoint) {
         v = areaLight(impl_->ctx, e.hit, e.normal, e.geometricNormal, e.albedo, rot, count, Vec3(0.0f));

@@ -18,6 +18,8 @@
 #include "tests/support/gltf_builder.h"
 #include "common/image/image_io.h"
 #include "common/core/interleave.h"
+#include "common/scene/builtin_scenes.h"
+#include "common/scene/gltf_export.h"
 
 namespace rtpm::test {
 namespace {
@@ -332,6 +334,44 @@ TEST_P(ClusterImageGltf, FeatureSceneEqualsSingleProcessBitForBit) {
 INSTANTIATE_TEST_SUITE_P(Lights, ClusterImageGltf, ::testing::Values(false, true),
                          [](const ::testing::TestParamInfo<bool>& i) {
                              return i.param ? std::string("EmissiveTexture") : std::string("DefaultLight");
+                         });
+
+// Glossy materials (GGX metal and glass, roughness 0.3) in a glTF the master loads and sends on:
+// photons sampling the BSDF, eye paths sampling it per frame and per progressive pass.
+struct GlossyCase {
+    const char* scene;
+    const char* estimator;
+};
+
+class ClusterImageGlossy : public ::testing::TestWithParam<GlossyCase> {};
+
+TEST_P(ClusterImageGlossy, RoughSceneEqualsSingleProcessBitForBit) {
+    TempDir sceneDir;
+    Scene scene = buildBuiltinScene(GetParam().scene);
+    for (Material& m : scene.materials)
+        if (m.isSpecular()) m.roughness = 0.3f;
+    const std::string path = sceneDir.file("glossy.glb");
+    exportGlb(scene, path);
+    RunSettings rs;
+    rs.scene = path;
+    rs.extra = {"--estimator", GetParam().estimator};
+    const ExrImage& ref = reference(rs);
+    expectNonTrivial(ref);
+    Cluster c;
+    c.startServer(rs, 2, "float32");
+    c.startClient();
+    c.startClient();
+    c.expectServerFinishes();
+    for (auto& cl : c.clients) c.expectClientExits(*cl, client::kExitOk);
+    const ExrImage got = readExr(c.outPath());
+    for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, ClusterImageGlossy,
+                         ::testing::Values(GlossyCase{"RING", "progressive"}, GlossyCase{"GLASS", "progressive"},
+                                           GlossyCase{"RING", "knn"}),
+                         [](const ::testing::TestParamInfo<GlossyCase>& i) {
+                             return std::string(i.param.scene) + "_" + i.param.estimator;
                          });
 
 // RGB9E5 keeps 9 mantissa bits under a shared exponent: each channel is off by at most half a
