@@ -381,7 +381,7 @@ TEST(GltfFeatures, GpuInstancedGlassCastsTheCausticOfEveryInstance) {
     const std::string extraNodes =
         R"(,{"mesh":1},{"rotation":[-0.70710678,0,0,0.70710678],"extensions":{"KHR_lights_punctual":{"light":0}}})";
     std::string json = instancedGrid(
-        b, R"({"extensions":{"KHR_materials_transmission":{"transmissionFactor":1}}},
+        b, R"({"pbrMetallicRoughness":{"roughnessFactor":0},"extensions":{"KHR_materials_transmission":{"transmissionFactor":1}}},
 {"pbrMetallicRoughness":{"baseColorFactor":[1,1,1,1],"metallicFactor":0}})",
         extraNodes, floorMesh);
     json.replace(json.find(R"([0,1,2])"), 7, "[0,1,2,3]");
