@@ -157,6 +157,42 @@ std::string lightlessGlassScene(GltfBuilder& b, const std::string& glassExtensio
 "extensionsUsed":["KHR_materials_transmission","KHR_materials_ior"])";
 }
 
+TEST(GltfFeatures, RoughMetalAndGlassKeepTheirRoughnessAndBadRoughnessIsRefused) {
+    ScratchDir dir;
+    // A transmissive material: roughness 0.35 is frosted glass; the floor (metallic 0) stays
+    // Lambertian whatever its roughness.
+    GltfBuilder b;
+    std::string json = lightlessGlassScene(b, R"("KHR_materials_transmission":{"transmissionFactor":1})");
+    json.replace(json.find(R"("metallicFactor":0,"roughnessFactor":0)"), 38, R"("metallicFactor":0,"roughnessFactor":0.35)");
+    Scene glass = loadScene(dir.write("frosted.gltf", b.json(json)));
+    EXPECT_EQ(glass.materials[1].type, MaterialType::Dielectric);
+    EXPECT_FLOAT_EQ(glass.materials[1].roughness, 0.35f);
+    EXPECT_TRUE(glass.materials[1].isGlossy());
+    EXPECT_EQ(glass.materials[0].type, MaterialType::Diffuse);
+    // A metal: roughness 0.5 is a GGX conductor, 0.01 still the perfect mirror.
+    for (const char* rough : {"0.5", "0.01"}) {
+        GltfBuilder m;
+        std::string metal = lightlessGlassScene(m, R"("KHR_materials_ior":{"ior":1.5})");
+        metal.replace(metal.find(R"("metallicFactor":0,"roughnessFactor":0)"), 38,
+                      std::string(R"("metallicFactor":1,"roughnessFactor":)") + rough);
+        Scene s = loadScene(dir.write(std::string("metal") + rough + ".gltf", m.json(metal)));
+        EXPECT_EQ(s.materials[1].type, MaterialType::Mirror) << rough;
+        EXPECT_FLOAT_EQ(s.materials[1].roughness, std::stof(rough));
+        EXPECT_EQ(s.materials[1].isGlossy(), std::string(rough) == "0.5");
+    }
+    // Outside [0, 1]: refused, naming the material.
+    GltfBuilder bad;
+    std::string badJson = lightlessGlassScene(bad, R"("KHR_materials_transmission":{"transmissionFactor":1})");
+    badJson.replace(badJson.find(R"("metallicFactor":0,"roughnessFactor":0)"), 38, R"("metallicFactor":0,"roughnessFactor":1.5)");
+    try {
+        loadScene(dir.write("bad.gltf", bad.json(badJson)));
+        ADD_FAILURE() << "roughnessFactor 1.5 was accepted";
+    } catch (const SceneError& e) {
+        EXPECT_NE(e.element.find("materials[1]"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("roughnessFactor"), std::string::npos) << e.what();
+    }
+}
+
 TEST(GltfFeatures, SceneWithoutLightsGetsTheDefaultSpotAndShowsCaustics) {
     ScratchDir dir;
     GltfBuilder b;
