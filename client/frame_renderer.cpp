@@ -182,6 +182,8 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
     // Pixels by set id, in the order of FrameBegin.sets.
     std::vector<const SetPixels*> bySet(setCount, nullptr);
     std::vector<std::vector<SetPixels>> results(groups_.size());
+    // Every set's shot of two frames ago, as the master forwarded it (the passes bin it).
+    const std::vector<SetPhotons> shared = bridge::fromWire(fb.shared);
     for (size_t gi = 0; gi < groups_.size(); ++gi) {
         // A Walkthrough frame shoots nothing, except into a group with no batch yet (sets that
         // moved here, or maps dropped by new settings): a walkthrough would otherwise show those
@@ -189,7 +191,7 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
         const Group& g = *groups_[gi];
         const bool empty = g.job->photons().stats(g.sets.front()).batches == 0;
         const bool shoot = fb.mode != proto::FrameMode::Walkthrough || empty;
-        FrameStats st = groups_[gi]->job->renderFrame(camera, shoot, results[gi], fb.passBatches);
+        FrameStats st = groups_[gi]->job->renderFrame(camera, shoot, results[gi], fb.passBatches, &shared);
         photonMs += st.shootSeconds * 1e3;
         renderMs += st.eyeSeconds * 1e3;
         shot += st.pathsThisFrame;
@@ -218,6 +220,8 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
         fd.errorSigma = sp->error.sigma;
         fd.errorRadiance = sp->error.radiance;
         fd.errorPixels = uint32_t(sp->error.pixels);
+        fd.shotBatches = sp->shot.batches;
+        fd.shot = bridge::toWire(sp->shot.photons);
     });
     encodeMs = msSince(te);
 

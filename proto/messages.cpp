@@ -35,6 +35,17 @@ void putSets(Writer& w, const std::vector<uint32_t>& sets) {
     for (uint32_t s : sets) w.u32(s);
 }
 
+void putPhotons(Writer& w, const std::vector<PhotonRecord>& photons) {
+    w.u32(static_cast<uint32_t>(photons.size()));
+    for (const PhotonRecord& p : photons) {
+        w.f32(p.x);
+        w.f32(p.y);
+        w.f32(p.z);
+        w.u32(p.power);
+        w.u32(p.incoming);
+    }
+}
+
 void putEdit(Writer& w, const SceneEdit& e) {
     if (auto* c = std::get_if<CameraEdit>(&e)) {
         w.u8(static_cast<uint8_t>(EditKind::Camera));
@@ -112,6 +123,12 @@ void putPayload(Writer& w, const FrameBegin& m) {
     w.u8(static_cast<uint8_t>(m.mode));
     putSets(w, m.sets);
     w.u32(m.passBatches);
+    w.u32(static_cast<uint32_t>(m.shared.size()));
+    for (const SetShot& shot : m.shared) {
+        w.u32(shot.set);
+        w.u32(shot.batches);
+        putPhotons(w, shot.photons);
+    }
 }
 void putPayload(Writer& w, const FrameData& m) {
     w.u64(m.frame);
@@ -124,6 +141,8 @@ void putPayload(Writer& w, const FrameData& m) {
     w.f64(m.errorSigma);
     w.f64(m.errorRadiance);
     w.u32(m.errorPixels);
+    w.u32(m.shotBatches);
+    putPhotons(w, m.shot);
 }
 void putPayload(Writer& w, const Edit& m) {
     w.u32(m.sceneVersion);
@@ -353,6 +372,18 @@ void get(Reader& r, Settings& m) {
     // 0 means "automatic" (PhotonSettings::rMax = 0: a fraction of the scene diagonal).
     if (r.ok() && !(m.rMax >= 0.0f)) r.fail(ErrorCode::BadValue, "settings.rMax not >= 0");
 }
+// Photon records with finite positions; at most `maxCount`.
+bool getPhotons(Reader& r, std::vector<PhotonRecord>& out, size_t maxCount, const char* field) {
+    uint32_t n = 0;
+    if (!r.count(n, maxCount, 20, field)) return false;
+    out.resize(n);
+    for (PhotonRecord& p : out) {
+        if (!r.f32Finite(p.x, field) || !r.f32Finite(p.y, field) || !r.f32Finite(p.z, field)) return false;
+        r.u32(p.power);
+        r.u32(p.incoming);
+    }
+    return r.ok();
+}
 void get(Reader& r, FrameBegin& m) {
     r.u64(m.frame);
     r.u32(m.epoch);
@@ -362,6 +393,22 @@ void get(Reader& r, FrameBegin& m) {
     getSets(r, m.sets, "frameBegin.sets");
     r.u32(m.passBatches);
     inRange(r, m.passBatches, 1, kMaxPassBatches, "frameBegin.passBatches");
+    uint32_t n = 0;
+    if (!r.count(n, kMaxSets, 12, "frameBegin.shared")) return;
+    m.shared.resize(n);
+    size_t total = 0;
+    for (size_t i = 0; i < n && r.ok(); ++i) {
+        SetShot& shot = m.shared[i];
+        r.u32(shot.set);
+        r.u32(shot.batches);
+        inRange(r, shot.set, 0, kMaxSets - 1, "frameBegin.shared.set");
+        inRange(r, shot.batches, 1, kMaxPassBatches, "frameBegin.shared.batches");
+        if (r.ok() && i > 0 && shot.set <= m.shared[i - 1].set)
+            r.fail(ErrorCode::BadValue, "frameBegin.shared: sets not ascending and distinct");
+        if (!getPhotons(r, shot.photons, kMaxSharedPhotons - total, "frameBegin.shared.photons")) return;
+        if (shot.photons.empty()) r.fail(ErrorCode::BadValue, "frameBegin.shared: a set with no photon");
+        total += shot.photons.size();
+    }
 }
 void get(Reader& r, FrameData& m) {
     r.u64(m.frame);
@@ -394,6 +441,11 @@ void get(Reader& r, FrameData& m) {
     if (r.ok() && (m.errorSigma < 0.0 || m.errorRadiance < 0.0))
         r.fail(ErrorCode::BadValue, "frameData.error figures must be >= 0");
     inRange(r, m.errorPixels, 0, m.pixelCount, "frameData.errorPixels");
+    r.u32(m.shotBatches);
+    inRange(r, m.shotBatches, 0, kMaxPassBatches, "frameData.shotBatches");
+    if (!getPhotons(r, m.shot, kMaxSharedPhotons, "frameData.shot")) return;
+    if (r.ok() && m.shot.empty() != (m.shotBatches == 0))
+        r.fail(ErrorCode::BadValue, "frameData.shot: photons and batches must both be present or absent");
 }
 void get(Reader& r, Edit& m) {
     r.u32(m.sceneVersion);

@@ -34,6 +34,7 @@ inline constexpr uint32_t kMaxDiffuseBounces = 16;   ///< Settings.diffuseBounce
 inline constexpr uint32_t kMaxEditsPerScene = 65536; ///< Scene.edits
 inline constexpr uint32_t kMaxAreaLightSamples = 1024; ///< Settings.areaLightSamples
 inline constexpr uint32_t kMaxPassBatches = 1024;     ///< FrameBegin.passBatches
+inline constexpr uint32_t kMaxSharedPhotons = 1u << 18;  ///< FrameBegin.shared, FrameData.shot (all photons)
 
 /// Three floats; the protocol's own vector type (proto/ does not depend on GLM).
 struct Vec3f {
@@ -194,6 +195,24 @@ inline constexpr uint8_t kMaxFrameMode = 3;
 
 /// Server → client: render `frame`. A client resets its photon maps when `epoch` changes.
 /// `sets` lists the sets to render this frame (a subset of, or equal to, the Welcome sets).
+/// One stored photon as the wire carries it (20 bytes; common/photon/photon.h's Photon): position
+/// in metres, power as an RGB9E5 word in the maps' power unit, incoming direction octahedral.
+struct PhotonRecord {
+    float x = 0.0f, y = 0.0f, z = 0.0f;
+    uint32_t power = 0;
+    uint32_t incoming = 0;
+    bool operator==(const PhotonRecord&) const = default;
+};
+
+/// The photons one set shot in one frame, `batches` whole batches of them (version 5:
+/// common/photon/shared_photons.h).
+struct SetShot {
+    uint32_t set = 0;      ///< < kMaxSets
+    uint32_t batches = 0;  ///< in [1, kMaxPassBatches]
+    std::vector<PhotonRecord> photons;
+    bool operator==(const SetShot&) const = default;
+};
+
 struct FrameBegin {
     uint64_t frame = 0;
     uint32_t epoch = 0;
@@ -204,6 +223,10 @@ struct FrameBegin {
     /// Batches each progressive pass of this frame shoots, in [1, kMaxPassBatches] (version 4:
     /// still views grow their passes to the master's frame-time budget).
     uint32_t passBatches = 1;
+    /// Version 5: every set's shot of frame `frame` − 2 (kSharedPhotonLag), for the progressive
+    /// passes of this frame; empty when none may be binned (the camera moved, the scene changed).
+    /// Ascending distinct sets, each with ≥ 1 photon; ≤ kMaxSharedPhotons photons in all.
+    std::vector<SetShot> shared;
     bool operator==(const FrameBegin&) const = default;
 };
 
@@ -226,6 +249,10 @@ struct FrameData {
     double errorSigma = 0.0;     ///< Σ σ over the set's caustic region (finite, ≥ 0)
     double errorRadiance = 0.0;  ///< Σ radiance over the same pixels (finite, ≥ 0)
     uint32_t errorPixels = 0;    ///< pixels in it, ≤ pixelCount
+    /// Version 5: the photons the set shot this frame (shotBatches whole batches; 0 and none for
+    /// the knn estimator), which the master forwards to every client two frames later.
+    uint32_t shotBatches = 0;
+    std::vector<PhotonRecord> shot;  ///< ≤ kMaxSharedPhotons
     bool operator==(const FrameData&) const = default;
 };
 

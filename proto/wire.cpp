@@ -232,7 +232,7 @@ uint32_t payloadLimit(MessageType type) {
         case MessageType::Reject: return 4 * kKiB;
         case MessageType::Scene: return 256 * kMiB;
         case MessageType::Settings: return 1 * kKiB;
-        case MessageType::FrameBegin: return 64 * kKiB;
+        case MessageType::FrameBegin: return 8 * kMiB;  // the shared photons (kMaxSharedPhotons × 20 B + 12 B per set)
         case MessageType::FrameData: return 256 * kMiB;
         case MessageType::Edit: return 1 * kKiB;
         case MessageType::Stats: return 1 * kKiB;

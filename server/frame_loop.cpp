@@ -77,6 +77,7 @@ void FrameLoop::onFrameData(ClientInfo& client, proto::FrameData&& fd, size_t wi
                                     std::to_string(setPixels));
         return;
     }
+    relay_.record(fd.frame, fd.set, fd.shotBatches, std::move(fd.shot));
     ledger_.addData(std::move(fd), wireBytes);
 }
 
@@ -210,9 +211,12 @@ void FrameLoop::beginFrame(TimePoint now) {
                                   start->still);
     // A still view's passes grow to the frame-time budget; any other frame shoots one batch.
     const uint32_t passBatches = plan.mode == proto::FrameMode::Converging ? passBudget_.batches() : 1u;
+    // Every set's shot of two frames ago, for this frame's passes (photon_relay.h).
+    relay_.began(f, plan.epoch, start->sceneVersion, setCount());
+    const std::vector<proto::SetShot> shared = relay_.forwardFor(f, plan.mode == proto::FrameMode::Converging);
     for (auto& [id, sets] : plan.sets)
         registry.find(id)->connection->send(proto::FrameBegin{f, plan.epoch, start->sceneVersion, start->camera,
-                                                              plan.mode, std::move(sets), passBatches});
+                                                              plan.mode, std::move(sets), passBatches, shared});
     ledger_.began(f, plan.mode, plan.epoch, plan.owners, passBatches);
     // A frame whose cost the last ones do not predict waits the ceiling, and so does the last
     // frame of a finite run (it is the image written: nothing rendered may be cut short).

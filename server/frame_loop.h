@@ -18,6 +18,7 @@
 #include "server/frame_assembler.h"
 #include "server/frame_ledger.h"
 #include "server/frame_policy.h"
+#include "server/photon_relay.h"
 #include "server/master.h"
 #include "server/viewer/viewer_model.h"
 
@@ -98,6 +99,7 @@ private:
     FrameAssembler assembler_;
     FrameLedger ledger_;
     PassBudget passBudget_;
+    PhotonRelay relay_;
     bool targetReached_ = false;  // the estimated caustic error reached --target-error
     asio::steady_timer deadlineTimer_;
     std::chrono::milliseconds lastDeadline_{0};  // of the newest frame begun (told to evicted clients)

@@ -261,9 +261,11 @@ void Peers::join(net::Connection& c, const HandshakeSession& session) {
 void Peers::raisePayloadCap(const RenderSettings& settings) {
     const uint64_t m = uint64_t(settings.interleave);
     const uint64_t setPixels = ((uint64_t(settings.width) + m - 1) / m) * ((uint64_t(settings.height) + m - 1) / m);
-    // The largest FrameData of a set: float32 pixels (24 B), one own weight (1 B) a pixel and the
-    // fixed fields (PROTOCOL.md §5.7: 53 bytes; 96 leaves room).
-    const uint64_t cap = std::min<uint64_t>(std::max<uint64_t>(4096, 96 + 25 * setPixels),
+    // The largest FrameData of a set: float32 pixels (24 B), one own weight (1 B) a pixel, the
+    // set's shot (20 B a photon, at most its share of kMaxSharedPhotons) and the fixed fields
+    // (PROTOCOL.md §5.7: 61 bytes; 96 leaves room).
+    const uint64_t shot = 20 * (uint64_t(proto::kMaxSharedPhotons) / (m * m));
+    const uint64_t cap = std::min<uint64_t>(std::max<uint64_t>(4096, 96 + 25 * setPixels + shot),
                                             proto::payloadLimit(proto::MessageType::FrameData));
     if (cap <= clientPayloadCap_) return;
     clientPayloadCap_ = uint32_t(cap);

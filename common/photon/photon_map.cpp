@@ -184,6 +184,7 @@ struct PhotonMaps::SetState {
     std::optional<KdTree> pass;        // the last progressive pass's photons alone
     uint32_t passBatches = 0;          // batches in `pass`
     std::vector<Photon> pending;       // passes' photons not yet in `index` (flushPasses)
+    SetPhotons shot;                   // what the last shootBatch / shootPass traced (takeShot)
     PhotonSetStats stats;
     std::vector<LightSequence> lights;
     bool capped = false;
@@ -353,21 +354,32 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     RTPM_CHECK(st != nullptr);
     flushPasses(set);
     if (st->capped) return;
-    insertBatch(*st, traceBatch(scene, *st));
+    std::vector<Photon> batch = traceBatch(scene, *st);
+    st->shot = SetPhotons{set, 0, {}};
+    if (batch.size() <= shareCap_) st->shot = SetPhotons{set, 1, batch};
+    insertBatch(*st, std::move(batch));
 }
 
 void PhotonMaps::shootPass(const EmbreeScene& scene, uint32_t set, uint32_t batches) {
     SetState* st = find(set);
     RTPM_CHECK(st != nullptr && batches >= 1);
     std::vector<Photon> batch = traceBatch(scene, *st);
+    // The shot handed to the other sets: the whole batches that fit shareCap_.
+    uint32_t sharedBatches = batch.size() <= shareCap_ ? 1 : 0;
+    size_t sharedPhotons = sharedBatches ? batch.size() : 0;
     for (uint32_t b = 1; b < batches; ++b) {
         std::vector<Photon> more = traceBatch(scene, *st);
         batch.insert(batch.end(), more.begin(), more.end());
+        if (sharedBatches == b && batch.size() <= shareCap_) {
+            sharedBatches = b + 1;
+            sharedPhotons = batch.size();
+        }
     }
     st->pass.emplace(scene.bounds());
     st->pass->build(batch);
     st->passBatches = batches;
     st->stats.passes += 1;
+    st->shot = SetPhotons{set, sharedBatches, std::vector<Photon>(batch.begin(), batch.begin() + std::ptrdiff_t(sharedPhotons))};
     // Kept for the map, not inserted now: an insertion moves the map's leaf-ordered photon array
     // (O(stored)), which would make a still frame's cost grow with the map. Bounded by the cap.
     const uint64_t cap = settings_.capPhotons;
@@ -583,6 +595,31 @@ void PhotonMaps::gatherMapGroup(const EmbreeScene& scene, uint32_t set, std::spa
 uint32_t PhotonMaps::passBatches(uint32_t set) const {
     const SetState* st = find(set);
     return st && st->pass ? st->passBatches : 0;
+}
+
+SetPhotons PhotonMaps::takeShot(uint32_t set) {
+    SetState* st = find(set);
+    RTPM_CHECK(st != nullptr);
+    SetPhotons shot = std::move(st->shot);
+    st->shot = SetPhotons{set, 0, {}};
+    return shot;
+}
+
+uint32_t PhotonMaps::gatherSharedPhotons(const EmbreeScene& scene, const SharedPhotons& shared, uint32_t exclude,
+                                         const SurfaceHit& hit, Vec3 normal, float radius2,
+                                         std::vector<FoundPhoton>& out) const {
+    if (!(radius2 > 0.0f)) return shared.batchesExcept(exclude);
+    const size_t first = out.size();
+    const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
+    uint32_t batches = 0;
+    for (const SharedPhotons::Entry& e : shared.entries()) {
+        if (e.set == exclude) continue;
+        RadiusList<KdTree, VisibleFrom> list(e.tree, normal, radius2, visible, out);
+        e.tree.search(hit.position, list);
+        batches += e.batches;
+    }
+    for (size_t i = first; i < out.size(); ++i) out[i].power *= powerUnit_;
+    return batches;
 }
 
 uint32_t PhotonMaps::gatherPassPhotons(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,

@@ -1,6 +1,7 @@
 // Per-interleaving-set caustic photon maps: batch shooting (plain or SPT), accumulation, lookup.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -13,6 +14,7 @@
 #include "common/photon/photon_index.h"
 #include "common/photon/photon_occupancy.h"
 #include "common/photon/photon_tracer.h"
+#include "common/photon/shared_photons.h"
 
 namespace rtpm {
 
@@ -140,6 +142,20 @@ public:
     /// Cost O(log b + found). Thread-safe.
     uint32_t gatherPassPhotons(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
                                float radius2, std::vector<FoundPhoton>& out) const;
+    /// Every photon of `shared` (other sets' shots, SharedPhotons) but set `exclude`'s, strictly
+    /// within sqrt(radius2) of `hit` and arriving from the front of `normal` (and visible, with
+    /// gatherVisibility), appended to `out` in ascending set order: squared distance and power in
+    /// W (one batch). Returns Σ batches of the sets searched. Cost O(sets · log b + found).
+    /// Thread-safe.
+    uint32_t gatherSharedPhotons(const EmbreeScene& scene, const SharedPhotons& shared, uint32_t exclude,
+                                 const SurfaceHit& hit, Vec3 normal, float radius2,
+                                 std::vector<FoundPhoton>& out) const;
+    /// What `set` traced in its last shootBatch or shootPass since the previous takeShot, for
+    /// the other sets (SharedPhotons): the leading whole batches holding at most setShareCap
+    /// photons (batches 0 and no photon when nothing, or when one batch holds more).
+    SetPhotons takeShot(uint32_t set);
+    /// Photons per set and frame takeShot hands over at most (default: no limit).
+    void setShareCap(size_t photons) { shareCap_ = photons; }
     /// The same over `set`'s accumulated map (any index variant); powers in W per batch of the
     /// map (sum them and divide by the returned batch count for the flux of one batch).
     uint32_t gatherMapPhotons(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
@@ -221,6 +237,7 @@ private:
     bool emittersReady_ = false;
     float rMax_ = 0.0f;
     float powerUnit_ = 1.0f;
+    size_t shareCap_ = SIZE_MAX;  ///< setShareCap
 };
 
 }  // namespace rtpm

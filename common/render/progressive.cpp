@@ -161,7 +161,7 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
 }
 
 void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set,
-                          const AreaLightSampler& areaLights, std::span<PixelRadiance> out,
+                          const SharedPhotons* shared, const AreaLightSampler& areaLights, std::span<PixelRadiance> out,
                           uint64_t& shadowRays, uint64_t& nonFinite) {
     RTPM_CHECK(valid_ && out.size() + 1 == records_.firstHit.size());
     ++passes_;
@@ -175,6 +175,7 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
             found.clear();
             const float r2 = float(disc2(s.outer2, s.active));
             maps.gatherPassPhotons(scene, set, e.hit, e.normal, r2, found);
+            if (shared && s.sharing) s.shared += float(maps.gatherSharedPhotons(scene, *shared, set, e.hit, e.normal, r2, found));
             addPhotons(s, found);
             if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, passes_, localRays));
         }
@@ -187,11 +188,7 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
 
 void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) {
     const double samples = double(passes_) + 1.0;  // area-light sample sets per hit
-    const double batches = batches_;
-    const double noiseScale = std::sqrt(filterShare_);
-    const double scales[2] = {noiseScale, 1.0};
     const double gamma = gamma_;
-    const double maxCount = maxDiscPhotons(k_, batches * double(pathsPerBatch_));
     std::atomic<uint64_t> bad{0};
     std::vector<float> sigma(out.size(), 0.0f);
     ownWeights_.assign(out.size(), 0);
@@ -219,9 +216,15 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 HitState& s = state_[h];
                 const glm::dvec3 throughput(e.throughput);
                 direct += throughput * (s.areaSum / samples);
+                // The set's own batches and the other sets' this hit binned (pass).
+                const double batches = batches_ + double(s.shared);
                 if (!(batches > 0.0) || !(s.outer2 > 0.0f)) continue;
+                // Shared photons are common to the sets the filter averages (setFilterShare).
+                const double share = s.shared > 0.0f ? 1.0 - (1.0 - filterShare_) * batches_ / batches : filterShare_;
+                const double noiseScale = std::sqrt(share);
+                const double scales[2] = {noiseScale, 1.0};
                 Choice c[2];
-                choose(s.rings, s.active, gamma, scales, maxCount, c);
+                choose(s.rings, s.active, gamma, scales, maxDiscPhotons(k_, batches * double(pathsPerBatch_)), c);
                 const glm::dvec3 weight = throughput * glm::dvec3(e.albedo) / double(kPi);
                 for (int i = 0; i < (f_ > 1 ? 2 : 1); ++i) {
                     const double area = kPi * disc2(s.outer2, c[i].disc) * batches;
@@ -231,7 +234,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                     const double sdv = luminance(value) * std::sqrt(rel);
                     if (i == 0) {
                         caustic += value;
-                        sd += sdv;
+                        sd += sdv * noiseScale;
                     } else {
                         own += value;
                         ownSd += sdv;
@@ -250,10 +253,14 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 const double w = double(w255) / 255.0;
                 ownWeights_[p] = w255;
                 caustic = w * own + (1.0 - w) * caustic;
-                sd = w * ownSd + (1.0 - w) * sd * noiseScale;
-            } else {
-                sd *= noiseScale;
+                sd = w * ownSd + (1.0 - w) * sd;
             }
+            // A pixel whose disc is narrower than the filter's window shows (some of) its own
+            // estimate: from the next pass on its hits bin the other sets' photons too. One
+            // that the filter alone shows has every set's photons through it already.
+            const bool share = f_ <= 1 || ownWeights_[p] > 0;
+            for (uint32_t h = records_.firstHit[p]; h < records_.firstHit[p + 1]; ++h)
+                state_[h].sharing = state_[h].sharing || share;
             PixelRadiance& px = out[p];
             px.direct = Vec3(direct);
             px.caustic = Vec3(caustic);

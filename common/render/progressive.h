@@ -24,10 +24,12 @@
 // A pass gathers only the rings the rule may still choose (up to kActiveMargin rings outside the
 // shown one), so its cost is O(log b + photons near the shown disc), not the map's size.
 // Direct light from area lights converges as before: one more rotated sample set per pass.
-// The box filter of the master keeps averaging the M² sets while the progression runs (every
-// pixel draws on every set's photons); Γ's noise term counts that averaging
-// (filterShare = 1/M² of the variance), so the rule balances blur against the shown image's
-// noise, not one set's.
+// Every set's photons reach every pixel: a pass bins its own set's new photons and every other
+// set's shot of kSharedPhotonLag frames ago (SharedPhotons; in a cluster the master forwards
+// them, a few hundred kB a frame), so after a few passes a pixel's estimate holds M² × the
+// photons its own set shot. Before that the box filter of the master averages the M² sets'
+// estimates; Γ's noise term counts that averaging (setFilterShare), so the rule balances blur
+// against the shown image's noise, not one set's.
 #pragma once
 
 #include <algorithm>
@@ -126,12 +128,16 @@ public:
     uint32_t passes() const { return passes_; }
     /// Diffuse end points held (for tests and figures).
     size_t hitCount() const { return records_.hits.size(); }
-    /// Batches counted in the estimate (the map's at the restart plus every pass's).
+    /// The set's own batches counted in the estimate (the map's at the restart plus every
+    /// pass's); a hit adds the other sets' batches it binned.
     double batches() const { return batches_; }
     /// The error figures of the last composed frame.
     const CausticErrorSums& errorSums() const { return error_; }
-    /// Share of a set's variance left in the shown image (1/M² while the box filter averages
-    /// the M² sets, 1 without filter). Set before restart().
+    /// Share of a set's variance left in the shown image when the box filter averages F² sets
+    /// whose photons are all their own (1/F², 1 without filter). Set before restart(). Photons
+    /// shared between the sets (pass) are common to the averaged pixels, so the share the rule
+    /// uses grows towards 1 with them: 1 − (1 − s)·own/all, own the batches only this set binned
+    /// (its restart map and its own passes), all every batch binned.
     void setFilterShare(double share) { filterShare_ = share; }
     /// The image geometry the set's pixels take: interleave M, box filter F, the set's columns.
     void setImage(int m, int f, int columns) {
@@ -149,11 +155,12 @@ public:
     /// Cost: one k-NN gather and one radius search per hit.
     void restart(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, const Camera& camera,
                  EyeRecords records, std::span<PixelRadiance> out);
-    /// One pass, after maps.shootPass(scene, set, b): bins the pass's photons per hit, adds one
-    /// area-light sample set per hit, and writes every pixel's current estimate to `out`.
+    /// One pass, after maps.shootPass(scene, set, b): bins the pass's photons per hit, and those
+    /// of every other set in `shared` (their shots of kSharedPhotonLag frames ago; may be null),
+    /// adds one area-light sample set per hit, and writes every pixel's current estimate to `out`.
     /// Precondition: valid(). Adds the shadow rays cast to `shadowRays`; counts non-finite pixel
     /// values (replaced by 0) in `nonFinite`.
-    void pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set,
+    void pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, const SharedPhotons* shared,
               const AreaLightSampler& areaLights, std::span<PixelRadiance> out, uint64_t& shadowRays,
               uint64_t& nonFinite);
 
@@ -184,6 +191,8 @@ private:
         float outer2 = 0.0f;       ///< R₀² (m²): the ladder's outer disc
         int active = 0;            ///< outermost ring still gathered
         glm::dvec3 areaSum{0.0};   ///< Σ area-light samples over passes 0 … t
+        float shared = 0.0f;       ///< other sets' batches binned (SharedPhotons)
+        bool sharing = false;      ///< bins the other sets' photons (its pixel shows its own estimate)
     };
     void compose(std::span<PixelRadiance> out, uint64_t& nonFinite);
     static void addPhotons(HitState& s, std::span<const FoundPhoton> photons);

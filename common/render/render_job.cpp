@@ -40,13 +40,14 @@ RenderJob::RenderJob(Scene scene, const RenderSettings& settings, std::vector<ui
                                         std::to_string(settings_.interleave));
     embree_ = std::make_unique<EmbreeScene>(*scene_);
     photons_ = std::make_unique<PhotonMaps>(settings_.photons, sets_);
+    photons_->setShareCap(kSharedPhotonBudget / size_t(pattern_.setCount()));
     progressive_.resize(sets_.size());
 }
 
 RenderJob::~RenderJob() = default;
 
 FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<SetPixels>& out,
-                                  uint32_t passBatches) {
+                                  uint32_t passBatches, const std::vector<SetPhotons>* shared) {
     RTPM_CHECK(passBatches >= 1);
     FrameStats stats;
     const auto t0 = std::chrono::steady_clock::now();
@@ -71,6 +72,13 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
     });
     stats.shootSeconds = secondsSince(t0);
 
+    // The other sets' shots of kSharedPhotonLag frames ago, for this frame's passes.
+    const bool anyPass = std::find(converge.begin(), converge.end(), uint8_t(1)) != converge.end();
+    const std::vector<SetPhotons>* sharedIn = shared;
+    if (!sharedIn && shots_.size() == kSharedPhotonLag) sharedIn = &shots_.front();
+    SharedPhotons sharedIndex;
+    if (anyPass && sharedIn) sharedIndex.build(embree_->bounds(), *sharedIn);
+
     const auto t1 = std::chrono::steady_clock::now();
     out.resize(sets_.size());
     stats.converging = !sets_.empty();
@@ -80,7 +88,8 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
         out[i].pixels.resize(size_t(pattern_.pixelCount(set)));
         if (converge[i]) {
             if (!areaLights_) areaLights_ = std::make_unique<AreaLightSampler>(*embree_, settings_.eye);
-            progressive_[i].pass(*embree_, *photons_, sets_[i], *areaLights_, out[i].pixels,
+            progressive_[i].pass(*embree_, *photons_, sets_[i], sharedIndex.empty() ? nullptr : &sharedIndex,
+                                 *areaLights_, out[i].pixels,
                                  stats.eye.shadowRays, stats.eye.nonFinite);
         } else if (progressive) {
             EyeRecords records;
@@ -102,6 +111,7 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
             out[i].ownWeights = progressive_[i].ownWeights();
             out[i].error = progressive_[i].errorSums();
         }
+        out[i].shot = progressive ? photons_->takeShot(sets_[i]) : SetPhotons{sets_[i], 0, {}};
         stats.error += out[i].error;
         stats.passes = std::max(stats.passes, out[i].passes);
         stats.converging = stats.converging && converge[i];
@@ -113,6 +123,12 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
         stats.pathsTraced += photons_->stats(s).pathsTraced;
     }
     stats.pathsThisFrame = stats.pathsTraced - std::min(stats.pathsTraced, pathsBefore);
+    if (!shared && progressive) {
+        if (shots_.size() == kSharedPhotonLag) shots_.erase(shots_.begin());
+        std::vector<SetPhotons>& latest = shots_.emplace_back();
+        for (const SetPixels& p : out)
+            if (p.shot.batches > 0) latest.push_back(p.shot);
+    }
     stats.walkthrough = !shoot || photons_->walkthrough();
     return stats;
 }
@@ -141,6 +157,7 @@ void RenderJob::applyEdit(const SceneEdit& edit) {
 
 void RenderJob::resetPhotons() {
     photons_->reset();
+    shots_.clear();
     for (ProgressiveSet& p : progressive_) p.invalidate();
     areaLights_.reset();  // emissive triangles may have changed
 }

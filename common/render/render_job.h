@@ -26,6 +26,9 @@ struct SetPixels {
     std::vector<uint8_t> ownWeights;
     /// Progressive estimator: the set's caustic error figures (progressive.h).
     CausticErrorSums error;
+    /// Progressive estimator: the photons the set shot this frame, for the other sets' passes
+    /// kSharedPhotonLag frames later (batches 0: none).
+    SetPhotons shot;
 };
 
 /// Writes one set's pixels into `image` with their own weights (scatterSet is what rtpm-render,
@@ -65,8 +68,12 @@ public:
     /// docs/ARCHITECTURE.md §6.2); any other set restarts its progression from a record-mode eye
     /// pass and the accumulated map.
     /// `passBatches` (≥ 1): batches a progressive pass shoots (PassBudget); other frames shoot one.
+    /// A pass also bins every other set's shot of kSharedPhotonLag frames ago: `shared` when
+    /// given (a cluster client: what the master forwarded, any sets), else the job's own record
+    /// of its sets' shots (every set, in rtpm-render). Either must hold only photons shot since
+    /// the last edit or reset.
     FrameStats renderFrame(const Camera& camera, bool shoot, std::vector<SetPixels>& out,
-                           uint32_t passBatches = 1);
+                           uint32_t passBatches = 1, const std::vector<SetPhotons>* shared = nullptr);
 
     /// Applies an edit (throws SceneError if the index or a value is invalid; nothing changes then)
     /// and resets the photon maps.
@@ -88,6 +95,9 @@ private:
     std::unique_ptr<EmbreeScene> embree_;
     std::unique_ptr<PhotonMaps> photons_;
     std::vector<ProgressiveSet> progressive_;  ///< per owned set (progressive estimator)
+    /// The owned sets' shots of the last kSharedPhotonLag frames, oldest first (renderFrame
+    /// without `shared`).
+    std::vector<std::vector<SetPhotons>> shots_;
     std::unique_ptr<AreaLightSampler> areaLights_;
 };
 

@@ -194,4 +194,44 @@ proto::PixelView pixelView(std::span<PixelRadiance> pixels) {
     return {pixels.empty() ? nullptr : &pixels[0].direct.x, pixels.size(), 6};
 }
 
+static_assert(proto::kMaxSharedPhotons == kSharedPhotonBudget, "the wire carries one frame's shared photons");
+static_assert(sizeof(Photon) == 20 && sizeof(proto::PhotonRecord) == 20);
+
+proto::PhotonRecord toWire(const Photon& photon) {
+    return proto::PhotonRecord{photon.position.x, photon.position.y, photon.position.z, photon.power,
+                               photon.incoming};
+}
+
+Photon fromWire(const proto::PhotonRecord& photon) {
+    return Photon{Vec3(photon.x, photon.y, photon.z), photon.power, photon.incoming};
+}
+
+std::vector<proto::PhotonRecord> toWire(const std::vector<Photon>& photons) {
+    std::vector<proto::PhotonRecord> out;
+    out.reserve(photons.size());
+    for (const Photon& p : photons) out.push_back(toWire(p));
+    return out;
+}
+
+std::vector<Photon> fromWire(const std::vector<proto::PhotonRecord>& photons) {
+    std::vector<Photon> out;
+    out.reserve(photons.size());
+    for (const proto::PhotonRecord& p : photons) out.push_back(fromWire(p));
+    return out;
+}
+
+std::vector<SetPhotons> fromWire(const std::vector<proto::SetShot>& shots) {
+    std::vector<SetPhotons> out;
+    out.reserve(shots.size());
+    for (const proto::SetShot& s : shots) out.push_back(SetPhotons{s.set, s.batches, fromWire(s.photons)});
+    return out;
+}
+
+std::vector<proto::SetShot> toWire(const std::vector<SetPhotons>& shots) {
+    std::vector<proto::SetShot> out;
+    for (const SetPhotons& s : shots)
+        if (s.batches > 0 && !s.photons.empty()) out.push_back(proto::SetShot{s.set, s.batches, toWire(s.photons)});
+    return out;
+}
+
 }  // namespace rtpm::bridge

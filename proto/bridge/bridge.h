@@ -6,6 +6,7 @@
 
 #include "common/core/pixel_radiance.h"
 #include "common/core/render_settings.h"
+#include "common/photon/set_photons.h"
 #include "common/scene/scene.h"
 #include "common/scene/scene_edit.h"
 #include "proto/messages.h"
@@ -42,6 +43,15 @@ proto::TransformEdit transformToWire(const Scene& scene, uint32_t instance);
 /// edit. Throws std::invalid_argument when the index does not exist in `scene`. The result is
 /// applied with applyEdit(), which validates it.
 std::optional<SceneEdit> fromWire(const Scene& scene, const proto::SceneEdit& edit);
+
+/// Shared photons (FrameBegin.shared, FrameData.shot), field for field.
+proto::PhotonRecord toWire(const Photon& photon);
+Photon fromWire(const proto::PhotonRecord& photon);
+std::vector<proto::PhotonRecord> toWire(const std::vector<Photon>& photons);
+std::vector<Photon> fromWire(const std::vector<proto::PhotonRecord>& photons);
+/// The FrameBegin.shared entries as SetPhotons, and back (sets with no photon are left out).
+std::vector<SetPhotons> fromWire(const std::vector<proto::SetShot>& shots);
+std::vector<proto::SetShot> toWire(const std::vector<SetPhotons>& shots);
 
 /// Codec views over the renderer's and the master's pixel buffers (no copy).
 proto::ConstPixelView pixelView(std::span<const PixelRadiance> pixels);

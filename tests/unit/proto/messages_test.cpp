@@ -52,20 +52,20 @@ TEST(Messages, TruncationAtEveryByteIsAnErrorNotACrash) {
 }
 
 TEST(Messages, HelloGoldenBytes) {
-    auto bytes = encode(Hello{4, 8, "c1"});
+    auto bytes = encode(Hello{5, 8, "c1"});
     EXPECT_EQ(hex(bytes),
               "5254504d"   // magic 'RTPM'
-              "0400"       // version 4
+              "0500"       // version 5
               "0100"       // type Hello
               "00000000"   // flags
               "0c000000"   // payload 12 bytes
-              "0400"       // protocolVersion 4
+              "0500"       // protocolVersion 5
               "08000000"   // cores 8
               "020000006331");  // "c1"
 }
 
 TEST(Messages, HeartbeatIsABareHeaderAndRefusesAnyPayload) {
-    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0400" "0d00" "00000000" "00000000");
+    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0500" "0d00" "00000000" "00000000");
     EXPECT_FALSE(decodePayload(MessageType::Heartbeat, std::vector<uint8_t>{0}).ok());
 }
 
@@ -81,11 +81,11 @@ TEST(Messages, OnlyBusyRefusalsAreTransient) {
 TEST(Messages, ChallengeAndAuthGoldenBytes) {
     Challenge c;
     for (size_t i = 0; i < c.nonce.size(); ++i) c.nonce[i] = uint8_t(i);
-    EXPECT_EQ(hex(encode(c)), "5254504d04000b0000000000" "20000000"  // type 11, payload 32
+    EXPECT_EQ(hex(encode(c)), "5254504d05000b0000000000" "20000000"  // type 11, payload 32
                               "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f");
     Auth a;
     a.mac.fill(0xab);
-    EXPECT_EQ(hex(encode(a)).substr(0, 32), "5254504d04000c000000000020000000");  // type 12, payload 32
+    EXPECT_EQ(hex(encode(a)).substr(0, 32), "5254504d05000c000000000020000000");  // type 12, payload 32
 }
 
 TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
@@ -134,7 +134,7 @@ TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
 TEST(Messages, FrameBeginGoldenBytes) {
     FrameBegin fb{5, 2, 3, {{1, 2, 3}, {0, 0, -1}, {0, 1, 0}, 0.5f}, FrameMode::Accumulate, {0, 7}};
     EXPECT_EQ(hex(encode(fb)),
-              "5254504d04000600" "00000000" "49000000"  // header v4, type 6, payload 73 bytes
+              "5254504d05000600" "00000000" "4d000000"  // header v5, type 6, payload 77 bytes
               "0500000000000000"                        // frame 5
               "02000000" "03000000"                     // epoch 2, sceneVersion 3
               "0000803f" "00000040" "00004040"          // position (1, 2, 3)
@@ -143,7 +143,64 @@ TEST(Messages, FrameBeginGoldenBytes) {
               "0000003f"                                // yfov 0.5
               "01"                                      // mode Accumulate
               "02000000" "00000000" "07000000"          // sets [0, 7]
-              "01000000");                              // passBatches 1
+              "01000000"                                // passBatches 1
+              "00000000");                              // no shared photons
+}
+
+TEST(Messages, SharedPhotonsRoundTripAndHostileOnesAreRefused) {
+    auto reject = [](const Message& m, ErrorCode code) {
+        auto r = decodeMessage(encode(m));
+        ASSERT_FALSE(r.ok()) << "type " << static_cast<int>(typeOf(m));
+        EXPECT_EQ(r.error().code, code) << r.error().message;
+    };
+    const PhotonRecord p{1.0f, -2.0f, 0.5f, 0x12345678u, 0x9abcdef0u};
+    FrameBegin fb{9, 1, 1, {{1, 2, 3}, {0, 0, -1}, {0, 1, 0}, 0.5f}, FrameMode::Converging, {0, 4}};
+    fb.shared = {SetShot{1, 2, {p, p}}, SetShot{3, 1, {p}}};
+    auto back = decodeMessage(encode(fb));
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    EXPECT_EQ(std::get<FrameBegin>(*back), fb);
+    FrameBegin bad = fb;
+    std::swap(bad.shared[0], bad.shared[1]);  // not ascending
+    reject(bad, ErrorCode::BadValue);
+    bad = fb;
+    bad.shared[1].set = 1;  // twice
+    reject(bad, ErrorCode::BadValue);
+    bad = fb;
+    bad.shared[0].batches = 0;
+    reject(bad, ErrorCode::BadValue);
+    bad = fb;
+    bad.shared[1].photons.clear();
+    reject(bad, ErrorCode::BadValue);
+    bad = fb;
+    bad.shared[0].photons[1].y = std::numeric_limits<float>::quiet_NaN();
+    reject(bad, ErrorCode::NonFinite);
+    bad = fb;
+    bad.shared[0].set = kMaxSets;
+    reject(bad, ErrorCode::BadValue);
+
+    FrameData fd;
+    fd.frame = 9;
+    fd.set = 4;
+    fd.encoding = PixelEncoding::Float32;
+    fd.pixelCount = 1;
+    fd.pixels.assign(24, 0);
+    fd.shotBatches = 3;
+    fd.shot = {p, p, p};
+    back = decodeMessage(encode(fd));
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    EXPECT_EQ(std::get<FrameData>(*back), fd);
+    FrameData badData = fd;
+    badData.shotBatches = 0;  // photons without batches
+    reject(badData, ErrorCode::BadValue);
+    badData = fd;
+    badData.shot.clear();  // batches without photons
+    reject(badData, ErrorCode::BadValue);
+    badData = fd;
+    badData.shotBatches = kMaxPassBatches + 1;
+    reject(badData, ErrorCode::BadValue);
+    badData = fd;
+    badData.shot[2].x = std::numeric_limits<float>::infinity();
+    reject(badData, ErrorCode::NonFinite);
 }
 
 TEST(Messages, FrameDataClaimingTwoBillionPixelsInTenBytesIsRejected) {

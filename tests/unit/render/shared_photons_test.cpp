@@ -1,0 +1,89 @@
+// Shared photons: a still view's pass bins every other set's shot of kSharedPhotonLag frames ago.
+// Two jobs that each own half the sets and are handed every set's shots (as the master forwards
+// them) compute the pixels one job with every set computes, bit for bit; without the shots they
+// do not, and sets that bin the others' photons hold more of them.
+#include <cstring>
+#include <numeric>
+
+#include <gtest/gtest.h>
+
+#include "common/render/render_job.h"
+#include "common/scene/builtin_scenes.h"
+
+namespace rtpm {
+namespace {
+
+RenderSettings smallRing() {
+    RenderSettings rs;
+    rs.width = 48;
+    rs.height = 36;
+    rs.interleave = 2;
+    rs.photons.photonsPerBatch = 4000;
+    rs.photons.estimator = CausticEstimatorKind::Progressive;
+    return rs;
+}
+
+bool sameShot(const SetPhotons& a, const SetPhotons& b) {
+    return a.set == b.set && a.batches == b.batches && a.photons.size() == b.photons.size() &&
+           std::memcmp(a.photons.data(), b.photons.data(), a.photons.size() * sizeof(Photon)) == 0;
+}
+
+bool samePixels(const SetPixels& a, const SetPixels& b) {
+    return a.set == b.set && a.pixels.size() == b.pixels.size() &&
+           std::memcmp(a.pixels.data(), b.pixels.data(), a.pixels.size() * sizeof(PixelRadiance)) == 0;
+}
+
+TEST(SharedPhotons, TwoJobsHandedEveryShotComputeWhatOneJobComputes) {
+    const RenderSettings rs = smallRing();
+    const Scene scene = buildRingScene();
+    const Camera camera = *scene.camera;
+    RenderJob all(scene, rs, {0, 1, 2, 3});
+    RenderJob first(scene, rs, {0, 2}), second(scene, rs, {1, 3}), alone(scene, rs, {1, 3});
+    std::vector<std::vector<SetPhotons>> shots;  // every set's shot, per frame
+    const std::vector<SetPhotons> none;
+    bool differed = false;
+    for (int f = 0; f < 6; ++f) {
+        std::vector<SetPixels> a, b, c, d;
+        const std::vector<SetPhotons>& shared = f >= int(kSharedPhotonLag) ? shots[size_t(f) - kSharedPhotonLag] : none;
+        all.renderFrame(camera, true, a, 1);
+        first.renderFrame(camera, true, b, 1, &shared);
+        second.renderFrame(camera, true, c, 1, &shared);
+        alone.renderFrame(camera, true, d, 1, &none);
+        std::vector<SetPhotons>& frame = shots.emplace_back();
+        for (const auto* part : {&b, &c})
+            for (const SetPixels& p : *part)
+                if (p.shot.batches > 0) frame.push_back(p.shot);
+        ASSERT_EQ(frame.size(), 4u) << "every set shares its shot at frame " << f;
+        for (const SetPixels& p : a) {
+            const SetPixels& q = (p.set % 2 == 0 ? b : c)[size_t(p.set / 2)];  // sets {0, 2} and {1, 3}
+            EXPECT_TRUE(samePixels(p, q)) << "set " << p.set << " frame " << f;
+            EXPECT_TRUE(sameShot(p.shot, q.shot)) << "set " << p.set << " frame " << f;
+        }
+        // Sets 1 and 3 without the other sets' photons: the same until the first shots arrive.
+        for (size_t i = 0; i < d.size(); ++i) {
+            const bool same = samePixels(c[i], d[i]);
+            if (f < int(kSharedPhotonLag)) {
+                EXPECT_TRUE(same) << "frame " << f;
+            }
+            differed = differed || !same;
+        }
+    }
+    EXPECT_TRUE(differed) << "the other sets' photons never changed a pixel";
+}
+
+TEST(SharedPhotons, ASetsShareIsCappedAtWholeBatches) {
+    RenderSettings rs = smallRing();
+    rs.interleave = 16;  // 256 sets: kSharedPhotonBudget / 256 = 1024 photons per set and frame
+    rs.photons.photonsPerBatch = 200000;
+    const Scene scene = buildRingScene();
+    RenderJob job(scene, rs, {0});
+    std::vector<SetPixels> out;
+    job.renderFrame(*scene.camera, true, out, 1);
+    ASSERT_EQ(out.size(), 1u);
+    ASSERT_GT(job.photons().stats(0).photonsStored, kSharedPhotonBudget / 256) << "the batch must exceed the share";
+    EXPECT_EQ(out[0].shot.batches, 0u);
+    EXPECT_TRUE(out[0].shot.photons.empty());
+}
+
+}  // namespace
+}  // namespace rtpm
