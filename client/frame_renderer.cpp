@@ -93,6 +93,7 @@ void FrameRenderer::setScene(const proto::Scene& msg) {
             if (!scene.camera) throw ProtocolViolation("scene: the glTF scene has no camera");
             scene.validate("scene from server");
         }
+        scene.environment = bridge::environmentFromWire(msg);
     } catch (const SceneError& e) {
         throw ProtocolViolation(std::string("scene: ") + e.what());
     }

@@ -93,6 +93,11 @@ void putPayload(Writer& w, const Scene& m) {
     w.bytes(m.gltf);
     w.u32(static_cast<uint32_t>(m.edits.size()));
     for (const SceneEdit& e : m.edits) putEdit(w, e);
+    w.u8(static_cast<uint8_t>(m.environment));
+    putVec3(w, m.environmentColour);
+    w.u32(m.environmentWidth);
+    w.u32(m.environmentHeight);
+    for (float v : m.environmentTexels) w.f32(v);
 }
 void putPayload(Writer& w, const Settings& m) {
     w.u32(m.width);
@@ -334,6 +339,34 @@ void get(Reader& r, Scene& m) {
         m.edits.resize(n);
         for (SceneEdit& e : m.edits)
             if (!getEdit(r, e)) break;
+    }
+    getEnum8(r, m.environment, 2, "scene.environment");
+    r.f32Finite(m.environmentColour.x, "scene.environmentColour");
+    r.f32Finite(m.environmentColour.y, "scene.environmentColour");
+    r.f32Finite(m.environmentColour.z, "scene.environmentColour");
+    r.u32(m.environmentWidth);
+    r.u32(m.environmentHeight);
+    if (!r.ok()) return;
+    const Vec3f& c = m.environmentColour;
+    if (c.x < 0.0f || c.y < 0.0f || c.z < 0.0f || (m.environment != Scene::Environment::Uniform && !(c == Vec3f{})))
+        r.fail(ErrorCode::BadValue, "scene.environmentColour: negative, or set without a uniform environment");
+    const uint64_t w = m.environmentWidth, h = m.environmentHeight;
+    const bool map = m.environment == Scene::Environment::Map;
+    if (r.ok() && (map ? (h == 0 || w != 2 * h || w * h > kMaxEnvironmentTexels) : (w != 0 || h != 0)))
+        r.fail(ErrorCode::BadValue, "scene.environment: map size " + std::to_string(w) + "x" + std::to_string(h) +
+                                        " is not 2:1 within 4096x2048, or given without a map");
+    const uint64_t floats = w * h * 3;
+    if (r.ok() && floats * 4 > r.remaining())
+        r.fail(ErrorCode::LengthTooLarge, "scene.environmentTexels: " + std::to_string(floats) +
+                                              " floats announced, " + std::to_string(r.remaining()) + " bytes left");
+    if (!r.ok()) return;
+    m.environmentTexels.resize(size_t(floats));
+    for (float& v : m.environmentTexels) {
+        if (!r.f32Finite(v, "scene.environmentTexels")) return;
+        if (v < 0.0f) {
+            r.fail(ErrorCode::BadValue, "scene.environmentTexels: negative radiance");
+            return;
+        }
     }
 }
 void get(Reader& r, Settings& m) {

@@ -20,6 +20,7 @@ namespace rtpm::proto {
 inline constexpr size_t kMaxTokenBytes = 256;        ///< the shared secret (never on the wire; proto/auth.h)
 inline constexpr size_t kNonceBytes = 32;            ///< Challenge.nonce
 inline constexpr size_t kMacBytes = 32;              ///< Auth.mac (HMAC-SHA256)
+inline constexpr uint64_t kMaxEnvironmentTexels = uint64_t(4096) * 2048;  ///< Scene's map (common/scene/environment.h)
 inline constexpr size_t kMaxNameBytes = 256;         ///< Hello.clientName, Scene.builtinName
 inline constexpr size_t kMaxTextBytes = 1024;        ///< Reject.text, Bye.text
 inline constexpr uint32_t kMaxInterleave = 16;       ///< Settings.m: at most 16×16 sets
@@ -148,6 +149,13 @@ struct Scene {
     std::string builtinName;    ///< Source::Builtin: e.g. "ring"; ≤ kMaxNameBytes; else empty
     std::vector<uint8_t> gltf;  ///< Source::Gltf: a .glb, or a .gltf with embedded buffers
     std::vector<SceneEdit> edits;  ///< ≤ kMaxEditsPerScene
+    /// The world light (version 5, PROTOCOL.md §5.4): none, a uniform radiance or an
+    /// equirectangular map of radiance texels, sent as the master loaded it.
+    enum class Environment : uint8_t { None = 0, Uniform = 1, Map = 2 };
+    Environment environment = Environment::None;
+    Vec3f environmentColour;     ///< Uniform: W/(m²·sr), finite ≥ 0; else 0
+    uint32_t environmentWidth = 0, environmentHeight = 0;  ///< Map: width = 2·height, ≤ kMaxEnvironmentTexels texels
+    std::vector<float> environmentTexels;  ///< Map: width·height RGB triples, row 0 the zenith, finite ≥ 0
     bool operator==(const Scene&) const = default;
 };
 

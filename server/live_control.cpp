@@ -38,8 +38,8 @@ LiveControl::LiveControl(const MasterOptions& options, Scene scene, Peers& peers
             else dry.apply(e, opt_.scriptFile, sink);
         }
     }
-    if (!opt_.builtin) {
-        glb_ = encodeGlb(live_.loaded());
+    if (!opt_.builtin || !live_.loaded().environment.empty()) {
+        if (!opt_.builtin) glb_ = encodeGlb(live_.loaded());
         auto probe = proto::tryEncode(sceneMessage());
         if (!probe.ok()) throw std::invalid_argument("scene too large to send: " + probe.error().message);
     }
@@ -56,6 +56,7 @@ proto::Scene LiveControl::sceneMessage() const {
         m.gltf = glb_;
     }
     m.edits = live_.compactedEdits();
+    bridge::environmentToWire(live_.loaded().environment, m);
     return m;
 }
 

@@ -1,4 +1,5 @@
-// Photon emission (point, spot, directional, area) and path tracing that keeps caustic photons.
+// Photon emission (point, spot, directional, area, environment) and path tracing that keeps
+// caustic photons.
 #include "common/photon/photon_tracer.h"
 
 #include <algorithm>
@@ -157,7 +158,18 @@ std::vector<Emitter> buildEmitters(const EmbreeScene& scene) {
         e.triangles.push_back(t);
         e.cdf.push_back(sum);
     }
-    for (size_t g = firstArea; g < out.size(); ++g) {
+    const size_t lastArea = out.size();
+    const Environment& env = scene.scene().environment;
+    if (!env.empty()) {
+        Emitter e;
+        e.kind = EmitterKind::Environment;
+        const float r = 0.5f * bounds.diagonal();
+        e.discRadius = r;
+        e.discCentre = bounds.centre();
+        e.flux = kPi * r * r * env.integral();
+        if (finite(e.flux) && channelSum(e.flux) > 0.0f) out.push_back(std::move(e));
+    }
+    for (size_t g = firstArea; g < lastArea; ++g) {
         Emitter& e = out[g];
         const double total = areaSum[g - firstArea];
         for (double& c : e.cdf) c /= total;
@@ -218,7 +230,7 @@ DimLayout dimLayout(EmitterKind kind, uint32_t diffuseBounces) {
     DimLayout d;
     d.direction = 0;
     int next = 2;
-    if (kind == EmitterKind::Area) {
+    if (kind == EmitterKind::Area || kind == EmitterKind::Environment) {
         d.point = next;
         next += 2;
     }
@@ -286,6 +298,21 @@ EmittedRay sampleEmission(const Emitter& e, const EmbreeScene& scene, Vec2 uDir,
             if (!e.colour.empty()) r.powerScale = e.colour[t];
             break;
         }
+        case EmitterKind::Environment: {
+            const Environment& env = scene.scene().environment;
+            const EnvironmentSample s = env.sample(uDir);
+            r.dir = -s.direction;
+            Vec3 t, b;
+            basis(r.dir, t, b);
+            const Vec2 d = concentricDisc(uPoint.x, uPoint.y) * e.discRadius;
+            r.origin = e.discCentre + s.direction * (e.discRadius * 1.001f + scene.epsilon()) + d.x * t + d.y * b;
+            const Vec3 integral = env.integral();
+            r.powerScale = Vec3(0.0f);
+            if (s.pdf > 0.0f)
+                for (int c = 0; c < 3; ++c)
+                    if (integral[c] > 0.0f) r.powerScale[c] = s.radiance[c] / (s.pdf * integral[c]);
+            break;
+        }
     }
     return r;
 }
@@ -331,7 +358,7 @@ int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const Tra
     ray.origin = e.kind == EmitterKind::Area ? scene.offsetOrigin(em.origin, em.normal, em.dir)
                                              : em.origin;
     Vec3 power = src.powerPerPath;
-    if (!e.colour.empty()) power *= em.powerScale;
+    if (!e.colour.empty() || e.kind == EmitterKind::Environment) power *= em.powerScale;
     if (timed) {
         tMark = Clock::now();
         stats.samplingSeconds += seconds(tStart, tMark);

@@ -12,7 +12,7 @@
 
 namespace rtpm {
 
-enum class EmitterKind : uint8_t { Point, Spot, Directional, Area };
+enum class EmitterKind : uint8_t { Point, Spot, Directional, Area, Environment };
 
 /// One unit of the photon budget: a punctual light, or all emissive triangles that share one
 /// radiance (so every photon of it carries exactly the same power, see buildEmitters).
@@ -26,6 +26,8 @@ struct Emitter {
     float cosOuter = -1.0f;        ///< spot: cos of the outer cone angle
     float falloffScale = 1.0f;     ///< spot: glTF 1 / max(0.001, cosInner − cosOuter)
     // Directional: a disc perpendicular to `axis` covering the scene's bounding sphere.
+    // Environment: that sphere (centre discCentre, radius discRadius); each photon's disc faces
+    // its own direction.
     Vec3 discCentre{0.0f};
     float discRadius = 0.0f;
     Vec3 tangent{1.0f, 0.0f, 0.0f};    ///< unit, ⟂ axis
@@ -49,7 +51,10 @@ Vec3 lightFlux(const Light& light, const Bounds& bounds);
 /// Every emitter of the scene with positive flux: one per punctual light, one per distinct
 /// emissive radiance over the untextured EmbreeScene::emissiveTriangles() and one per
 /// emissive-textured material (flux π·L·A per triangle, L its mean radiance; degenerate or
-/// non-finite triangles are skipped). Lights with zero or non-finite flux are left out.
+/// non-finite triangles are skipped), then the world light (Scene::environment) if there is one,
+/// with the flux πR²·∫L dω crossing the disc of the scene's bounding sphere (radius R) from all
+/// directions. Lights with zero or non-finite flux are left out. The budget is shared by flux
+/// (splitBudget), the world light's as any other's.
 std::vector<Emitter> buildEmitters(const EmbreeScene& scene);
 
 /// Splits `total` paths among emitters proportionally to Σ_rgb flux by largest remainder
@@ -81,8 +86,13 @@ struct EmittedRay {
 
 /// Maps steering numbers to an emitted ray. `uDir` drives the direction (point: uniform sphere;
 /// spot: cosθ from the exact inverse CDF of the glTF falloff within the outer cone; directional:
-/// uniform point on the disc; area: cosine-weighted), `uPoint` the point on an area light
-/// (triangle ∝ area by the first number, reused after remapping, then uniform on the triangle).
+/// uniform point on the disc; area: cosine-weighted; environment: Environment::sample, the photon
+/// travelling opposite the drawn direction), `uPoint` the point on an area light
+/// (triangle ∝ area by the first number, reused after remapping, then uniform on the triangle) or
+/// on the environment's disc (uniform on the bounding sphere's cross-section facing the drawn
+/// direction, just outside the sphere on the sky's side). An environment photon's powerScale is
+/// (L/pdf) ⊘ ∫L dω per channel: 1 on average, so the emitted power is exact in expectation and
+/// each photon carries L(ω) of its direction.
 /// Pure, thread-safe. `scene` is needed for area lights only.
 EmittedRay sampleEmission(const Emitter& emitter, const EmbreeScene& scene, Vec2 uDir, Vec2 uPoint);
 

@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 
 #include <cmath>
+#include <cstdlib>
 #include <string>
 
 #include "common/core/knobs.h"
@@ -117,12 +118,66 @@ inline void addConvergenceFlags(CLI::App& app, ConvergenceFlags& flags) {
         ->group("estimator");
 }
 
-/// Adds the flags that choose among what a scene file offers (--variant), bound to `overrides`.
+/// Adds the flags that choose among what a scene file offers (--variant) and the world light
+/// (--env FILE, --env-color R,G,B, --env-strength S), bound to `overrides`. --env and --env-color
+/// exclude each other, --env-strength needs one of them (parse errors naming the flag).
 inline void addSceneChoiceFlags(CLI::App& app, SceneOverrides& overrides) {
     app.add_option("--variant", overrides.variant,
                    "glTF material variant (KHR_materials_variants) to render, by name; default: the "
                    "file's default materials. An unknown name is refused with the file's variant names")
         ->group("scene");
+    auto environment = [&overrides]() -> EnvironmentOverride& {
+        if (!overrides.environment) overrides.environment.emplace();
+        return *overrides.environment;
+    };
+    auto* file = app.add_option_function<std::string>(
+                        "--env", [environment](const std::string& f) { environment().file = f; },
+                        "world light: an equirectangular (2:1) OpenEXR or Radiance HDR map of linear "
+                        "radiance, lighting the scene from every direction, seen in mirrors and through "
+                        "glass and throwing caustics (README: world light)")
+                     ->type_name("FILE")
+                     ->group("scene");
+    auto* colour = app.add_option_function<std::string>(
+                          "--env-color",
+                          [environment](const std::string& text) {
+                              // "R,G,B" or one value for grey.
+                              Vec3 c(0.0f);
+                              int n = 0;
+                              size_t start = 0;
+                              bool ok = !text.empty();
+                              while (ok && start <= text.size() && n < 4) {
+                                  const size_t end = std::min(text.find(',', start), text.size());
+                                  const std::string part = text.substr(start, end - start);
+                                  char* stop = nullptr;
+                                  const float v = std::strtof(part.c_str(), &stop);
+                                  ok = !part.empty() && stop == part.c_str() + part.size() && std::isfinite(v) &&
+                                       v >= 0.0f && v <= kMaxRadiantValue;
+                                  if (ok && n < 3) c[n] = v;
+                                  ++n;
+                                  start = end + 1;
+                              }
+                              if (!ok || (n != 1 && n != 3))
+                                  throw CLI::ValidationError("--env-color", "'" + text +
+                                                                                "' is not R,G,B (three "
+                                                                                "non-negative radiances) or one grey value");
+                              environment().colour = n == 1 ? Vec3(c.x) : c;
+                          },
+                          "world light of uniform radiance R,G,B (W/(m²·sr), or one grey value): a "
+                          "white sky of 1 lights a white diffuse surface to radiance 1")
+                       ->type_name("R,G,B")
+                       ->group("scene");
+    file->excludes(colour);
+    auto* strength = app.add_option_function<float>(
+                            "--env-strength", [environment](float s) { environment().strength = s; },
+                            "multiplies the world light of --env or --env-color, default 1")
+                         ->check(CLI::Range(0.0f, kMaxRadiantValue))
+                         ->type_name("FLOAT")
+                         ->group("scene");
+    app.parse_complete_callback([file, colour, strength] {
+        if (strength->count() > 0 && file->count() == 0 && colour->count() == 0)
+            throw CLI::RequiresError("--env-strength scales the world light of --env or --env-color; give one",
+                                     CLI::ExitCodes::RequiresError);
+    });
 }
 
 /// Adds the flags that say which files a scene may read and how much it may decode

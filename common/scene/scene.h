@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "common/core/math.h"
+#include "common/scene/environment.h"
 
 namespace rtpm {
 
@@ -174,6 +175,7 @@ struct Scene {
     std::vector<Material> materials;
     std::vector<Texture> textures;
     std::vector<Light> lights;
+    Environment environment;  ///< the world light; empty() when there is none (the default)
     std::optional<Camera> camera;
     std::vector<std::string> warnings;  ///< unsupported features met while loading
 

@@ -35,6 +35,17 @@ bool hasLightOrEmitter(const Scene& s) {
     return false;
 }
 
+// Bytes of the scene's decoded arrays: what its load charged to --max-scene-bytes, near enough
+// (the files' own bytes were read and released), for the world light's share of the budget.
+uint64_t decodedBytes(const Scene& s) {
+    uint64_t bytes = 0;
+    for (const Mesh& m : s.meshes)
+        bytes += m.positions.size() * sizeof(Vec3) + m.normals.size() * sizeof(Vec3) +
+                 m.uvs.size() * sizeof(Vec2) + m.indices.size() * sizeof(uint32_t);
+    for (const Texture& t : s.textures) bytes += t.rgb.size() * sizeof(float);
+    return bytes;
+}
+
 }  // namespace
 
 Light defaultLight(const Bounds& b, const Camera& camera) {
@@ -131,24 +142,28 @@ Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides,
         scene.lights.push_back(l);
     }
     if (scene.triangleCount() == 0) throw SceneError(nameOrPath, "meshes", "scene has no triangles");
-    if (!hasLightOrEmitter(scene)) {
+    if (overrides.environment)
+        scene.environment = loadEnvironment(*overrides.environment,
+                                            input.maxSceneBytes - std::min(input.maxSceneBytes, decodedBytes(scene)));
+    if (!hasLightOrEmitter(scene) && scene.environment.empty()) {
         if (!overrides.defaultLight)
             throw SceneError(nameOrPath, "lights",
                              "scene has no light and no emissive material; give one (e.g. --light "
-                             "x y z) or drop --no-default-light to get the default lights");
+                             "x y z or --env FILE) or drop --no-default-light to get the default lights");
         // The framing camera first: it must frame the geometry, not the light above it.
         if (!scene.camera) scene.camera = defaultCamera(scene.bounds());
         const Bounds bounds = scene.bounds();
         const Light light = defaultLight(bounds, *scene.camera), key = keyLight(bounds, *scene.camera);
         scene.lights.push_back(light);
         scene.lights.push_back(key);
+        scene.environment = defaultSky();
         auto at = [](Vec3 p) {
             return std::to_string(p.x) + ", " + std::to_string(p.y) + ", " + std::to_string(p.z);
         };
         scene.warnings.push_back(
             nameOrPath + ": no light and no emissive material; added the default spot light (at " + at(light.position) +
             ", behind the scene, for caustics) and a key light from the camera's side (at " + at(key.position) +
-            "), both aimed at the scene's centre; see README. --no-default-light refuses such scenes");
+            "), both aimed at the scene's centre, and a dim grey sky; see README. --no-default-light refuses such scenes");
     }
     if (!scene.camera) scene.camera = defaultCamera(scene.bounds());
     scene.validate(nameOrPath);

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "common/scene/environment_loader.h"
 #include "common/scene/scene.h"
 #include "common/scene/scene_files.h"
 
@@ -28,8 +29,11 @@ struct PointLightOverride {
 struct SceneOverrides {
     std::optional<CameraOverride> camera;     ///< replaces the scene's camera when set
     std::optional<PointLightOverride> light;  ///< appended to Scene::lights when set
-    /// A scene with no light and no emissive material gets defaultLight() and keyLight() (with a warning);
-    /// false makes such a scene an error instead (--no-default-light).
+    /// The world light (--env, --env-color, --env-strength): becomes Scene::environment. It counts
+    /// as a light: a scene with it gets no default lights.
+    std::optional<EnvironmentOverride> environment;
+    /// A scene with no light, no emissive material and no world light gets defaultLight(), keyLight()
+    /// and defaultSky() (with a warning); false makes such a scene an error instead (--no-default-light).
     bool defaultLight = true;
     /// glTF KHR_materials_variants: the variant whose materials are used (GltfOptions::variant);
     /// empty: the default materials. Set for a scene other than a glTF file, it is an error.
@@ -64,9 +68,11 @@ bool isBuiltinScene(const std::string& name);
 /// chosen by extension (case-insensitive): `.gltf`, `.glb` (glTF 2.0) or `.obj` (with its MTL).
 /// Overrides are applied after loading. A scene without a camera gets a default one looking at
 /// the centre of its bounds from the +Z side (so every returned scene has a camera).
-/// A scene with no light and no emissive material (after `overrides.light`) gets defaultLight()
-/// and keyLight() (in that order) and a warning naming the file, or, with `overrides.defaultLight` false, is an error
-/// (SceneError naming the file). Warnings (unsupported features) are in Scene::warnings.
+/// A scene with no light, no emissive material and no world light (after `overrides.light` and
+/// `overrides.environment`) gets defaultLight() and keyLight() (in that order), defaultSky() as its
+/// world light and a warning naming the file, or, with `overrides.defaultLight` false, is an error
+/// (SceneError naming the file). The world light's file and decoded map count against
+/// `input.maxSceneBytes` with the scene's own arrays (loadEnvironment). Warnings (unsupported features) are in Scene::warnings.
 /// Throws SceneError{file, element, message} on any bad input; never crashes on malformed files.
 /// Files are read through SceneFiles under `input`: the files a scene names must lie in its
 /// folder or `input.allowedDirs`, be regular files, and fit `input.maxSceneBytes` with every

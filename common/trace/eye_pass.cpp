@@ -47,6 +47,16 @@
 //   is refined at the end points the restart's samples reached (recorded for their caustic only),
 //   so it converges in photons but keeps those directions; with the knn estimator it is looked up
 //   at each frame's end points and box-filtered as every caustic is.
+// * The world light (Scene::environment): a ray that leaves the scene — from the camera, a mirror
+//   or glass — returns its radiance. A diffuse end point takes kEnvironmentSamples directions by
+//   plain light sampling (no MIS: a Lambertian point has no lobe worth sampling instead), each with
+//   a shadow ray to infinity: a uniform sky cosine-weighted about the shading normal (every
+//   unoccluded sample then carries exactly albedo × L), a map from its piecewise-constant
+//   distribution (Environment::sample). The samples are stratified like the area lights'
+//   (Hammersley, rotated per pixel and per progressive pass), and count as area-light light:
+//   EyeHit::areaDirect holds them and AreaLightSampler refines them over still frames. Light the
+//   environment sends through glass or off mirrors onto a diffuse surface is caustic light, from
+//   the photon map (the environment shoots photons, photon_tracer.cpp), as for every light.
 #include "common/trace/eye_pass.h"
 
 #include <tbb/blocked_range.h>
@@ -66,6 +76,7 @@
 #include "common/trace/optics.h"
 #include "common/core/halton.h"
 #include "common/core/math.h"
+#include "common/core/sampling.h"
 
 namespace rtpm {
 
@@ -79,6 +90,8 @@ constexpr int kStackSize = 64;
 /// BSDF samples per glossy vertex in an eye pass; a progressive pass adds one more (it re-traces
 /// the glossy pixels' trees, where a smooth scene's pass traces no eye ray at all).
 constexpr int kGlossySamples = 4;
+/// World-light directions per diffuse end point and progressive pass.
+constexpr int kEnvironmentSamples = 8;
 
 
 float wrap01(float x) {
@@ -99,6 +112,7 @@ struct Context {
     std::vector<float> cdf;   // power-proportional selection: cumulative, last = 1
     Vec3 emitterCentre{0.0f}; // bounding sphere of the emissive triangles
     float emitterRadius2 = 0.0f;
+    const Environment* environment = nullptr;  // null when the scene has no world light
 };
 
 struct Counters {
@@ -112,6 +126,7 @@ Context makeContext(const EmbreeScene& scene, const EyeSettings& settings,
     const auto& tris = scene.emissiveTriangles();
     ctx.sampleEach = int(tris.size()) <= kMaxTrianglesSampledEach;
     ctx.maxAreaSamples = ctx.areaSamples * (ctx.sampleEach ? int(tris.size()) : kMaxTrianglesSampledEach);
+    if (!ctx.scene.environment.empty()) ctx.environment = &ctx.scene.environment;
     if (!tris.empty()) {
         Bounds b;
         for (const EmissiveTriangle& e : tris) {
@@ -183,13 +198,50 @@ Vec3 punctualLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, V
     return sum;
 }
 
-/// `sum` plus the radiance reflected from the emissive triangles, sampled with the
-/// Cranley–Patterson rotation `rot` (the pixel's, advanced per progressive pass).
+/// `sum` plus the radiance reflected from the world light (file comment), sampled with the
+/// rotation `rot`. Precondition: ctx.environment set.
+Vec3 environmentLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
+                      const std::array<float, 3>& rot, Counters& count, Vec3 sum) {
+    const EmbreeScene& es = ctx.es;
+    const Environment& env = *ctx.environment;
+    const bool uniform = !env.hasMap();
+    Ray rays[kEnvironmentSamples];
+    Vec3 values[kEnvironmentSamples];
+    int queued = 0;
+    for (int k = 0; k < kEnvironmentSamples; ++k) {
+        const float u0 = wrap01((float(k) + 0.5f) / float(kEnvironmentSamples) + rot[2]);
+        const float u1 = wrap01(static_cast<float>(radicalInverseBase2(uint64_t(k))) + rot[1]);
+        Vec3 wi, value;
+        if (uniform) {
+            // Cosine-weighted: brdf · L · cos / (cos/π) = albedo · L.
+            wi = cosineHemisphere(n, u0, u1);
+            value = albedo * env.uniformRadiance();
+        } else {
+            const EnvironmentSample e = env.sample(Vec2(u0, u1));
+            wi = e.direction;
+            const float cosS = glm::dot(wi, n);
+            if (!(e.pdf > 0.0f) || cosS <= 0.0f) continue;
+            value = albedo * kInvPi * e.radiance * (cosS / e.pdf);
+        }
+        if (glm::dot(wi, ng) <= 0.0f) continue;
+        ++count.shadow;
+        rays[queued] = Ray{es.offsetOrigin(hit.position, ng, wi), wi, 0.0f, std::numeric_limits<float>::infinity()};
+        values[queued++] = value * (1.0f / float(kEnvironmentSamples));
+    }
+    const uint32_t blocked = queued > 0 ? es.occluded8(rays, queued) : 0u;
+    for (int i = 0; i < queued; ++i)
+        if (!(blocked & (1u << i))) sum += values[i];
+    return sum;
+}
+
+/// `sum` plus the radiance reflected from the world light and the emissive triangles, sampled with
+/// the Cranley–Patterson rotation `rot` (the pixel's, advanced per progressive pass).
 Vec3 areaLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
                const std::array<float, 3>& rot, Counters& count, Vec3 sum) {
     const EmbreeScene& es = ctx.es;
     const Vec3 brdf = albedo * kInvPi;
     if (maxComponent(albedo) <= 0.0f) return sum;
+    if (ctx.environment) sum = environmentLight(ctx, hit, n, ng, albedo, rot, count, sum);
     const auto& tris = es.emissiveTriangles();
     if (tris.empty()) return sum;
     // Shadow rays toward the emitters go to Embree in packets of 8 (one origin, one small light:
@@ -359,7 +411,11 @@ GlossyRadiance glossyTree(const Context& ctx, uint32_t set, const SurfaceHit& hi
         for (;;) {
             SurfaceHit h;
             ++count.secondary;
-            if (!es.intersect(path.ray, h)) break;
+            if (!es.intersect(path.ray, h)) {
+                if (ctx.environment)
+                    out.direct += (path.throughput * share) * ctx.environment->radiance(glm::normalize(path.ray.dir));
+                break;
+            }
             const Material& m = scene.materials[h.material];
             const Vec3 rdir = path.ray.dir;
             const float cosGeo = glm::dot(rdir, h.geometricNormal);
@@ -475,11 +531,18 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
             if (primary) {
                 ++count.primary;
                 primary = false;
-                if (!firstHit) break;  // no environment light
+                if (!firstHit) {
+                    if (ctx.environment) result.direct += ctx.environment->radiance(glm::normalize(path.ray.dir));
+                    break;
+                }
                 hit = *firstHit;
             } else {
                 ++count.secondary;
-                if (!es.intersect(path.ray, hit)) break;
+                if (!es.intersect(path.ray, hit)) {
+                    if (ctx.environment)
+                        result.direct += path.throughput * ctx.environment->radiance(glm::normalize(path.ray.dir));
+                    break;
+                }
             }
             const Material& mat = scene.materials[hit.material];
             const Vec3 dir = path.ray.dir;
@@ -720,7 +783,9 @@ AreaLightSampler::AreaLightSampler(const EmbreeScene& scene, const EyeSettings& 
 
 AreaLightSampler::~AreaLightSampler() = default;
 
-bool AreaLightSampler::empty() const { return impl_->ctx.es.emissiveTriangles().empty() && !impl_->glossy; }
+bool AreaLightSampler::empty() const {
+    return impl_->ctx.es.emissiveTriangles().empty() && !impl_->glossy && !impl_->ctx.environment;
+}
 
 Vec3 AreaLightSampler::sample(const EyeHit& e, uint32_t pass, uint64_t& shadowRays) const {
     // Pass p rotates the pixel's rotation by p steps of the R3 sequence (Roberts 2018: the

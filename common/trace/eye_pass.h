@@ -36,8 +36,9 @@ struct EyeHit {
     Vec3 geometricNormal{0.0f};///< geometric normal facing the viewer
     Vec3 albedo{0.0f};         ///< diffuse reflectance (texture applied); 0 at a glossy vertex
     Vec3 throughput{0.0f};     ///< of the specular chain from the camera to here
-    Vec3 areaDirect{0.0f};     ///< area-light radiance here from the eye pass's samples (pass 0);
-                               ///< at a glossy vertex, the radiance of its pass-0 BSDF sample
+    Vec3 areaDirect{0.0f};     ///< area-light and world-light radiance here from the eye pass's
+                               ///< samples (pass 0); at a glossy vertex, the radiance of its pass-0
+                               ///< BSDF sample
     std::array<float, 3> rotation{};  ///< the pixel's Cranley–Patterson rotation at this vertex
     uint32_t pixel = 0;        ///< index of the pixel within its set (row-major)
     Vec3 wo{0.0f};             ///< glossy vertex: unit direction toward the viewer
@@ -66,9 +67,11 @@ struct EyeRecords {
 /// Cost per pixel: one primary ray, ≤ 2^depth specular rays (pruned at throughput 1e-3), and per
 /// diffuse end point one shadow ray per punctual light plus, for the emitters, between 1 and
 /// areaLightSamples per emissive triangle (at most 16·areaLightSamples in total) chosen by the
-/// solid angle they subtend (see eye_pass.cpp). A glossy vertex ends the pixel's split path and
-/// traces kGlossySamples trees on from sampled microfacet normals (eye_pass.cpp), each split like
-/// the pixel's own, to diffuse end points with their direct light and caustic lookup. Primary rays go to Embree in packets of 8, and
+/// solid angle they subtend, and with a world light 8 directions from it (see eye_pass.cpp); a ray
+/// that leaves the scene returns the world light's radiance. A glossy vertex ends the pixel's split
+/// path and traces kGlossySamples trees on from sampled microfacet normals (eye_pass.cpp), each
+/// split like the pixel's own, to diffuse end points with their direct light and caustic lookup.
+/// Primary rays go to Embree in packets of 8, and
 /// the caustic lookups of a packet's pixels go to `caustics` as one group (radianceGroup).
 void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings& settings,
                const Interleave& pattern, int set, const CausticEstimator* caustics,
@@ -82,14 +85,15 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
 /// throughput), and no caustic is looked up (out[p].caustic = 0).
 
 /// The per-pass samples at recorded eye hits, for progressive passes: the area lights
-/// (emissive triangles) at a diffuse end point, fresh BSDF samples and the direct light along the
-/// paths on from them at a glossy vertex. Thread-safe (const); holds the scene's
-/// triangle-selection table.
+/// (emissive triangles) and the world light at a diffuse end point, fresh BSDF samples and the
+/// direct light along the paths on from them at a glossy vertex. Thread-safe (const); holds the
+/// scene's triangle-selection table.
 class AreaLightSampler {
 public:
     AreaLightSampler(const EmbreeScene& scene, const EyeSettings& settings);
     ~AreaLightSampler();
-    /// True when every sample is 0: the scene has no emissive triangle and no glossy material.
+    /// True when every sample is 0: the scene has no emissive triangle, no glossy material and no
+    /// world light.
     bool empty() const;
     /// Radiance at `hit` (unweighted by its throughput) from the same sample pattern as the eye
     /// pass, rotated for pass `pass` (pass 0 = EyeHit::areaDirect exactly): area light at a

@@ -186,6 +186,37 @@ std::optional<SceneEdit> fromWire(const Scene& scene, const proto::SceneEdit& wi
     return edit;
 }
 
+void environmentToWire(const Environment& environment, proto::Scene& m) {
+    m.environmentColour = proto::Vec3f{};
+    m.environmentWidth = m.environmentHeight = 0;
+    m.environmentTexels.clear();
+    if (environment.empty()) {
+        m.environment = proto::Scene::Environment::None;
+    } else if (!environment.hasMap()) {
+        m.environment = proto::Scene::Environment::Uniform;
+        m.environmentColour = toWire(environment.uniformRadiance());
+    } else {
+        m.environment = proto::Scene::Environment::Map;
+        m.environmentWidth = uint32_t(environment.width());
+        m.environmentHeight = uint32_t(environment.height());
+        m.environmentTexels = environment.texels();
+    }
+}
+
+Environment environmentFromWire(const proto::Scene& m) {
+    switch (m.environment) {
+        case proto::Scene::Environment::None: return Environment{};
+        case proto::Scene::Environment::Uniform: return Environment::uniform(fromWire(m.environmentColour));
+        case proto::Scene::Environment::Map: break;
+    }
+    Texture map;
+    map.width = int(m.environmentWidth);
+    map.height = int(m.environmentHeight);
+    map.rgb = m.environmentTexels;
+    validateEnvironmentMap(map, "scene from server");
+    return Environment::fromMap(map);
+}
+
 proto::ConstPixelView pixelView(std::span<const PixelRadiance> pixels) {
     return {pixels.empty() ? nullptr : &pixels[0].direct.x, pixels.size(), 6};
 }

@@ -52,6 +52,13 @@ std::vector<Photon> fromWire(const std::vector<proto::PhotonRecord>& photons);
 /// The FrameBegin.shared entries as SetPhotons, and back (sets with no photon are left out).
 std::vector<SetPhotons> fromWire(const std::vector<proto::SetShot>& shots);
 std::vector<proto::SetShot> toWire(const std::vector<SetPhotons>& shots);
+/// Sets the world-light fields of Scene message `message` (environment … environmentTexels) to
+/// `environment`'s floats as they are (none, uniform radiance, or the map's texels).
+void environmentToWire(const Environment& environment, proto::Scene& message);
+/// The world light a Scene message carries (Environment{} for none); bit-exact inverse of
+/// environmentToWire. Throws SceneError (file "scene from server") for a map
+/// validateEnvironmentMap refuses (the decoder has checked sizes and finiteness already).
+Environment environmentFromWire(const proto::Scene& message);
 
 /// Codec views over the renderer's and the master's pixel buffers (no copy).
 proto::ConstPixelView pixelView(std::span<const PixelRadiance> pixels);
