@@ -161,7 +161,8 @@ Environment loadEnvironment(const EnvironmentOverride& request, uint64_t budgetB
 }
 
 Environment defaultSky() {
-    constexpr int kHeight = 32, kWidth = 2 * kHeight;
+    // Rows of 0.7°: coarser rows show as bands in the background and in mirrors (8-bit steps).
+    constexpr int kHeight = 256, kWidth = 2 * kHeight;
     Texture map;
     map.width = kWidth;
     map.height = kHeight;

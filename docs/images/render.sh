@@ -54,7 +54,8 @@ picture() {
     else
         cp "$work/$name.png" "$dest/$name.png"
     fi
-    printf 'rtpm-render %s: %.1f s wall, %s bytes -> %s\n' "$*" \
+    local args="$*"
+    printf 'rtpm-render %s: %.1f s wall, %s bytes -> %s\n' "${args//"$root"\//}" \
         "$(awk -v a="$start" -v b="$end" 'BEGIN { print b - a }')" "$(stat -c %s "$dest/$name.png")" \
         "${dest#"$root"/}/$name.png"
 }

@@ -37,6 +37,16 @@ inline std::vector<Message> sampleMessages() {
                          MaterialEdit{1, MaterialKind::Dielectric, {1, 1, 1}, 1.33f, {0.1f, 2, 3}, {0, 0, 0}},
                          tr}});
     out.push_back(Scene{8, Scene::Source::Gltf, "", {'g', 'l', 'T', 'F', 2, 0, 0, 0}, {}});
+    Scene uniformSky{9, Scene::Source::Builtin, "glass", {}, {}};
+    uniformSky.environment = Scene::Environment::Uniform;
+    uniformSky.environmentColour = {0.25f, 0.5f, 1.0f};
+    out.push_back(uniformSky);
+    Scene mapSky{10, Scene::Source::Gltf, "", {'g', 'l', 'T', 'F', 2, 0, 0, 0}, {}};
+    mapSky.environment = Scene::Environment::Map;
+    mapSky.environmentWidth = 4;
+    mapSky.environmentHeight = 2;
+    for (int i = 0; i < 24; ++i) mapSky.environmentTexels.push_back(0.125f * float(i));
+    out.push_back(mapSky);
     Settings s;
     s.width = 320;
     s.height = 240;

@@ -320,6 +320,27 @@ TEST(Messages, FieldValidationRejectsBadValues) {
     reject(s, ErrorCode::NonFinite);
     reject(Scene{1, Scene::Source::Builtin, "", {}, {}}, ErrorCode::BadValue);
     reject(Scene{1, Scene::Source::Gltf, "ring", {1}, {}}, ErrorCode::BadValue);
+    // The world light (version 5): a map 2:1 with exactly its texels, finite and ≥ 0; a colour
+    // only for a uniform sky.
+    auto sky = [](Scene::Environment kind, uint32_t w, uint32_t h, std::vector<float> texels, Vec3f colour = {}) {
+        Scene s{1, Scene::Source::Builtin, "ring", {}, {}};
+        s.environment = kind;
+        s.environmentWidth = w;
+        s.environmentHeight = h;
+        s.environmentTexels = std::move(texels);
+        s.environmentColour = colour;
+        return s;
+    };
+    reject(sky(Scene::Environment::Map, 4, 4, std::vector<float>(48, 1.0f)), ErrorCode::BadValue);
+    reject(sky(Scene::Environment::Map, 4, 2, {}), ErrorCode::LengthTooLarge);
+    std::vector<float> texels(24, 1.0f);
+    texels[5] = -1.0f;
+    reject(sky(Scene::Environment::Map, 4, 2, texels), ErrorCode::BadValue);
+    texels[5] = std::numeric_limits<float>::infinity();
+    reject(sky(Scene::Environment::Map, 4, 2, texels), ErrorCode::NonFinite);
+    reject(sky(Scene::Environment::None, 0, 0, {}, {1, 1, 1}), ErrorCode::BadValue);
+    reject(sky(Scene::Environment::Uniform, 0, 0, {}, {1, -1, 1}), ErrorCode::BadValue);
+    reject(sky(Scene::Environment::Uniform, 2, 1, {0, 0, 0, 0, 0, 0}, {1, 1, 1}), ErrorCode::BadValue);
     reject(Edit{1, MaterialEdit{0, MaterialKind::Diffuse, {2, 0, 0}, 1.5f, {}, {}}}, ErrorCode::BadValue);
     reject(Edit{1, LightEdit{0, {}, {0, 0, 0}, {1, 1, 1}}}, ErrorCode::BadValue);
     reject(Stats{1, -1.0f, 0, 0, 0, 0, 0, 0, 1}, ErrorCode::BadValue);
