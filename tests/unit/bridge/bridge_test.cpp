@@ -138,6 +138,7 @@ TEST(Bridge, PixelsEncodeFromAndDecodeIntoRadianceBuffersWithoutACopy) {
 // the same sampling tables and draws the same directions; a bad map is refused as a scene error.
 TEST(Bridge, WorldLightRoundTripsBitForBit) {
     proto::Scene m;
+    m.builtinName = "ring";
     bridge::environmentToWire(Environment{}, m);
     EXPECT_EQ(m.environment, proto::Scene::Environment::None);
     EXPECT_TRUE(bridge::environmentFromWire(m).empty());

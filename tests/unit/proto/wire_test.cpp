@@ -152,7 +152,7 @@ TEST(Wire, HeaderErrorsAreTyped) {
     EXPECT_EQ(code({1, 2, 3}), ErrorCode::Truncated);
     EXPECT_EQ(code(header(0x4D505453u, 1, 1, 0, 0)), ErrorCode::BadMagic);
     EXPECT_EQ(code(header(kMagic, 6, 1, 0, 0)), ErrorCode::BadVersion);
-    EXPECT_EQ(code(header(kMagic, 4, 1, 0, 0)), ErrorCode::BadVersion);  // version 4 peers (no shared photons)
+    EXPECT_EQ(code(header(kMagic, 4, 1, 0, 0)), ErrorCode::BadVersion);  // version 4 peers (no shared photons, no world light)
     EXPECT_EQ(code(header(kMagic, 3, 1, 0, 0)), ErrorCode::BadVersion);  // version 3 peers (SPPM fields)
     EXPECT_EQ(code(header(kMagic, 2, 1, 0, 0)), ErrorCode::BadVersion);  // version 2 peers (token in Hello)
     EXPECT_EQ(code(header(kMagic, 1, 1, 0, 0)), ErrorCode::BadVersion);  // version 1 peers

@@ -93,9 +93,10 @@ std::vector<bool> spherePixels(const Camera& cam, int w, int h) {
 
 // A diffuse sphere of albedo a under a uniform sky L is a white furnace: every visible point has
 // radiance a·L (the sphere is convex, nothing shadows it), the background L. Cosine-weighted
-// sampling of a uniform sky makes each unoccluded sample exactly a·L, so the bound is float
-// rounding plus the few samples whose direction falls below a facet's true plane (shading
-// normals of a 48 × 96 sphere): 1 % per pixel, 0.2 % on the mean.
+// sampling of a uniform sky makes each unoccluded sample exactly a·L/8, so a pixel is a·L up to
+// float rounding, or 7/8 of it when one of its 8 directions (drawn about the smooth shading normal)
+// falls below its facet's true plane, within 2° of a 48 × 96 sphere's facets: rare, so the mean
+// stays within 0.3 %.
 TEST(EnvironmentRender, FurnaceUnderAUniformSkyGivesAlbedoTimesRadiance) {
     const Vec3 sky(0.4f, 0.6f, 0.8f);
     const float albedo = 0.7f;
@@ -110,19 +111,24 @@ TEST(EnvironmentRender, FurnaceUnderAUniformSkyGivesAlbedoTimesRadiance) {
     int n = 0;
     for (int p = 0; p < w * h; ++p) {
         if (!in[size_t(p)]) continue;
-        for (int c = 0; c < 3; ++c) EXPECT_NEAR(out[size_t(p)].direct[c], albedo * sky[c], 0.01f * albedo * sky[c]) << p;
+        for (int c = 0; c < 3; ++c) {
+            EXPECT_LE(out[size_t(p)].direct[c], 1.0001f * albedo * sky[c]) << p;
+            EXPECT_GE(out[size_t(p)].direct[c], 0.8749f * albedo * sky[c]) << p;
+        }
         sum += glm::dvec3(out[size_t(p)].direct);
         ++n;
     }
     ASSERT_GT(n, 300);
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(sum[c] / n, albedo * sky[c], 0.002 * albedo * sky[c]);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(sum[c] / n, albedo * sky[c], 0.003 * albedo * sky[c]);
     EXPECT_EQ(out[0].direct, sky) << "a camera ray that leaves the scene sees the sky";
 }
 
 // The same furnace lit by a constant map: the map's importance sampling (8 directions a point,
 // half below the horizon) and the progressive passes that refine it (AreaLightSampler). After 6
-// still frames each visible point holds 6 · 8 samples; the mean over ~1400 points is within 1 %
-// (its standard error is ≈ 0.4 %), each pixel within 35 % (7 standard errors of 48 samples).
+// still frames each visible point holds 6 · 8 samples: one sample's relative deviation is 1.29
+// (4·cos on the upper hemisphere, 0 below), 48 independent ones 0.19, less with the samples'
+// stratification. The mean over ~1400 points is within 2.5 % (5 standard errors of independent
+// pixels), and fewer than 5 % of the pixels stray beyond 40 %.
 TEST(EnvironmentRender, FurnaceUnderAConstantMapConvergesOverStillFrames) {
     Texture map;
     map.width = 32;
@@ -134,17 +140,18 @@ TEST(EnvironmentRender, FurnaceUnderAConstantMapConvergesOverStillFrames) {
     const FrameImage image = renderJob(scene, w, h, 6, CausticEstimatorKind::Progressive);
     const std::vector<bool> in = spherePixels(*scene.camera, w, h);
     double sum = 0.0;
-    int n = 0;
+    int n = 0, stray = 0;
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
             if (!in[size_t(y * w + x)]) continue;
             const float v = pixel(image.final(), w, x, y).y;
-            EXPECT_NEAR(v, albedo * 0.5f, 0.35f * albedo * 0.5f) << x << ", " << y;
+            stray += std::abs(v - albedo * 0.5f) > 0.4f * albedo * 0.5f;
             sum += v;
             ++n;
         }
     ASSERT_GT(n, 1000);
-    EXPECT_NEAR(sum / n, albedo * 0.5, 0.01 * albedo * 0.5);
+    EXPECT_NEAR(sum / n, albedo * 0.5, 0.025 * albedo * 0.5);
+    EXPECT_LT(stray, n / 20);
     EXPECT_FLOAT_EQ(pixel(image.final(), w, 0, 0).x, 0.5f);
 }
 

@@ -614,7 +614,7 @@ TEST(GltfFeatures, PartialTransmissionHonoursVolumeAbsorption) {
     auto floorPower = [&](Scene& s) {
         EmbreeScene es(s);
         const std::vector<Emitter> em = buildEmitters(es);
-        EXPECT_EQ(em.size(), 2u);  // the default spot light and the key light
+        EXPECT_EQ(em.size(), 3u);  // the default spot light, the key light and the default sky
         return tracedPower(es, em[0], 100000);
     };
     const Vec3 a = floorPower(clear), b = floorPower(tinted);

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "common/core/halton.h"
 #include "common/render/render_flags.h"
 #include "common/scene/environment.h"
 #include "common/scene/environment_loader.h"
@@ -41,7 +42,7 @@ Texture testMap(int height) {
             float* px = &t.rgb[(size_t(j) * size_t(t.width) + size_t(i)) * 3];
             px[0] = v;
             px[1] = 0.5f * v;
-            px[2] = 0.25f * v + 0.01f;
+            px[2] = v > 0.0f ? 0.25f * v + 0.01f : 0.0f;
         }
     return t;
 }
@@ -81,10 +82,9 @@ TEST(Environment, UniformSkyIsSampledUniformlyWithItsExactIntegral) {
 
 // The importance sampling (file comment of environment.h): pdf() agrees with what sample()
 // returns, the density integrates to 1 over the sphere, L/pdf has the same Σ_rgb for every
-// sample, and a histogram of 1.05 M stratified samples per texel matches P_texel = pdf·Ω: each
-// texel's count within 5 standard deviations of its binomial expectation (with 512 texels, a
-// false failure has probability < 1e-3 even for independent samples; these are stratified, so
-// their counts vary less).
+// sample, and a histogram of 2^20 independent samples (hashed, seed fixed) per texel matches
+// P_texel = pdf·Ω: each texel's count within 5 standard deviations of its binomial expectation
+// (512 texels: a false failure has probability < 3e-4).
 TEST(Environment, MapSamplingDensityMatchesItsHistogram) {
     const int h = 16, w = 32;
     const Texture map = testMap(h);
@@ -98,18 +98,23 @@ TEST(Environment, MapSamplingDensityMatchesItsHistogram) {
         }
     EXPECT_NEAR(total, 1.0, 1e-5);
 
-    const int side = 1024;  // 1024² stratified samples
+    const int side = 1024;
     std::vector<uint32_t> counts(size_t(w * h), 0);
     double ratioSum = -1.0;
     for (int a = 0; a < side; ++a)
         for (int b = 0; b < side; ++b) {
-            const EnvironmentSample s = env.sample(Vec2((a + 0.5f) / side, (b + 0.5f) / side));
+            const uint64_t key = splitMix64(uint64_t(a) * side + uint64_t(b) + 12345);
+            const EnvironmentSample s = env.sample(Vec2(hashToUnit(key), hashToUnit(splitMix64(key))));
             ASSERT_GT(s.pdf, 0.0f);
             ASSERT_NEAR(glm::length(s.direction), 1.0f, 1e-5f);
-            EXPECT_NEAR(env.pdf(s.direction), s.pdf, 1e-3f * s.pdf + 1e-6f);
+            ASSERT_GT(s.radiance.x + s.radiance.y + s.radiance.z, 0.0f) << "a black texel was drawn";
             const Vec2 uv = Environment::uvOf(s.direction);
             const int i = std::clamp(int(uv.x * w), 0, w - 1), j = std::clamp(int(uv.y * h), 0, h - 1);
             ++counts[size_t(j * w + i)];
+            // pdf() finds the texel from the direction again: off a texel's border it must agree.
+            const float fx = uv.x * w - float(i), fy = uv.y * h - float(j);
+            if (fx > 1e-3f && fx < 1.0f - 1e-3f && fy > 1e-3f && fy < 1.0f - 1e-3f)
+                ASSERT_NEAR(env.pdf(s.direction), s.pdf, 1e-3f * s.pdf) << a << ", " << b;
             const double ratio = double(s.radiance.x + s.radiance.y + s.radiance.z) / s.pdf;
             if (ratioSum < 0.0) ratioSum = ratio;
             EXPECT_NEAR(ratio, ratioSum, 1e-3 * ratioSum);
@@ -122,7 +127,9 @@ TEST(Environment, MapSamplingDensityMatchesItsHistogram) {
             const double expected = n * p, sigma = std::sqrt(n * p * (1.0 - p));
             EXPECT_LE(std::abs(double(counts[size_t(j * w + i)]) - expected), 5.0 * sigma + 1.0)
                 << "texel " << i << ", " << j;
-            if (j == h - 3) EXPECT_EQ(counts[size_t(j * w + i)], 0u) << "a black texel was drawn";
+            // A black texel is never drawn (checked per sample above); only a direction on its border
+            // can round into it.
+            if (j == h - 3) EXPECT_LE(counts[size_t(j * w + i)], 8u);
         }
     // The sun (4 of 512 texels) holds most of the power and draws most of the samples.
     uint32_t sun = 0;
