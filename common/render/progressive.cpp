@@ -189,6 +189,7 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
 void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) {
     const double samples = double(passes_) + 1.0;  // area-light sample sets per hit
     const double gamma = gamma_;
+    const double filterNoise = std::sqrt(filterShare_);
     std::atomic<uint64_t> bad{0};
     std::vector<float> sigma(out.size(), 0.0f);
     ownWeights_.assign(out.size(), 0);
@@ -234,7 +235,9 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                     const double sdv = luminance(value) * std::sqrt(rel);
                     if (i == 0) {
                         caustic += value;
-                        sd += sdv * noiseScale;
+                        // The shown filter average: neighbours' shared photons sit at other
+                        // points of their discs, so their noise still averages out.
+                        sd += sdv * filterNoise;
                     } else {
                         own += value;
                         ownSd += sdv;
