@@ -58,6 +58,8 @@ void FrameAssembler::beginFrame(uint64_t frame, const std::vector<ClientId>& own
     frames_.push_back(std::move(f));
 }
 
+void FrameAssembler::probe(ClientId client, uint64_t frame) { clients_[client].try_emplace(frame); }
+
 Verdict FrameAssembler::onFrameData(ClientId client, uint64_t frame, uint32_t set) {
     auto cit = clients_.find(client);
     if (cit == clients_.end()) return Verdict::NotSent;

@@ -61,6 +61,10 @@ public:
     void beginFrame(uint64_t frame, const std::vector<ClientId>& owner, TimePoint now,
                     std::optional<std::chrono::milliseconds> deadline = std::nullopt);
 
+    /// `frame` (begun) was also sent to `client` with no set: its Stats is expected and accepted
+    /// (outstanding() counts it), but the frame never waits for it.
+    void probe(ClientId client, uint64_t frame);
+
     /// Records FrameData{frame, set} from `client`; see Verdict.
     Verdict onFrameData(ClientId client, uint64_t frame, uint32_t set);
     /// Records Stats{frame} from `client`, which ends that frame for the client.

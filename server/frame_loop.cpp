@@ -36,11 +36,12 @@ FrameLoop::FrameLoop(asio::io_context& io, const MasterOptions& options, Peers& 
       deadlineTimer_(io) {}
 
 std::vector<uint32_t> FrameLoop::clientJoined(ClientId id) {
-    policy_.clientsChanged();
+    policy_.clientJoined(id);
     return policy_.tentativeSets(id, peers_.registry().joinOrder());
 }
 
 void FrameLoop::clientLeft(ClientId id) {
+    probes_.erase(id);
     assembler_.dropClient(id);
     policy_.clientLeft(id);
     ledger_.clientLeft(id);
@@ -85,6 +86,11 @@ void FrameLoop::onStats(ClientInfo& client, const proto::Stats& st) {
     Verdict v = assembler_.onStats(client.id, st.frame);
     if (isProtocolError(v)) {
         peers_.protocolError(*client.connection, "Stats frame " + std::to_string(st.frame) + ": " + verdictName(v));
+        return;
+    }
+    if (policy_.answered(client.id)) {  // the frame sent to a joiner with no set: it takes sets now
+        probes_.erase(client.id);
+        pump();
         return;
     }
     if (v == Verdict::Accept) {
@@ -196,6 +202,22 @@ void FrameLoop::evictSlowClients() {
         ++ledger_.counts().clientsEvicted;
         peers_.evict(id, why);
     }
+    // A joiner that does not answer a frame without sets within the deadline's ceiling (what a
+    // frame would have waited for it) holds a client slot for nothing.
+    const auto ceiling = deadlines_.forFrame(true);
+    const TimePoint now = Clock::now();
+    std::vector<ClientId> silent;
+    for (const auto& [id, sent] : probes_)
+        if (now - sent >= ceiling) silent.push_back(id);
+    for (ClientId id : silent) {
+        probes_.erase(id);
+        if (!registry.find(id)) continue;
+        const std::string why = "evicted: did not answer its first frame within " + std::to_string(ceiling.count()) +
+                                " ms; it may rejoin";
+        std::fprintf(stderr, "rtpm-server: client %u (%s) %s\n", id, registry.find(id)->name.c_str(), why.c_str());
+        ++ledger_.counts().clientsEvicted;
+        peers_.evict(id, why);
+    }
 }
 
 void FrameLoop::beginFrame(TimePoint now) {
@@ -217,6 +239,10 @@ void FrameLoop::beginFrame(TimePoint now) {
     for (auto& [id, sets] : plan.sets)
         registry.find(id)->connection->send(proto::FrameBegin{f, plan.epoch, start->sceneVersion, start->camera,
                                                               plan.mode, std::move(sets), passBatches, shared});
+    // A joiner's first frame, without sets: nothing of it is rendered, so nothing is shared.
+    for (ClientId id : plan.probes)
+        registry.find(id)->connection->send(proto::FrameBegin{f, plan.epoch, start->sceneVersion, start->camera,
+                                                              plan.mode, {}, passBatches});
     ledger_.began(f, plan.mode, plan.epoch, plan.owners, passBatches);
     // A frame whose cost the last ones do not predict waits the ceiling, and so does the last
     // frame of a finite run (it is the image written: nothing rendered may be cut short).
@@ -227,6 +253,10 @@ void FrameLoop::beginFrame(TimePoint now) {
     // even when this frame waits the ceiling.
     peers_.boundReadStall(deadlines_.forFrame(false, frameCost(plan.mode)));
     assembler_.beginFrame(f, plan.owners, now, lastDeadline_);
+    for (ClientId id : plan.probes) {
+        assembler_.probe(id, f);
+        probes_.try_emplace(id, now);
+    }
 }
 
 void FrameLoop::retire(RetiredFrame& r, TimePoint now) {

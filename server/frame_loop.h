@@ -7,6 +7,7 @@
 #include <asio.hpp>
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -102,6 +103,7 @@ private:
     PhotonRelay relay_;
     bool targetReached_ = false;  // the estimated caustic error reached --target-error
     asio::steady_timer deadlineTimer_;
+    std::map<ClientId, TimePoint> probes_;  // joiners sent a frame without sets, since when
     std::chrono::milliseconds lastDeadline_{0};  // of the newest frame begun (told to evicted clients)
     uint64_t nextFrame_ = 0;
     size_t outputsQueued_ = 0;

@@ -12,6 +12,15 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
                             const std::function<size_t(ClientId)>& outstanding, bool cameraMoved,
                             bool cameraStill) {
     for (ClientId id : joinOrder) state_.try_emplace(id);
+    // The clients that take sets, in join order; when none does yet, every one does (nobody is
+    // rendering for the joiners to wait behind).
+    std::vector<ClientId> takers;
+    for (ClientId id : joinOrder)
+        if (state_[id].ready) takers.push_back(id);
+    if (takers.empty()) {
+        for (ClientId id : joinOrder) state_[id].ready = true;
+        takers = joinOrder;
+    }
     bool newEpoch = frame == 0;
     if (edited) {
         ++epoch_;
@@ -21,12 +30,12 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
     if (newEpoch) epochStart_ = frame;
     bool reassigned = false;
     if (newEpoch || assignment_.owner.size() != setCount_) {
-        Assignment next = dealSets(setCount_, joinOrder);
+        Assignment next = dealSets(setCount_, takers);
         reassigned = newEpoch || next != assignment_;
         assignment_ = std::move(next);
         for (auto& [id, s] : state_) s.capped = false;
     } else if (clientsChanged_) {
-        Assignment next = rebalance(assignment_, setCount_, joinOrder);
+        Assignment next = rebalance(assignment_, setCount_, takers);
         if (!movedSets(assignment_, next).empty()) {
             reassigned = true;
             for (auto& [id, s] : state_) s.capped = false;
@@ -34,8 +43,8 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
         assignment_ = std::move(next);
     }
     clientsChanged_ = false;
-    bool allCapped = !joinOrder.empty();
-    for (ClientId id : joinOrder)
+    bool allCapped = !takers.empty();
+    for (ClientId id : takers)
         if (assignment_.countOf(id) > 0 && !state_[id].capped) allCapped = false;
 
     FramePlan p;
@@ -50,7 +59,9 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
     p.owners = assignment_.owner;
     for (ClientId& o : p.owners)
         if (o != kNoClient && outstanding(o) >= pipeline_) o = kNoClient;
-    for (ClientId id : joinOrder) {
+    for (ClientId id : joinOrder)
+        if (!state_[id].ready && outstanding(id) == 0) p.probes.push_back(id);
+    for (ClientId id : takers) {
         std::vector<uint32_t> sets = assignment_.setsOf(id);
         if (sets.empty()) continue;
         if (outstanding(id) >= pipeline_) {
@@ -60,6 +71,19 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
         p.sets.emplace(id, std::move(sets));
     }
     return p;
+}
+
+void FramePolicy::clientJoined(ClientId id) {
+    state_[id].ready = !started_;
+    clientsChanged_ = true;
+}
+
+bool FramePolicy::answered(ClientId id) {
+    auto it = state_.find(id);
+    if (it == state_.end() || it->second.ready) return false;
+    it->second.ready = true;
+    clientsChanged_ = true;
+    return true;
 }
 
 void FramePolicy::clientLeft(ClientId id) {

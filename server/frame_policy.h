@@ -23,6 +23,9 @@ struct FramePlan {
     std::map<ClientId, std::vector<uint32_t>> sets;
     /// Sets were dealt afresh or changed owner with this frame (their new owners build maps).
     bool reassigned = false;
+    /// Clients that joined after frames began and have not yet answered a frame: each is sent
+    /// this frame with no set (it answers with Stats alone); no frame waits for them.
+    std::vector<ClientId> probes;
 };
 
 /// The master's frame-loop policy, pure: no sockets, no clock, no threads (docs/ARCHITECTURE.md
@@ -39,6 +42,10 @@ struct FramePlan {
 ///    (rebalance()); moved sets restart accumulation on their new owner, in every mode (a
 ///    Walkthrough frame shoots the first batch of a map that has none: FrameRenderer), and the
 ///    plan says `reassigned` so the master gives that frame the full deadline.
+///  * Joining: a client that joins after frames began holds no set until it has answered a frame
+///    sent to it with no set (its Stats, once its scene is loaded), so a joiner that never
+///    answers costs the frames nothing; the frame that then moves sets to it waits the ceiling
+///    for a client known to be alive. While no client holds sets every client takes sets at once.
 ///  * Pipelining: a client with `pipeline` frames outstanding is skipped (its sets shown with
 ///    previous values); a client skipped or late `evictAfter` times in a row is evicted.
 /// Not thread-safe.
@@ -67,9 +74,13 @@ public:
         assignment_ = Assignment{};
     }
 
-    /// A client joined or left: the next plan rebalances (within an epoch).
-    void clientsChanged() { clientsChanged_ = true; }
+    /// A client joined: the next plan rebalances (within an epoch). Once frames began, it takes
+    /// sets only after answered().
+    void clientJoined(ClientId id);
     void clientLeft(ClientId id);
+    /// A Stats of `id` arrived (in time or late). Returns true when it answered the frame sent to
+    /// it with no set: it takes sets from the next plan on.
+    bool answered(ClientId id);
     /// A client's Stats for a frame of mode `mode` arrived in time: it finished a frame, and in an
     /// Accumulate frame `photonsShot == 0` means its sets are capped.
     void stats(ClientId id, proto::FrameMode mode, uint64_t photonsShot);
@@ -88,6 +99,7 @@ private:
     struct ClientState {
         bool capped = false;  // last Stats of a non-interaction frame shot no photon
         uint32_t skips = 0;   // consecutive frames skipped (pipeline full)
+        bool ready = true;    // takes sets (a joiner after frames began: once it answered)
     };
     uint32_t setCount_;
     bool walkthrough_;

@@ -451,6 +451,80 @@ TEST(Admission, ClientStallingMidMessageAfterJoiningDoesNotFreezeFrames) {
     EXPECT_TRUE(s.waitClosed(5s));
 }
 
+/// Watches the frames a server shows for `span` (or until it exits) and returns the longest
+/// time without a new frame line and the number of frames shown meanwhile.
+struct FrameGaps {
+    Clock::duration longest{0};
+    size_t frames = 0;
+};
+FrameGaps watchFrames(Child& server, Clock::duration span) {
+    FrameGaps g;
+    const auto start = Clock::now();
+    auto lastFrameAt = start;
+    size_t lastCount = framesShown(server.out());
+    while (Clock::now() - start < span && !server.poll()) {
+        std::this_thread::sleep_for(20ms);
+        const auto now = Clock::now();
+        const size_t count = framesShown(server.out());
+        if (count != lastCount) {
+            g.frames += count - lastCount;
+            lastCount = count;
+            lastFrameAt = now;
+        }
+        g.longest = std::max(g.longest, now - lastFrameAt);
+    }
+    return g;
+}
+
+// Before: a client holding the token that joined and then sent nothing at all (no byte of any
+// message, so no read deadline applies) cost one frame the deadline's ceiling: the frame that
+// moved sets to it waited 10 s for them (9 995 ms and 9 974 ms without a frame in two runs, 228
+// and 142 frames in 12 s; now 0-68 ms and about 500-2 500 frames in 4 s).
+// A socket that connects and sends nothing (no Hello) costs the frames nothing, before and after.
+// About 6 s.
+TEST(Admission, SilentJoinerDoesNotFreezeFrames) {
+    TempDir dir;
+    Child server({binaryPath("server/rtpm-server"), "--port", "0", "--port-file", dir.file("port"), "--min-clients",
+                  "2", "--scene", "RING", "--width", "48", "--height", "36", "-M", "3", "-P", "500", "--frames", "0",
+                  "--encoding", "float32", "--frame-budget-ms", "0"},
+                 dir.file("server"), {"RTPM_TOKEN=" + kToken});
+    const uint16_t port = waitForPortFile(dir.file("port"), server, 60s);
+    ASSERT_NE(port, 0) << server.logs();
+    std::vector<std::unique_ptr<Child>> clients;
+    for (const char* name : {"a", "b"})
+        clients.push_back(std::make_unique<Child>(
+            std::vector<std::string>{binaryPath("client/rtpm-client"), "--server", "127.0.0.1:" + std::to_string(port),
+                                     "--token", kToken, "--threads", "1", "--name", name},
+            dir.file(name)));
+    ASSERT_TRUE(waitUntil([&] { return framesShown(server.out()) >= 12 || server.poll(); }, 120s)) << server.logs();
+
+    // A socket that never says Hello: its handshake deadline (3 s) ends it.
+    Socket mute = connectFrom("127.0.0.1", port);
+    ASSERT_TRUE(mute.valid());
+    const FrameGaps beforeHello = watchFrames(server, 1500ms);
+    // A client that authenticates and then sends nothing.
+    Socket s = connectFrom("127.0.0.1", port);
+    auto m = authenticate(s, kToken, "silent");
+    ASSERT_TRUE(m && std::holds_alternative<proto::Welcome>(*m)) << server.logs();
+    const FrameGaps joined = watchFrames(server, 4s);
+    const auto ms = [](Clock::duration d) { return (long long)std::chrono::duration_cast<std::chrono::milliseconds>(d).count(); };
+    std::printf("silent socket: %zu frames in 1.5 s, longest gap %lld ms; silent joiner: %zu frames in 4 s, longest "
+                "gap %lld ms\n",
+                beforeHello.frames, ms(beforeHello.longest), joined.frames, ms(joined.longest));
+    EXPECT_LT(beforeHello.longest, 1s) << server.logs();
+    // The frames go on at their pace (tens of milliseconds here); 1.5 s leaves room for a loaded machine.
+    EXPECT_LT(joined.longest, 1500ms) << server.logs();
+    EXPECT_GE(joined.frames, 10u) << server.logs();
+    // A real joiner still gets its share once it answered its first frame (sent without sets).
+    Child c({binaryPath("client/rtpm-client"), "--server", "127.0.0.1:" + std::to_string(port), "--token", kToken,
+             "--threads", "1", "--name", "c", "--verbose"},
+            dir.file("c"));
+    EXPECT_TRUE(waitUntil([&] { return c.out().find(": sets none,") != std::string::npos || server.poll(); }, 60s))
+        << c.logs();
+    EXPECT_TRUE(waitUntil([&] { return c.out().find(": sets 6,7,8,") != std::string::npos || server.poll(); }, 60s))
+        << c.logs() << server.logs();
+}
+
 // Before: an authenticated client could announce up to 256 MiB per FrameData whatever its set's
 // size (a padded zstd frame of 64 MiB per set took +513 MiB). Now the announced size is checked
 // against the largest set's float32 size from the header alone.

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
 
 namespace rtpm::server {
@@ -122,9 +123,50 @@ TEST(FramePolicy, PlansSayWhenSetsChangeOwner) {
     EXPECT_EQ(f2.mode, proto::FrameMode::Walkthrough) << "forced walkthrough: the client shoots the moved sets' "
                                                          "first batch itself (FrameRenderer)";
     EXPECT_FALSE(p.plan(3, false, {1}, none).reassigned);
-    p.clientsChanged();  // client 3 joins: rebalancing moves sets to it
-    EXPECT_TRUE(p.plan(4, false, {1, 3}, none).reassigned) << "the newcomer takes sets";
-    EXPECT_TRUE(p.plan(5, true, {1, 3}, none).reassigned) << "a new epoch";
+    p.clientJoined(3);  // client 3 joins: once it answered, rebalancing moves sets to it
+    EXPECT_FALSE(p.plan(4, false, {1, 3}, none).reassigned) << "the newcomer has not answered yet";
+    EXPECT_TRUE(p.answered(3));
+    EXPECT_TRUE(p.plan(5, false, {1, 3}, none).reassigned) << "the newcomer takes sets";
+    EXPECT_TRUE(p.plan(6, true, {1, 3}, none).reassigned) << "a new epoch";
+}
+
+// A joiner holds no set until it answered a frame sent to it without sets, so one that never
+// answers never holds a frame up; clients present when frames begin take sets at once, and so
+// does a joiner when nobody else holds sets.
+TEST(FramePolicy, AJoinerTakesSetsOnlyAfterAnsweringAFrameWithoutSets) {
+    FramePolicy p(4, false, 2, 3);
+    p.clientJoined(1);
+    p.clientJoined(2);
+    FramePlan f0 = p.plan(0, false, {1, 2}, none);
+    EXPECT_TRUE(f0.probes.empty());
+    EXPECT_EQ(f0.sets.size(), 2u);
+    p.clientJoined(3);
+    std::map<ClientId, size_t> outstanding;
+    auto pending = [&](ClientId id) { return outstanding[id]; };
+    FramePlan f1 = p.plan(1, false, {1, 2, 3}, pending);
+    EXPECT_EQ(f1.probes, std::vector<ClientId>{3});
+    EXPECT_FALSE(f1.sets.count(3));
+    EXPECT_EQ(std::count(f1.owners.begin(), f1.owners.end(), ClientId(3)), 0);
+    EXPECT_FALSE(f1.reassigned);
+    outstanding[3] = 1;  // it has not answered: no second frame without sets, still no set
+    FramePlan f2 = p.plan(2, true, {1, 2, 3}, pending);  // a new epoch deals only to the answered
+    EXPECT_TRUE(f2.probes.empty());
+    EXPECT_FALSE(f2.sets.count(3));
+    EXPECT_FALSE(p.answered(1)) << "a client that holds sets answers frames as usual";
+    outstanding[3] = 0;
+    EXPECT_TRUE(p.answered(3));
+    FramePlan f3 = p.plan(3, false, {1, 2, 3}, pending);
+    EXPECT_TRUE(f3.reassigned);
+    EXPECT_EQ(f3.sets.at(3).size(), 1u);
+    EXPECT_TRUE(f3.probes.empty());
+    // Everyone else left: a new joiner has nobody to wait behind and takes every set at once.
+    p.clientLeft(1);
+    p.clientLeft(2);
+    p.clientLeft(3);
+    p.clientJoined(4);
+    FramePlan f4 = p.plan(4, false, {4}, none);
+    EXPECT_TRUE(f4.probes.empty());
+    EXPECT_EQ(f4.sets.at(4).size(), 4u);
 }
 
 TEST(FramePolicy, TentativeSetsOfAJoiningClient) {
