@@ -8,6 +8,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstring>
+#include <thread>
 #include <glm/gtc/type_ptr.hpp>
 
 #include "common/scene/gltf_loader.h"
@@ -68,7 +69,7 @@ struct FrameRenderer::Group {
     std::unique_ptr<RenderJob> job;
 };
 
-FrameRenderer::FrameRenderer(uint32_t threads) : threads_(threads) {}
+FrameRenderer::FrameRenderer(uint32_t threads, double slowdown) : threads_(threads), slowdown_(slowdown) {}
 FrameRenderer::~FrameRenderer() = default;
 
 void FrameRenderer::setSettings(const proto::Settings& s) {
@@ -200,6 +201,11 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
         for (const SetPixels& sp : results[gi]) bySet[size_t(sp.set)] = &sp;
     }
 
+    if (slowdown_ > 1.0) {
+        const double extraMs = (slowdown_ - 1.0) * (photonMs + renderMs);
+        std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(extraMs));
+        renderMs += extraMs;
+    }
     const auto te = std::chrono::steady_clock::now();
     const Interleave pattern{settings_.width, settings_.height, settings_.interleave};
     // Sets encode in parallel (one task each, in FrameBegin order in `out.data`).

@@ -51,8 +51,10 @@ struct RenderedFrame {
 /// Messages must be given in the order they arrived. Not thread-safe (one render thread).
 class FrameRenderer {
 public:
-    /// `threads` is reported in Stats (the caller limits TBB).
-    explicit FrameRenderer(uint32_t threads);
+    /// `threads` is reported in Stats (the caller limits TBB). `slowdown` (tests of the master's
+    /// load balance only): each frame takes that many times its work, the rest asleep and
+    /// reported as eye-pass time, as on a slower machine.
+    explicit FrameRenderer(uint32_t threads, double slowdown = 1.0);
     ~FrameRenderer();
 
     /// Takes effect at the next frame. A change of anything but f and the pixel encoding drops
@@ -86,6 +88,7 @@ private:
     void adoptSets(const std::vector<uint32_t>& sets);
 
     uint32_t threads_;
+    double slowdown_;
     std::optional<proto::Settings> wire_;
     RenderSettings settings_;
     std::optional<Scene> scene_;  ///< the scene with every applied edit; new groups copy it

@@ -59,6 +59,9 @@ int main(int argc, char** argv) {
         ->capture_default_str()
         ->check(CLI::NonNegativeNumber);
     app.add_flag("--verbose,-v", o.verbose, "print one line per rendered frame");
+    // Tests of the master's load balance where no CPU quota can be set: each frame takes this many
+    // times its work (the rest asleep, reported as eye-pass time), as on a slower machine.
+    app.add_option("--slowdown-for-tests", o.testSlowdown)->check(CLI::Range(1.0, 100.0))->group("");
     app.add_flag("--tls", o.tls, "connect over TLS and verify the server's certificate for the host name");
     app.add_option("--tls-ca", o.tlsCa, "PEM file of the CA to trust with --tls (default: the system's)");
     serverOpt->excludes(portFileOpt);

@@ -21,9 +21,9 @@ std::string setList(const std::vector<uint32_t>& sets) {
     return s.empty() ? "none" : s;
 }
 
-RenderThread::RenderThread(uint64_t session, uint32_t threads, bool verbose, RenderSink& sink,
+RenderThread::RenderThread(uint64_t session, uint32_t threads, double slowdown, bool verbose, RenderSink& sink,
                            std::atomic<uint64_t>& framesRendered)
-    : session_(session), verbose_(verbose), sink_(sink), framesRendered_(framesRendered), renderer_(threads),
+    : session_(session), verbose_(verbose), sink_(sink), framesRendered_(framesRendered), renderer_(threads, slowdown),
       thread_([this] { loop(); }) {}
 
 RenderThread::~RenderThread() {
@@ -109,7 +109,7 @@ void RenderThread::render(RenderItem& item) {
     sink_.frameRendered(session_, std::move(bytes));
 }
 
-void RenderThreads::start(uint64_t session, uint32_t threads, bool verbose, RenderSink& sink,
+void RenderThreads::start(uint64_t session, uint32_t threads, double slowdown, bool verbose, RenderSink& sink,
                           std::atomic<uint64_t>& framesRendered) {
     // Earlier sessions' photon maps are freed, not kept for the run.
     std::erase_if(retired_, [](const std::unique_ptr<RenderThread>& t) {
@@ -117,7 +117,7 @@ void RenderThreads::start(uint64_t session, uint32_t threads, bool verbose, Rend
         t->join();
         return true;
     });
-    current_ = std::make_unique<RenderThread>(session, threads, verbose, sink, framesRendered);
+    current_ = std::make_unique<RenderThread>(session, threads, slowdown, verbose, sink, framesRendered);
 }
 
 void RenderThreads::retire() {

@@ -49,9 +49,10 @@ public:
 /// frames render in order while the io thread receives the next. A rejoin starts a new one.
 class RenderThread {
 public:
-    /// Starts the thread. `threads` is reported in Stats; `verbose` prints a line per frame to
-    /// stdout; `framesRendered` counts frames across sessions.
-    RenderThread(uint64_t session, uint32_t threads, bool verbose, RenderSink& sink,
+    /// Starts the thread. `threads` is reported in Stats; `slowdown` is FrameRenderer's (tests
+    /// only); `verbose` prints a line per frame to stdout; `framesRendered` counts frames across
+    /// sessions.
+    RenderThread(uint64_t session, uint32_t threads, double slowdown, bool verbose, RenderSink& sink,
                  std::atomic<uint64_t>& framesRendered);
     /// Stops and joins the thread (blocks for the item in progress).
     ~RenderThread();
@@ -92,7 +93,7 @@ class RenderThreads {
 public:
     ~RenderThreads() { joinAll(); }
     /// Joins the retired threads that are done, then starts `session`'s.
-    void start(uint64_t session, uint32_t threads, bool verbose, RenderSink& sink,
+    void start(uint64_t session, uint32_t threads, double slowdown, bool verbose, RenderSink& sink,
                std::atomic<uint64_t>& framesRendered);
     /// The current session's thread, or nullptr between sessions.
     RenderThread* current() const { return current_.get(); }

@@ -83,7 +83,7 @@ struct Worker::Impl : SessionEvents, RenderSink {
         connector.resetBackoff();
         lossCode.reset();
         ++sessionsStarted;
-        renders.start(sessionsStarted, threadCount(), opt.verbose, *this, framesRendered);
+        renders.start(sessionsStarted, threadCount(), opt.testSlowdown, opt.verbose, *this, framesRendered);
     }
 
     void onReject(const proto::Reject& r) override {

@@ -27,6 +27,7 @@ struct WorkerOptions {
     std::string token;         ///< shared secret: keys the Auth MAC, never sent
     std::string name;          ///< client name for the server's logs
     int threads = 0;           ///< TBB worker threads; 0 = every core
+    double testSlowdown = 1.0; ///< tests only: work as if the machine were this many times slower
     double connectTimeoutSeconds = 30.0;  ///< total time for the first connection attempts
     /// After a session is lost for a reason that may pass (evicted, master closed the connection
     /// or fell silent, refused for capacity), keep trying to rejoin this long; 0 = exit at once.

@@ -33,17 +33,18 @@ void FrameLedger::addData(proto::FrameData&& fd, size_t wireBytes) {
     info.data.push_back(std::move(fd));
 }
 
-proto::FrameMode FrameLedger::addStats(ClientId client, const std::string& name, const proto::Stats& st) {
+FrameLedger::StatsOf FrameLedger::addStats(ClientId client, const std::string& name, const proto::Stats& st) {
     FrameInfo& info = frames_[st.frame];
     info.photonsStored += st.photonsStored;
-    info.setsReported += static_cast<uint64_t>(std::count(info.owners.begin(), info.owners.end(), client));
+    const auto sets = static_cast<uint32_t>(std::count(info.owners.begin(), info.owners.end(), client));
+    info.setsReported += sets;
     lastStats_[client] = st;
     if (st.frameMs > info.slowestMs) {
         info.slowestMs = st.frameMs;
         info.slowestStats = st;
         info.slowest = std::to_string(client) + ":" + name;
     }
-    return info.mode;
+    return {info.mode, sets};
 }
 
 const proto::Stats* FrameLedger::lastStats(ClientId client) const {

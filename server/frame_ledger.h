@@ -41,8 +41,13 @@ public:
                uint32_t passBatches);
     /// Data of a frame in flight (already checked).
     void addData(proto::FrameData&& data, size_t wireBytes);
-    /// Accepted Stats of `client` (named `name` in logs). Returns the mode of the frame.
-    proto::FrameMode addStats(ClientId client, const std::string& name, const proto::Stats& stats);
+    /// What a client's Stats belonged to: the frame's mode and the sets the client was asked for.
+    struct StatsOf {
+        proto::FrameMode mode = proto::FrameMode::Accumulate;
+        uint32_t sets = 0;
+    };
+    /// Accepted Stats of `client` (named `name` in logs).
+    StatsOf addStats(ClientId client, const std::string& name, const proto::Stats& stats);
     /// The last Stats of `client`, or null.
     const proto::Stats* lastStats(ClientId client) const;
     void clientLeft(ClientId client) { lastStats_.erase(client); }

@@ -29,7 +29,8 @@ FrameLoop::FrameLoop(asio::io_context& io, const MasterOptions& options, Peers& 
       listener_(listener),
       pattern_{options.settings.width, options.settings.height, options.settings.interleave},
       policy_(setCount(), options.walkthrough, kPipeline, static_cast<uint32_t>(std::max(1, options.evictAfter)),
-              options.settings.photons.estimator == CausticEstimatorKind::Progressive),
+              options.settings.photons.estimator == CausticEstimatorKind::Progressive,
+              BalanceOptions{.enabled = !options.staticSets}),
       deadlines_(options.deadline),
       assembler_(setCount(), deadlines_.forFrame(true)),
       passBudget_(options.frameBudgetMs * 1e-3),
@@ -94,8 +95,9 @@ void FrameLoop::onStats(ClientInfo& client, const proto::Stats& st) {
         return;
     }
     if (v == Verdict::Accept) {
-        const proto::FrameMode mode = ledger_.addStats(client.id, client.name, st);
-        policy_.stats(client.id, mode, st.photonsShot);
+        const FrameLedger::StatsOf of = ledger_.addStats(client.id, client.name, st);
+        policy_.stats(client.id, of.mode, st.photonsShot);
+        policy_.balance().measured(client.id, of.sets, double(st.photonMs) + double(st.renderMs) + double(st.encodeMs));
     }
     pump();
 }
@@ -231,6 +233,18 @@ void FrameLoop::beginFrame(TimePoint now) {
     FramePlan plan = policy_.plan(f, start->sceneChanged, registry.joinOrder(),
                                   [this](ClientId id) { return assembler_.outstanding(id); }, start->cameraMoved,
                                   start->still);
+    if (plan.balanced) {
+        std::string share;
+        for (ClientId id : registry.joinOrder()) {
+            const auto cost = policy_.balance().msPerSet(id);
+            char part[96];
+            std::snprintf(part, sizeof part, "%s%u: %zu (%.1f ms/set)", share.empty() ? "" : ", ", id,
+                          policy_.assignment().countOf(id), cost ? *cost : 0.0);
+            share += part;
+        }
+        std::fprintf(stderr, "rtpm-server: frame %llu: sets by measured cost, client: sets (cost) %s\n",
+                     (unsigned long long)f, share.c_str());
+    }
     // A still view's passes grow to the frame-time budget; any other frame shoots one batch.
     const uint32_t passBatches = plan.mode == proto::FrameMode::Converging ? passBudget_.batches() : 1u;
     // Every set's shot of two frames ago, for this frame's passes (photon_relay.h).

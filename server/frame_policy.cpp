@@ -1,12 +1,27 @@
 // Frame-loop policy: epochs, modes, assignment, skips, eviction.
 #include "server/frame_policy.h"
 
+#include <algorithm>
+
 namespace rtpm::server {
 
+namespace {
+
+/// True when `a` gives every set to one of `clients` and each of them holds one at least.
+bool covers(const Assignment& a, const std::vector<ClientId>& clients) {
+    for (ClientId o : a.owner)
+        if (std::find(clients.begin(), clients.end(), o) == clients.end()) return false;
+    for (ClientId c : clients)
+        if (a.countOf(c) == 0) return false;
+    return true;
+}
+
+}  // namespace
+
 FramePolicy::FramePolicy(uint32_t setCount, bool walkthrough, size_t pipeline, uint32_t evictAfter,
-                         bool progressive)
+                         bool progressive, BalanceOptions balance)
     : setCount_(setCount), walkthrough_(walkthrough), pipeline_(pipeline), evictAfter_(evictAfter),
-      progressive_(progressive) {}
+      progressive_(progressive), balance_(balance) {}
 
 FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<ClientId>& joinOrder,
                             const std::function<size_t(ClientId)>& outstanding, bool cameraMoved,
@@ -28,9 +43,19 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
     }
     started_ = true;
     if (newEpoch) epochStart_ = frame;
-    bool reassigned = false;
+    bool reassigned = false, balanced = false;
     if (newEpoch || assignment_.owner.size() != setCount_) {
         Assignment next = dealSets(setCount_, takers);
+        // Every map restarts here, so the measured share carries over and may change for free
+        // (server/balance.h: why only here).
+        if (newEpoch && balance_.enabled() && assignment_.owner.size() == setCount_ && covers(assignment_, takers) &&
+            balance_.measuredAll(takers)) {
+            next = assignment_;
+            if (auto b = balance_.propose(next, takers)) {
+                next = std::move(*b);
+                balanced = true;
+            }
+        }
         reassigned = newEpoch || next != assignment_;
         assignment_ = std::move(next);
         for (auto& [id, s] : state_) s.capped = false;
@@ -51,6 +76,7 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
     p.frame = frame;
     p.epoch = epoch_;
     p.reassigned = reassigned;
+    p.balanced = balanced;
     p.mode = frame == epochStart_                                ? proto::FrameMode::Interaction
              : cameraMoved                                  ? proto::FrameMode::Walkthrough
              : progressive_ && cameraStill && !walkthrough_ ? proto::FrameMode::Converging
@@ -88,6 +114,7 @@ bool FramePolicy::answered(ClientId id) {
 
 void FramePolicy::clientLeft(ClientId id) {
     state_.erase(id);
+    balance_.clientLeft(id);
     clientsChanged_ = true;
 }
 

@@ -8,6 +8,7 @@
 
 #include "proto/messages.h"
 #include "server/assignment.h"
+#include "server/balance.h"
 
 namespace rtpm::server {
 
@@ -23,6 +24,8 @@ struct FramePlan {
     std::map<ClientId, std::vector<uint32_t>> sets;
     /// Sets were dealt afresh or changed owner with this frame (their new owners build maps).
     bool reassigned = false;
+    /// The share changed by measured cost (Balance) with this frame, an epoch's first.
+    bool balanced = false;
     /// Clients that joined after frames began and have not yet answered a frame: each is sent
     /// this frame with no set (it answers with Stats alone); no frame waits for them.
     std::vector<ClientId> probes;
@@ -46,13 +49,18 @@ struct FramePlan {
 ///    sent to it with no set (its Stats, once its scene is loaded), so a joiner that never
 ///    answers costs the frames nothing; the frame that then moves sets to it waits the ceiling
 ///    for a client known to be alive. While no client holds sets every client takes sets at once.
+///  * Balance (unless `balance.enabled` is false: --static-sets): at an epoch's first frame,
+///    where every map restarts, the share of the epoch before carries over and sets move from
+///    slower to faster clients once each has reported a few frames at its share and the move
+///    cuts the predicted frame time by balance.minGain (server/balance.h). So a set moves only
+///    where it holds nothing yet, and the image stays bit for bit what one process renders.
 ///  * Pipelining: a client with `pipeline` frames outstanding is skipped (its sets shown with
 ///    previous values); a client skipped or late `evictAfter` times in a row is evicted.
 /// Not thread-safe.
 class FramePolicy {
 public:
     FramePolicy(uint32_t setCount, bool walkthrough, size_t pipeline, uint32_t evictAfter,
-                bool progressive = false);
+                bool progressive = false, BalanceOptions balance = {});
 
     /// Plans frame `frame` (strictly increasing). `edited`: scene edits (or settings that change
     /// photons) are sent with it. `cameraMoved`: the camera changed for it — photons are kept and
@@ -93,6 +101,8 @@ public:
                                     const std::function<uint32_t(ClientId)>& misses) const;
 
     uint32_t epoch() const { return epoch_; }
+    /// The balance's measurements (FrameLoop feeds it each client's Stats).
+    Balance& balance() { return balance_; }
     const Assignment& assignment() const { return assignment_; }
 
 private:
@@ -107,6 +117,7 @@ private:
     uint32_t evictAfter_;
     bool progressive_ = false;
     Assignment assignment_;
+    Balance balance_;
     bool clientsChanged_ = false;
     bool started_ = false;
     uint32_t epoch_ = 0;

@@ -124,6 +124,9 @@ int run(int argc, char** argv) {
         ->group("cluster");
     app.add_flag("--walkthrough", o.walkthrough, "no photon shooting after the first frame of each epoch")
         ->group("photons");
+    app.add_flag("--static-sets", o.staticSets,
+                 "keep the round-robin share of sets (no moves from slower to faster clients by measured cost)")
+        ->group("cluster");
     app.add_option("--animate", animate, "live edit preset: orbit (camera), light, ior or object (scene edits)")
         ->group("scene");
     app.add_option("--edit-script", editScript, "file of 'frame <n> camera|light|material|transform|settings ...' lines (server/script/script_edit.h)")

@@ -37,6 +37,7 @@ struct MasterOptions {
     int frames = 10;                   ///< 0 = render until stopped (service mode)
     proto::PixelEncoding encoding = proto::PixelEncoding::Float32;
     bool walkthrough = false;          ///< no shooting after the first frame of each epoch
+    bool staticSets = false;           ///< never move sets by measured cost (server/balance.h)
 
     int minClients = 1;                ///< frames start once this many clients joined
     DeadlinePolicy deadline;           ///< how long the oldest frame waits for data (adaptive by default)
