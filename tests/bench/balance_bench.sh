@@ -11,6 +11,10 @@
 #                  epoch and the share may change at each; still: a still view (progressive
 #                  passes within one epoch: the share of frame 0 stays). Default "light still".
 #   --scene S      built-in scene (default RING)
+#   --brake B      how the slow client is held: cgroup (default; half a core, see below) or
+#                  slowdown (--slowdown-for-tests 2: twice its work time whatever the machine's
+#                  load; on a machine whose load leaves each process less than half a core the
+#                  quota never binds and both clients run alike)
 #
 # The slow client runs in a cgroup v1 CPU group with cpu.cfs_quota_us = 50000 of a 100000 µs
 # period (half a core; needs root and /sys/fs/cgroup/cpu). Where that cannot be made, it runs
@@ -25,7 +29,7 @@ set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
 build=${RTPM_BUILD_DIR:-$root/build}
-size=640x480 frames=24 modes="light still" scene=RING
+size=640x480 frames=24 modes="light still" scene=RING brakeKind=cgroup
 if [[ ${RTPM_BENCH_SMOKE:-0} == 1 ]]; then size=64x48 frames=6 modes=light; fi
 while (($#)); do
     case $1 in
@@ -33,6 +37,7 @@ while (($#)); do
         --frames) frames=$2; shift ;;
         --modes) modes=$2; shift ;;
         --scene) scene=$2; shift ;;
+        --brake) brakeKind=$2; shift ;;
         -h|--help) awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "${BASH_SOURCE[0]}"; exit 0 ;;
         *) echo "balance_bench.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
     esac
@@ -40,6 +45,7 @@ while (($#)); do
 done
 [[ $size =~ ^[0-9]+x[0-9]+$ ]] || { echo "balance_bench.sh: --size must be WxH, not '$size'" >&2; exit 2; }
 [[ $frames =~ ^[0-9]+$ ]] && ((frames >= 3)) || { echo "balance_bench.sh: --frames must be >= 3" >&2; exit 2; }
+[[ $brakeKind == cgroup || $brakeKind == slowdown ]] || { echo "balance_bench.sh: --brake must be cgroup or slowdown" >&2; exit 2; }
 for m in $modes; do
     [[ $m == light || $m == still ]] || { echo "balance_bench.sh: unknown mode '$m' (light still)" >&2; exit 2; }
 done
@@ -64,7 +70,8 @@ trap cleanup EXIT
 # The slow client's brake: a half-core CPU group, or the test flag where none can be made.
 slow=(--slowdown-for-tests 2)
 brake="--slowdown-for-tests 2 (no cgroup v1 CPU group could be made)"
-if mkdir "$group" 2>/dev/null && echo 100000 >"$group/cpu.cfs_period_us" && echo 50000 >"$group/cpu.cfs_quota_us"; then
+[[ $brakeKind == slowdown ]] && brake="--slowdown-for-tests 2 (--brake slowdown)"
+if [[ $brakeKind == cgroup ]] && mkdir "$group" 2>/dev/null && echo 100000 >"$group/cpu.cfs_period_us" && echo 50000 >"$group/cpu.cfs_quota_us"; then
     slow=()
     brake="half a core (cgroup v1 cpu.cfs_quota_us 50000 / cpu.cfs_period_us 100000)"
 fi
