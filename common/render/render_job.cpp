@@ -10,6 +10,7 @@
 #include <string>
 
 #include "common/core/check.h"
+#include "common/core/halton.h"
 
 namespace rtpm {
 
@@ -28,6 +29,19 @@ bool sameCamera(const Camera& a, const Camera& b) {
     return std::memcmp(va, vb, sizeof(va)) == 0;
 }
 
+// The sampled splits' seed of a moving frame (renderSet): a hash of the camera's bits, so every
+// process that renders the frame draws the same numbers; never 0 (deterministic splitting).
+uint64_t sampleSeedOf(const Camera& c) {
+    uint32_t bits[10];
+    const float v[10] = {c.position.x, c.position.y, c.position.z, c.forward.x, c.forward.y,
+                         c.forward.z,  c.up.x,       c.up.y,       c.up.z,      c.yfov};
+    std::memcpy(bits, v, sizeof(v));
+    const uint64_t h = hashKeys(uint64_t(bits[0]) << 32 | bits[1], uint64_t(bits[2]) << 32 | bits[3],
+                                uint64_t(bits[4]) << 32 | bits[5], uint64_t(bits[6]) << 32 | bits[7],
+                                uint64_t(bits[8]) << 32 | bits[9]);
+    return h != 0 ? h : 1;
+}
+
 }  // namespace
 
 RenderJob::RenderJob(Scene scene, const RenderSettings& settings, std::vector<uint32_t> sets)
@@ -42,6 +56,7 @@ RenderJob::RenderJob(Scene scene, const RenderSettings& settings, std::vector<ui
     photons_ = std::make_unique<PhotonMaps>(settings_.photons, sets_);
     photons_->setShareCap(kSharedPhotonBudget / size_t(pattern_.setCount()));
     progressive_.resize(sets_.size());
+    irradiance_ = std::make_unique<IrradiancePoints>(sets_);
 }
 
 RenderJob::~RenderJob() = default;
@@ -54,10 +69,18 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
     uint64_t pathsBefore = 0;
     for (uint32_t s : sets_) pathsBefore += photons_->stats(s).pathsTraced;
     const bool progressive = settings_.photons.estimator == CausticEstimatorKind::Progressive;
+    // A moving camera (another camera than the previous frame's) ends every progression: its
+    // frames take their caustics from the irradiance points, and the first frame of a camera
+    // that stopped restarts (docs/ARCHITECTURE.md §6.2).
+    const bool moving = progressive && hasLastCamera_ && !sameCamera(lastCamera_, camera);
+    lastCamera_ = camera;
+    hasLastCamera_ = true;
     std::vector<uint8_t> converge(sets_.size(), 0);
-    for (size_t i = 0; i < sets_.size(); ++i)
+    for (size_t i = 0; i < sets_.size(); ++i) {
+        if (moving) progressive_[i].invalidate();
         converge[i] = progressive && shoot && progressive_[i].valid() &&
                       sameCamera(progressive_[i].camera(), camera);
+    }
     // Sets shoot and insert concurrently (a batch's tracing is parallel inside, its kd-tree
     // insertion is not: with several sets per process both cores stay busy through insertion).
     // Each set's photons depend only on its own sequence, so the maps are the same in any order.
@@ -91,6 +114,10 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
             progressive_[i].pass(*embree_, *photons_, sets_[i], sharedIndex.empty() ? nullptr : &sharedIndex,
                                  *areaLights_, out[i].pixels,
                                  stats.eye.shadowRays, stats.eye.nonFinite);
+        } else if (moving) {
+            irradiance_->update(*embree_, *photons_, sets_[i]);
+            renderSet(*embree_, camera, settings_.eye, pattern_, set, irradiance_.get(), out[i].pixels,
+                      &stats.eye, nullptr, sampleSeedOf(camera));
         } else if (progressive) {
             EyeRecords records;
             renderSet(*embree_, camera, settings_.eye, pattern_, set, nullptr, out[i].pixels,
@@ -104,10 +131,10 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
             renderSet(*embree_, camera, settings_.eye, pattern_, set, photons_.get(), out[i].pixels,
                       &stats.eye);
         }
-        out[i].passes = progressive ? progressive_[i].passes() : 0;
+        out[i].passes = progressive && !moving ? progressive_[i].passes() : 0;
         out[i].ownWeights.clear();
         out[i].error = CausticErrorSums{};
-        if (progressive) {
+        if (progressive && !moving) {
             out[i].ownWeights = progressive_[i].ownWeights();
             out[i].error = progressive_[i].errorSums();
         }
@@ -117,6 +144,7 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
         stats.converging = stats.converging && converge[i];
     }
     stats.eyeSeconds = secondsSince(t1);
+    stats.moving = moving;
 
     for (uint32_t s : sets_) {
         stats.photonsStored += photons_->stats(s).photonsStored;
@@ -159,6 +187,7 @@ void RenderJob::resetPhotons() {
     photons_->reset();
     shots_.clear();
     for (ProgressiveSet& p : progressive_) p.invalidate();
+    irradiance_->invalidate();
     areaLights_.reset();  // emissive triangles may have changed
 }
 

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "common/trace/embree_scene.h"
+#include "common/photon/irradiance_points.h"
 #include "common/photon/photon_map.h"
 #include "common/core/render_settings.h"
 #include "common/scene/scene_edit.h"
@@ -44,6 +45,7 @@ struct FrameStats {
     uint64_t pathsThisFrame = 0;   ///< paths traced in this frame
     bool walkthrough = false;      ///< every owned set reached its cap (no shooting)
     bool converging = false;       ///< a progressive pass (no eye pass), for every owned set
+    bool moving = false;           ///< progressive: the camera moved, caustics from irradiance points
     uint32_t passes = 0;           ///< progressive passes since the restart (largest over sets)
     /// Progressive: Σ over owned sets of the caustic error figures (progressive.h); the estimated
     /// relative error of the shown caustic is causticErrorEstimate(error).
@@ -65,8 +67,12 @@ public:
     /// owned set, in ownership order; buffers are reused).
     /// Progressive estimator: a set whose progression is valid and whose camera equals `camera`
     /// bit for bit (and `shoot`) runs a pass instead (shootPass, no eye pass;
-    /// docs/ARCHITECTURE.md §6.2); any other set restarts its progression from a record-mode eye
-    /// pass and the accumulated map.
+    /// docs/ARCHITECTURE.md §6.2). When `camera` differs from the previous frame's (a moving
+    /// camera) the sets end their progressions, their caustics come from the maps' irradiance
+    /// points (irradiance_points.h: a cost bounded whatever the map holds) and their eye paths
+    /// sample dielectric splits (renderSet's sampleSeed, hashed from the camera); any other set (the
+    /// first frame, the first frame of a camera that stopped, a frame after an edit) restarts its
+    /// progression from a record-mode eye pass and the accumulated map.
     /// `passBatches` (≥ 1): batches a progressive pass shoots (PassBudget); other frames shoot one.
     /// A pass also bins every other set's shot of kSharedPhotonLag frames ago: `shared` when
     /// given (a cluster client: what the master forwarded, any sets), else the job's own record
@@ -86,6 +92,8 @@ public:
     const PhotonMaps& photons() const { return *photons_; }
     const EmbreeScene& embree() const { return *embree_; }
     const std::vector<uint32_t>& sets() const { return sets_; }
+    /// The moving camera's caustic estimator (its counters: the work of the moving frames).
+    const IrradiancePoints& irradiance() const { return *irradiance_; }
 
 private:
     std::unique_ptr<Scene> scene_;  // stable address: EmbreeScene keeps a pointer to it
@@ -99,6 +107,9 @@ private:
     /// without `shared`).
     std::vector<std::vector<SetPhotons>> shots_;
     std::unique_ptr<AreaLightSampler> areaLights_;
+    std::unique_ptr<IrradiancePoints> irradiance_;  ///< the moving camera's caustic estimator
+    Camera lastCamera_;                             ///< the previous frame's camera
+    bool hasLastCamera_ = false;
 };
 
 }  // namespace rtpm

@@ -7,6 +7,12 @@
 //   kMinThroughput are dropped. One pixel is then noise-free through glass and the image does not
 //   depend on any random choice. Refraction does not scale radiance by (ηt/ηi)²: an eye path that
 //   enters a dielectric leaves it again through as many interfaces, so the factors cancel.
+// * A moving camera's frames sample the splits instead (renderSet's sampleSeed): both branches
+//   while each carries at least kSplitThroughput of the pixel (the first surfaces a viewer
+//   sees), below that one branch chosen by its Fresnel share, weighted by the inverse of its
+//   probability; the branches that exist and their pruning are the deterministic tree's, so the
+//   mean over seeds is the deterministic image. On GLASS (640×480) a frame then casts about a
+//   tenth of the secondary rays (tests/bench/RESULTS.md).
 // * Beer–Lambert: a segment that ends on the back face of a dielectric (dot(dir, Ng) > 0) ran
 //   inside that dielectric, and is attenuated by its absorption over the segment length. Nested
 //   media are modelled as separate closed surfaces (liquid inside glass), each handled this way.
@@ -83,6 +89,9 @@ namespace rtpm {
 namespace {
 
 constexpr float kMinThroughput = 1e-3f;
+/// Sampled splits (renderSet's sampleSeed): a dielectric split is traced both ways while each
+/// branch carries at least this share of the pixel, else one branch is chosen at random.
+constexpr float kSplitThroughput = 0.25f;
 constexpr int kMaxTrianglesSampledEach = 16;
 /// Solid angle (sr) of emitter one shadow sample stands for (a cone of half-angle ≈ 3.2°).
 constexpr float kSolidAnglePerSample = 0.01f;
@@ -106,6 +115,7 @@ struct Context {
     const EyeSettings& settings;
     const CausticEstimator* caustics;
     int set;
+    uint64_t sampleSeed;      // 0: deterministic splitting; else sampled splits (renderSet)
     int areaSamples;
     bool sampleEach;          // few triangles: at the full budget each gets areaSamples samples
     int maxAreaSamples;       // N_max, the budget at the full solid angle
@@ -116,12 +126,12 @@ struct Context {
 };
 
 struct Counters {
-    uint64_t primary = 0, secondary = 0, shadow = 0, nonFinite = 0, stackOverflow = 0;
+    uint64_t primary = 0, secondary = 0, shadow = 0, nonFinite = 0, stackOverflow = 0, sampledSplits = 0;
 };
 
 Context makeContext(const EmbreeScene& scene, const EyeSettings& settings,
                     const CausticEstimator* caustics, int set) {
-    Context ctx{scene, scene.scene(), settings, caustics, set, std::max(1, settings.areaLightSamples),
+    Context ctx{scene, scene.scene(), settings, caustics, set, 0, std::max(1, settings.areaLightSamples),
                 true, 0, {}};
     const auto& tris = scene.emissiveTriangles();
     ctx.sampleEach = int(tris.size()) <= kMaxTrianglesSampledEach;
@@ -321,8 +331,9 @@ Vec3 directLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec
 
 struct PathState {
     Ray ray;
-    Vec3 throughput;
+    Vec3 throughput;  ///< of the deterministic splitting's branch: decides what is pruned
     int depth;
+    float weight = 1.0f;  ///< 1 / the probability of the branches chosen at random so far
 };
 
 /// What arrives at a glossy vertex, times the throughput from it: direct light (and emission met
@@ -522,6 +533,7 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
     const uint64_t pixelKey = (uint64_t(uint32_t(y)) << 32) | uint32_t(x);
     uint32_t diffuseVertex = 0;
     uint32_t glossyVertex = 0;
+    uint32_t split = 0;  // dielectric splits so far: the key of a sampled split's random number
     bool primary = true;
 
     while (top > 0) {
@@ -552,7 +564,7 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
             if (mat.type == MaterialType::Dielectric && cosGeo > 0.0f && mat.absorption != Vec3(0.0f))
                 path.throughput *= beerLambert(mat.absorption, hit.t * glm::length(dir));
             if (mat.isEmissive() && cosGeo < 0.0f)
-                result.direct += path.throughput * (mat.emissiveTexture >= 0
+                result.direct += path.throughput * path.weight * (mat.emissiveTexture >= 0
                                                         ? emissionAt(mat, scene.textures, hit.uv)
                                                         : mat.emission);
 
@@ -589,15 +601,15 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
 
             if (mat.type == MaterialType::Diffuse) {
                 if (mat.unlit)
-                    result.direct += path.throughput * baseColorAt(mat, scene.textures, hit.uv);
+                    result.direct += path.throughput * path.weight * baseColorAt(mat, scene.textures, hit.uv);
                 else
-                    shadeDiffuse(path.throughput);
+                    shadeDiffuse(path.throughput * path.weight);
                 break;
             }
             if (mat.isPartlyDiffuse()) {
                 // Deterministic split of a partly transmissive material: the Lambertian share
                 // (1 − t) ends here, the dielectric share t continues below.
-                shadeDiffuse(path.throughput * (1.0f - mat.transmission));
+                shadeDiffuse(path.throughput * path.weight * (1.0f - mat.transmission));
                 path.throughput *= mat.transmission;
                 if (maxComponent(path.throughput) < kMinThroughput) break;
             }
@@ -631,8 +643,8 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
                 } else {
                     const GlossyRadiance g = glossyTree(ctx, uint32_t(ctx.set), hit, dir, ng, ns, path.depth, rot, 0,
                                                         kGlossySamples, GlossyCaustic::Lookup, count);
-                    result.direct += path.throughput * g.direct;
-                    result.caustic += path.throughput * g.caustic;
+                    result.direct += path.throughput * path.weight * g.direct;
+                    result.caustic += path.throughput * path.weight * g.caustic;
                 }
                 break;
             }
@@ -665,17 +677,33 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
             const bool keepRefl = maxComponent(reflThroughput) >= kMinThroughput;
             const bool keepTrans = canRefract && maxComponent(transThroughput) >= kMinThroughput;
             if (keepRefl && keepTrans) {
+                // Sampled splits (a moving camera's frames): a split whose weaker branch would
+                // carry less than kSplitThroughput of the pixel traces one branch, reflection
+                // with probability F, weighted by 1/F or 1/(1 − F). The branches kept and their
+                // throughputs are the deterministic tree's, so the expectation is its image.
+                if (ctx.sampleSeed != 0 &&
+                    std::min(maxComponent(reflThroughput), maxComponent(transThroughput)) * path.weight <
+                        kSplitThroughput) {
+                    ++count.sampledSplits;
+                    const float u = hashToUnit(hashKeys(ctx.sampleSeed, pixelKey, split++));
+                    path = u < fr ? PathState{Ray{es.offsetOrigin(hit.position, ng, r), r}, reflThroughput, depth,
+                                              path.weight / fr}
+                                  : PathState{Ray{es.offsetOrigin(hit.position, ng, t), t}, transThroughput, depth,
+                                              path.weight / (1.0f - fr)};
+                    continue;
+                }
                 if (top < kStackSize)
-                    stack[top++] = PathState{Ray{es.offsetOrigin(hit.position, ng, r), r}, reflThroughput, depth};
+                    stack[top++] = PathState{Ray{es.offsetOrigin(hit.position, ng, r), r}, reflThroughput, depth,
+                                             path.weight};
                 else
                     ++count.stackOverflow;
             }
             if (keepTrans) {
-                path = PathState{Ray{es.offsetOrigin(hit.position, ng, t), t}, transThroughput, depth};
+                path = PathState{Ray{es.offsetOrigin(hit.position, ng, t), t}, transThroughput, depth, path.weight};
                 continue;
             }
             if (keepRefl) {
-                path = PathState{Ray{es.offsetOrigin(hit.position, ng, r), r}, reflThroughput, depth};
+                path = PathState{Ray{es.offsetOrigin(hit.position, ng, r), r}, reflThroughput, depth, path.weight};
                 continue;
             }
             break;
@@ -692,16 +720,18 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
 
 void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings& settings,
                const Interleave& pattern, int set, const CausticEstimator* caustics,
-               std::span<PixelRadiance> out, EyeStats* stats, EyeRecords* records) {
+               std::span<PixelRadiance> out, EyeStats* stats, EyeRecords* records, uint64_t sampleSeed) {
     RTPM_CHECK(set >= 0 && set < pattern.setCount());
     RTPM_CHECK(out.size() == size_t(pattern.pixelCount(set)));
-    const Context ctx = makeContext(scene, settings, caustics, set);
+    Context context = makeContext(scene, settings, caustics, set);
+    context.sampleSeed = sampleSeed;
+    const Context& ctx = context;
     const int rows = pattern.setRows(set);
     const int cols = pattern.setColumns(set);
     // Record mode: each row's hits go to their own vector, concatenated in row order afterwards,
     // so the record order does not depend on the thread count.
     std::vector<std::vector<EyeHit>> rowHits(records ? size_t(rows) : 0);
-    std::atomic<uint64_t> primary{0}, secondary{0}, shadow{0}, nonFinite{0}, overflow{0};
+    std::atomic<uint64_t> primary{0}, secondary{0}, shadow{0}, nonFinite{0}, overflow{0}, sampled{0};
     const Camera::PixelRays pixelRays = camera.pixelRays(pattern.width, pattern.height);
     tbb::parallel_for(tbb::blocked_range<int>(0, rows), [&](const tbb::blocked_range<int>& range) {
         Counters count;
@@ -754,6 +784,7 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
         shadow += count.shadow;
         nonFinite += count.nonFinite;
         overflow += count.stackOverflow;
+        sampled += count.sampledSplits;
     });
     if (records) {
         records->hits.clear();
@@ -768,6 +799,7 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
         stats->shadowRays += shadow;
         stats->nonFinite += nonFinite;
         stats->stackOverflows += overflow;
+        stats->sampledSplits += sampled;
     }
 }
 

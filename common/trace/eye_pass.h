@@ -22,6 +22,7 @@ struct EyeStats {
     uint64_t shadowRays = 0;     ///< occlusion rays toward lights
     uint64_t nonFinite = 0;      ///< pixel values that were NaN/Inf and were replaced by 0
     uint64_t stackOverflows = 0; ///< dielectric branches dropped because the split stack was full
+    uint64_t sampledSplits = 0;  ///< dielectric splits that traced one branch chosen at random
 };
 
 /// One diffuse end point of a pixel's eye path, or a glossy vertex (a rough mirror or dielectric):
@@ -73,10 +74,17 @@ struct EyeRecords {
 /// split like the pixel's own, to diffuse end points with their direct light and caustic lookup.
 /// Primary rays go to Embree in packets of 8, and
 /// the caustic lookups of a packet's pixels go to `caustics` as one group (radianceGroup).
+/// `sampleSeed` 0 splits every dielectric deterministically (the image above). Any other value
+/// samples the splits whose weaker branch carries less than a quarter of the pixel: one branch,
+/// reflection with probability F, weighted by 1/F or 1/(1 − F), from a number hashed from
+/// (sampleSeed, pixel, split), so the result is still independent of threads and set split.
+/// Unbiased: over seeds the mean is the deterministic image (the same branches, pruned alike);
+/// the cost is at most one secondary ray per depth below the split threshold instead of up to
+/// 2^depth (a moving camera's frames on nested glass).
 void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings& settings,
                const Interleave& pattern, int set, const CausticEstimator* caustics,
                std::span<PixelRadiance> out, EyeStats* stats = nullptr,
-               EyeRecords* records = nullptr);
+               EyeRecords* records = nullptr, uint64_t sampleSeed = 0);
 
 /// Record mode (`records` given to renderSet): the diffuse end points and glossy vertices go to
 /// `records` (behind a glossy vertex, the end points its restart samples reached, for their

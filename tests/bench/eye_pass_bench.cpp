@@ -60,15 +60,18 @@ LoadedScene& loaded(const std::string& name) {
 
 using bench::threadCount;
 
+/// `sampled`: the moving camera's eye pass (sampled dielectric splits, a new seed per iteration).
 void eyePass(benchmark::State& state, const std::string& name, int threads, int width = kWidth,
-             int height = kHeight) {
+             int height = kHeight, bool sampled = false) {
     LoadedScene& s = loaded(name);
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threadCount(threads)));
     const Interleave pattern{width, height, 1};
     std::vector<PixelRadiance> out(size_t(pattern.pixelCount(0)));
     EyeStats stats;
+    uint64_t seed = 0;
     for (auto _ : state) {
-        renderSet(*s.embree, s.camera, EyeSettings{}, pattern, 0, nullptr, out, &stats);
+        renderSet(*s.embree, s.camera, EyeSettings{}, pattern, 0, nullptr, out, &stats, nullptr,
+                  sampled ? ++seed : 0);
         benchmark::DoNotOptimize(out.data());
     }
     const double rays = double(stats.primaryRays + stats.secondaryRays + stats.shadowRays);
@@ -129,6 +132,11 @@ int main(int argc, char** argv) {
             const std::string suffix = name + (threads == 1 ? "/threads:1" : "/threads:all");
             bench::minTime(benchmark::RegisterBenchmark(("EyePass/" + suffix).c_str(),
                                          [=](benchmark::State& st) { eyePass(st, name, threads); })
+                ->Unit(benchmark::kMillisecond)->UseRealTime(), 1.0);
+            bench::minTime(benchmark::RegisterBenchmark(("EyePassSampled/" + suffix).c_str(),
+                                         [=](benchmark::State& st) {
+                                             eyePass(st, name, threads, kWidth, kHeight, true);
+                                         })
                 ->Unit(benchmark::kMillisecond)->UseRealTime(), 1.0);
             bench::minTime(benchmark::RegisterBenchmark(("EmbreeCoherent/" + suffix).c_str(),
                                          [=](benchmark::State& st) { rawEmbree(st, name, true, threads); })

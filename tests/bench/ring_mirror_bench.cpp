@@ -1,9 +1,10 @@
 // Convergence of the caustic on the curved-mirror scene against its analytic reference: error,
 // energy and time per frame for rtpm, and the same error for an outside render (POV-Ray).
 //
-//   ring_mirror_bench [--estimator progressive|knn] [--photons P] [--frames N] [--width W]
+//   ring_mirror_bench [--estimator progressive|knn|moving] [--photons P] [--frames N] [--width W]
 //                     [--height H] [-M m] [-F f] [--confidence g] [--no-spt] [--csv FILE]
-//       renders N frames of the still view (tests/support/ring_mirror.h, L S D paths only; with
+//       renders N frames of the still view (tests/support/ring_mirror.h, L S D paths only; moving:
+//       the frames of a camera that moves every frame, by one float step to and fro; with
 //       --seconds S, stops after the frame that reaches S s of wall time) and prints after
 //       frames 1, 2, 4, 8, 16, 32, 48, … and the last: elapsed wall and CPU seconds of the process since
 //       the scene was ready, the caustic-region rel. MAE of the shown caustic (filtered and
@@ -104,8 +105,11 @@ RenderSettings settingsFor(const Options& o) {
     rs.photons.progressiveGamma = o.gamma;
     rs.photons.k = o.k;
     rs.photons.selective = o.selective;
-    const auto kind = parseCausticEstimator(o.estimator);
-    if (!kind) throw std::invalid_argument("--estimator must be progressive or knn, not " + o.estimator);
+    // "moving": the progressive estimator's moving-camera frames (irradiance points): the camera
+    // alternates between the view and a copy nudged by one float step, so every frame moves.
+    const auto kind = parseCausticEstimator(o.estimator == "moving" ? "progressive" : o.estimator);
+    if (!kind)
+        throw std::invalid_argument("--estimator must be progressive, knn or moving, not " + o.estimator);
     rs.photons.estimator = *kind;
     return rs;
 }
@@ -136,10 +140,14 @@ int converge(const Options& o) {
                 "estimate", "batches");
     PassBudget budget(o.budgetMs * 1e-3);
     uint64_t batchesShot = 0;
+    const bool moving = o.estimator == "moving";
+    Camera nudged = camera;
+    nudged.position.y = std::nextafter(nudged.position.y, 1e9f);
+    if (moving) job.renderFrame(nudged, false, pixels);  // no photons yet: the next frame moves
     for (int f = 1; f <= o.frames; ++f) {
         const auto tf = std::chrono::steady_clock::now();
         const uint32_t passBatches = budget.batches();
-        const FrameStats st = job.renderFrame(camera, true, pixels, passBatches);
+        const FrameStats st = job.renderFrame(moving && f % 2 == 0 ? nudged : camera, true, pixels, passBatches);
         budget.record(st.converging, std::chrono::duration<double>(std::chrono::steady_clock::now() - tf).count());
         batchesShot += st.converging ? passBatches : 1;
         const bool last = f == o.frames ||

@@ -1,0 +1,213 @@
+// Irradiance points: a bounded subset of a photon map's photons with their k-NN irradiance.
+#include "common/photon/irradiance_points.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <limits>
+
+#include "common/core/check.h"
+#include "common/photon/density.h"
+#include "common/photon/knn.h"
+
+namespace rtpm {
+
+struct IrradiancePoints::SetPoints {
+    uint32_t set = 0;
+    bool built = false;
+    uint32_t batches = 0;          ///< the map's batch count when built
+    uint64_t photons = 0;          ///< the map's photon count when built
+    float rMax2 = 0.0f;            ///< the map's gather radius², the lookup's bound
+    KdTree tree;                   ///< one entry per point; its power word is the point's id
+    std::vector<Vec3> irradiance;  ///< W/m² per point id (one batch's flux per unit area)
+    std::vector<float> radius2;    ///< per point id: where it answers (m², its estimate's disc or wider)
+};
+
+namespace {
+
+/// A k-NN result set over the points that keeps only points facing the query's normal (the
+/// density gather's front/back rule: a point's `incoming` is its normal reversed) and counts the
+/// points offered to it.
+class FacingPoints {
+public:
+    FacingPoints(KnnHeap& heap, const KdTree& tree, Vec3 normal) : inner_(heap, tree, normal) {}
+    float worstDist2() const { return inner_.worstDist2(); }
+    void add(float dist2, uint32_t index) {
+        ++offered;
+        inner_.add(dist2, index);
+    }
+    uint64_t offered = 0;
+
+private:
+    FrontFacingKnn<KdTree> inner_;
+};
+
+}  // namespace
+
+IrradiancePoints::IrradiancePoints(std::vector<uint32_t> sets) : sets_(std::move(sets)) {
+    for (uint32_t s : sets_) {
+        points_.push_back(std::make_unique<SetPoints>());
+        points_.back()->set = s;
+    }
+}
+
+IrradiancePoints::~IrradiancePoints() = default;
+
+const IrradiancePoints::SetPoints* IrradiancePoints::find(uint32_t set) const {
+    for (const auto& p : points_)
+        if (p->set == set) return p.get();
+    return nullptr;
+}
+
+void IrradiancePoints::invalidate() {
+    for (auto& p : points_) p->built = false;
+}
+
+size_t IrradiancePoints::pointCount(uint32_t set) const {
+    const SetPoints* p = find(set);
+    return p && p->built ? p->irradiance.size() : 0;
+}
+
+void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set) {
+    SetPoints* sp = nullptr;
+    for (auto& p : points_)
+        if (p->set == set) sp = p.get();
+    RTPM_CHECK(sp != nullptr);
+    const PhotonSetStats& stats = maps.stats(set);
+    if (sp->built && sp->batches == stats.batches && sp->photons == stats.photonsStored) return;
+    sp->built = true;
+    sp->batches = stats.batches;
+    sp->photons = stats.photonsStored;
+    sp->rMax2 = maps.gatherRadius() * maps.gatherRadius();
+    sp->irradiance.clear();
+    sp->radius2.clear();
+    const PhotonIndex* index = maps.indexOf(set);
+    const size_t n = index ? index->size() : 0;
+    if (stats.batches == 0 || n == 0) {
+        sp->tree = KdTree(scene.bounds());
+        return;
+    }
+    const size_t stride = std::max<size_t>(kPointStride, (n + kMaxPoints - 1) / kMaxPoints);
+    const size_t count = n / stride;
+    std::vector<Photon> at(count);
+    index->visit([&](const auto& idx) {
+        for (size_t i = 0; i < count; ++i) at[i] = idx.photon(uint32_t(i * stride + stride / 2));
+    });
+
+    // Per point: the surface normal under its photon (a ray of ±δ along the photon's direction;
+    // -direction if it misses), then the map's k-NN gather there. Points go in groups of 8
+    // consecutive ones (neighbours in leaf order share their search: gatherMapGroup), the hint
+    // runs through fixed blocks of groups, so the result does not depend on the thread count.
+    std::vector<SurfaceHit> hits(count);
+    std::vector<Vec3> normals(count);
+    sp->irradiance.assign(count, Vec3(0.0f));
+    sp->radius2.assign(count, 0.0f);
+    const float delta = 1e-4f * scene.bounds().diagonal();
+    // A point answers within its estimate's disc, widened once the stride leaves fewer than
+    // kLookupPoints points in a disc (k photons hold about k / stride points): the disc then
+    // reaches kLookupPoints points' worth of area, so the discs still cover the caustic.
+    const float reach = std::max(1.0f, float(kLookupPoints * stride) / float(std::max(1u, maps.settings().k)));
+    constexpr size_t kGroup = 8, kBlock = 64 * kGroup;
+    tbb::parallel_for(size_t(0), (count + kBlock - 1) / kBlock, [&](size_t block) {
+        const size_t end = std::min(count, (block + 1) * kBlock);
+        for (size_t i = block * kBlock; i < end; ++i) {
+            const Vec3 d = at[i].incomingDir();
+            SurfaceHit h;
+            Vec3 nrm = -d;
+            if (scene.intersect(Ray{at[i].position - delta * d, d, 0.0f, 2.0f * delta}, h)) {
+                const bool flip = glm::dot(h.geometricNormal, d) > 0.0f;
+                nrm = flip ? -h.shadingNormal : h.shadingNormal;
+                if (!(glm::dot(nrm, d) < 0.0f)) nrm = flip ? -h.geometricNormal : h.geometricNormal;
+            }
+            h.position = at[i].position;
+            h.geometricNormal = nrm;
+            h.shadingNormal = nrm;
+            hits[i] = h;
+            normals[i] = nrm;
+        }
+        CausticQuery queries[kGroup];
+        DensityGather gathers[kGroup];
+        GatherHint hint;
+        for (size_t g0 = block * kBlock; g0 < end; g0 += kGroup) {
+            const size_t m = std::min(kGroup, end - g0);
+            for (size_t i = 0; i < m; ++i) queries[i] = CausticQuery{&hits[g0 + i], normals[g0 + i], Vec3(1.0f)};
+            maps.gatherMapGroup(scene, set, std::span(queries, m), std::span(gathers, m), &hint);
+            for (size_t i = 0; i < m; ++i)
+                if (gathers[i].radius2 > 0.0f) {
+                    sp->irradiance[g0 + i] = gathers[i].power * (1.0f / (kPi * gathers[i].radius2));
+                    sp->radius2[g0 + i] = gathers[i].radius2 * reach;
+                }
+        }
+    });
+    gathers_ += count;
+
+    // The points' tree: position, the normal reversed as the incoming direction (so the gather's
+    // front-facing rule applies unchanged) and the point's id in the power word.
+    for (size_t i = 0; i < count; ++i) {
+        at[i].incoming = encodeOctahedral(-normals[i]);
+        at[i].power = uint32_t(i);
+    }
+    sp->tree = KdTree(scene.bounds());
+    sp->tree.build(at);
+}
+
+Vec3 IrradiancePoints::lookup(const SetPoints& sp, Vec3 position, Vec3 normal, Vec3 albedo,
+                              uint64_t& offered) {
+    if (sp.irradiance.empty()) return Vec3(0.0f);
+    thread_local KnnHeap heap;
+    heap.reset(kLookupPoints, sp.rMax2);
+    FacingPoints result(heap, sp.tree, normal);
+    sp.tree.search(position, result);
+    offered += result.offered;
+    // Of the nearest points, those whose disc holds the query. Points lie where photons do, with
+    // a density ∝ their irradiance: the harmonic mean weights each by the area it stands for
+    // (∝ 1/E), where the plain mean would lean towards the brighter side of a gradient (on the
+    // curved mirror by +30 % of the caustic's energy after one frame, +70 % after 32).
+    glm::dvec3 inverse(0.0);
+    uint32_t used = 0;
+    for (const KnnEntry& e : heap.entries()) {
+        const uint32_t id = sp.tree.photonPower(e.index);
+        const Vec3 v = sp.irradiance[id];
+        if (!(e.dist2 < sp.radius2[id]) || !(v.x > 0.0f || v.y > 0.0f || v.z > 0.0f)) continue;
+        inverse += glm::dvec3(1.0 / std::max(1e-30, double(v.x)), 1.0 / std::max(1e-30, double(v.y)),
+                              1.0 / std::max(1e-30, double(v.z)));
+        ++used;
+    }
+    if (used == 0) return Vec3(0.0f);
+    return albedo * kInvPi * Vec3(glm::dvec3(double(used)) / inverse);
+}
+
+Vec3 IrradiancePoints::radiance(const EmbreeScene&, uint32_t set, const SurfaceHit& hit, Vec3 normal,
+                                Vec3 albedo, GatherHint*) const {
+    const SetPoints* sp = find(set);
+    lookups_.fetch_add(1, std::memory_order_relaxed);
+    if (!sp || !sp->built) return Vec3(0.0f);
+    uint64_t offered = 0;
+    const Vec3 v = lookup(*sp, hit.position, normal, albedo, offered);
+    candidates_.fetch_add(offered, std::memory_order_relaxed);
+    return v;
+}
+
+void IrradiancePoints::radianceGroup(const EmbreeScene&, uint32_t set, std::span<const CausticQuery> queries,
+                                     std::span<Vec3> out, GatherHint*) const {
+    RTPM_CHECK(out.size() == queries.size());
+    const SetPoints* sp = find(set);
+    lookups_.fetch_add(queries.size(), std::memory_order_relaxed);
+    uint64_t offered = 0;
+    for (size_t i = 0; i < queries.size(); ++i)
+        out[i] = sp && sp->built ? lookup(*sp, queries[i].hit->position, queries[i].normal, queries[i].albedo, offered)
+                                 : Vec3(0.0f);
+    candidates_.fetch_add(offered, std::memory_order_relaxed);
+}
+
+IrradiancePointCounts IrradiancePoints::counts() const {
+    return IrradiancePointCounts{gathers_.load(), lookups_.load(), candidates_.load()};
+}
+
+void IrradiancePoints::resetCounters() {
+    gathers_ = 0;
+    lookups_ = 0;
+    candidates_ = 0;
+}
+
+}  // namespace rtpm

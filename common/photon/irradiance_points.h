@@ -1,0 +1,86 @@
+// Caustic irradiance precomputed at a bounded subset of each photon map's photons, looked up by a
+// moving camera's frames instead of a k-NN gather per pixel (Christensen 1999, "Faster photon map
+// global illumination").
+//
+// Once per map change (a batch, a flush of passes, a reset), every n-th photon of a set's map in
+// the index's leaf order (a spatially stratified subset: leaf order follows the tree's cells)
+// becomes a point, with n = max(kPointStride, ⌈N / kMaxPoints⌉): every 4th photon of a small map,
+// kMaxPoints points of a large one. Each point gets the k-NN irradiance of the map at its photon
+// (PhotonMaps::gatherMap, the estimate the knn estimator makes at an eye hit there) and the shading
+// normal of the surface the photon lies on (one short ray). A caustic query at an eye hit then
+// averages the irradiance of the kLookupPoints nearest points facing its normal, within the map's
+// gather radius: a search over at most kMaxPoints points, whatever the map holds. So a frame's
+// caustic work is bounded by kMaxPoints k-NN gathers per set and map change plus one small
+// nearest-point search per eye hit, where the k-NN gather per hit grows with the map's density
+// (its radius search of the photons within rMax fills as the map grows) and the progressive
+// restart gathers kOuterArea · k photons per hit.
+// The image is the k-NN estimate blurred by the points' spacing: measured figures (speed, error
+// against knn on the curved-mirror reference) are in tests/bench/RESULTS.md.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "common/photon/kd_tree.h"
+#include "common/photon/photon_map.h"
+#include "common/trace/caustic_estimator.h"
+
+namespace rtpm {
+
+/// A map's points are every kPointStride-th photon while that gives at most kMaxPoints.
+inline constexpr uint32_t kPointStride = 4;
+/// The most points one set's map gets: the bound on a rebuild's k-NN gathers and on the size of
+/// the tree a lookup searches.
+inline constexpr uint32_t kMaxPoints = 8192;
+/// Points averaged per lookup.
+inline constexpr uint32_t kLookupPoints = 4;
+
+/// Counters of the work done (added to, never reset but by resetCounters; thread-safe).
+struct IrradiancePointCounts {
+    uint64_t gathers = 0;     ///< k-NN gathers over photon maps (one per point built)
+    uint64_t lookups = 0;     ///< caustic queries answered
+    uint64_t candidates = 0;  ///< points a lookup's search offered to its result set
+};
+
+/// Irradiance points of the owned sets of a PhotonMaps; a CausticEstimator answering from them.
+/// update() and invalidate() need exclusive access; radiance() may run concurrently with itself.
+class IrradiancePoints : public CausticEstimator {
+public:
+    explicit IrradiancePoints(std::vector<uint32_t> sets);
+    ~IrradiancePoints() override;
+
+    /// Rebuilds `set`'s points when its map changed since they were built (its batch count or
+    /// photon count differs, or invalidate() was called). `scene` is the one the photons were
+    /// shot in. Cost: up to kMaxPoints k-NN gathers and short rays, O(points log points) to
+    /// build their tree; nothing when the map did not change. Parallel (TBB); the points do not
+    /// depend on the thread count.
+    void update(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set);
+    /// Forgets every set's points (the maps were reset: the next update rebuilds).
+    void invalidate();
+    /// Points of `set` (0 before its first update or for a set not owned).
+    size_t pointCount(uint32_t set) const;
+
+    /// Caustic radiance ρ/π · Ē at `hit`, Ē the mean irradiance of the kLookupPoints nearest
+    /// points of `set` within the map's gather radius whose normal faces `normal` (fewer when
+    /// fewer lie there; 0 when none). `hint` is not used. Thread-safe.
+    Vec3 radiance(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
+                  Vec3 albedo, GatherHint* hint = nullptr) const override;
+    /// `radiance` for each of `queries` (the counters are added once per group). Thread-safe.
+    void radianceGroup(const EmbreeScene& scene, uint32_t set, std::span<const CausticQuery> queries,
+                       std::span<Vec3> out, GatherHint* hint = nullptr) const override;
+
+    IrradiancePointCounts counts() const;
+    void resetCounters();
+
+private:
+    struct SetPoints;
+    const SetPoints* find(uint32_t set) const;
+    static Vec3 lookup(const SetPoints& sp, Vec3 position, Vec3 normal, Vec3 albedo, uint64_t& offered);
+    std::vector<uint32_t> sets_;
+    std::vector<std::unique_ptr<SetPoints>> points_;
+    mutable std::atomic<uint64_t> gathers_{0}, lookups_{0}, candidates_{0};
+};
+
+}  // namespace rtpm
