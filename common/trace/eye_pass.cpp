@@ -552,7 +552,8 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
                 ++count.secondary;
                 if (!es.intersect(path.ray, hit)) {
                     if (ctx.environment)
-                        result.direct += path.throughput * ctx.environment->radiance(glm::normalize(path.ray.dir));
+                        result.direct += path.throughput * path.weight *
+                                         ctx.environment->radiance(glm::normalize(path.ray.dir));
                     break;
                 }
             }
