@@ -356,7 +356,7 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     if (st->capped) return;
     std::vector<Photon> batch = traceBatch(scene, *st);
     st->shot = SetPhotons{set, 0, {}};
-    if (batch.size() <= shareCap_) st->shot = SetPhotons{set, 1, batch};
+    if (sharesShots() && batch.size() <= shareCap_) st->shot = SetPhotons{set, 1, batch};
     insertBatch(*st, std::move(batch));
 }
 
@@ -379,7 +379,8 @@ void PhotonMaps::shootPass(const EmbreeScene& scene, uint32_t set, uint32_t batc
     st->pass->build(batch);
     st->passBatches = batches;
     st->stats.passes += 1;
-    st->shot = SetPhotons{set, sharedBatches, std::vector<Photon>(batch.begin(), batch.begin() + std::ptrdiff_t(sharedPhotons))};
+    if (sharesShots())
+        st->shot = SetPhotons{set, sharedBatches, std::vector<Photon>(batch.begin(), batch.begin() + std::ptrdiff_t(sharedPhotons))};
     // Kept for the map, not inserted now: an insertion moves the map's leaf-ordered photon array
     // (O(stored)), which would make a still frame's cost grow with the map. Bounded by the cap.
     const uint64_t cap = settings_.capPhotons;

@@ -238,6 +238,8 @@ private:
     float rMax_ = 0.0f;
     float powerUnit_ = 1.0f;
     size_t shareCap_ = SIZE_MAX;  ///< setShareCap
+    /// Only the progressive estimator's passes bin other sets' shots: knn keeps no copy.
+    bool sharesShots() const { return settings_.estimator == CausticEstimatorKind::Progressive; }
 };
 
 }  // namespace rtpm
