@@ -172,6 +172,7 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
             throw ProtocolViolation("FrameBegin " + std::to_string(fb.frame) + ": set " + std::to_string(s) +
                                     " out of range for M = " + std::to_string(settings_.interleave));
     const Camera camera = toCamera(fb.camera);
+    const FrameMode frameMode = bridge::fromWire(fb.mode);
 
     if (epoch_ && *epoch_ != fb.epoch)
         for (auto& g : groups_) g->job->resetPhotons();
@@ -187,13 +188,14 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
     // Every set's shot of two frames ago, as the master forwarded it (the passes bin it).
     const std::vector<SetPhotons> shared = bridge::fromWire(fb.shared);
     for (size_t gi = 0; gi < groups_.size(); ++gi) {
-        // A Walkthrough frame shoots nothing, except into a group with no batch yet (sets that
-        // moved here, or maps dropped by new settings): a walkthrough would otherwise show those
-        // sets without caustics for the rest of the epoch (PROTOCOL.md §5.6).
+        // The master's mode, with one exception: a Walkthrough frame shoots nothing, except into
+        // a group with no batch yet (sets that moved here, or maps dropped by new settings), which
+        // renders it as Accumulate: a walkthrough would otherwise show those sets without
+        // caustics for the rest of the epoch (PROTOCOL.md §5.6).
         const Group& g = *groups_[gi];
         const bool empty = g.job->photons().stats(g.sets.front()).batches == 0;
-        const bool shoot = fb.mode != proto::FrameMode::Walkthrough || empty;
-        FrameStats st = groups_[gi]->job->renderFrame(camera, shoot, results[gi], fb.passBatches, &shared);
+        const FrameMode mode = fb.mode == proto::FrameMode::Walkthrough && empty ? FrameMode::Accumulate : frameMode;
+        FrameStats st = groups_[gi]->job->renderFrame(camera, mode, results[gi], fb.passBatches, &shared);
         photonMs += st.shootSeconds * 1e3;
         renderMs += st.eyeSeconds * 1e3;
         shot += st.pathsThisFrame;

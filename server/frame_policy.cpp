@@ -3,6 +3,9 @@
 
 #include <algorithm>
 
+#include "common/core/frame_mode.h"
+#include "proto/bridge/bridge.h"
+
 namespace rtpm::server {
 
 namespace {
@@ -77,11 +80,14 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
     p.epoch = epoch_;
     p.reassigned = reassigned;
     p.balanced = balanced;
-    p.mode = frame == epochStart_                                ? proto::FrameMode::Interaction
-             : cameraMoved                                  ? proto::FrameMode::Walkthrough
-             : progressive_ && cameraStill && !walkthrough_ ? proto::FrameMode::Converging
-             : walkthrough_ || allCapped                    ? proto::FrameMode::Walkthrough
-                                                            : proto::FrameMode::Accumulate;
+    FrameFacts facts;
+    facts.epochStart = frame == epochStart_;
+    facts.cameraMoved = cameraMoved;
+    facts.cameraStill = cameraStill;
+    facts.progressive = progressive_;
+    facts.walkthrough = walkthrough_;
+    facts.allCapped = allCapped;
+    p.mode = bridge::toWire(decideFrameMode(facts));  // the clients render by it
     p.owners = assignment_.owner;
     for (ClientId& o : p.owners)
         if (o != kNoClient && outstanding(o) >= pipeline_) o = kNoClient;

@@ -36,11 +36,12 @@ struct FramePlan {
 ///  * Epochs: frame 0 and every frame that carries scene edits start a new epoch (edits increment
 ///    the epoch number); all clients
 ///    reset their photon maps at it, and the plain round-robin deal is used (maps restart anyway).
-///  * Modes: the first frame of an epoch is Interaction; a frame for which the camera was moved
-///    (a viewer camera edit) is Walkthrough; with the progressive estimator a later frame whose
-///    camera equals the previous frame's is Converging (unless walkthrough was asked for);
-///    otherwise Walkthrough when asked for, or when every client with sets reported that it
-///    shot nothing (capped); otherwise Accumulate.
+///  * Modes: decideFrameMode (common/core/frame_mode.h, which rtpm-render's frames also take):
+///    the first frame of an epoch is Interaction; a frame for which the camera was moved (a viewer
+///    camera edit) is Walkthrough; with the progressive estimator a later frame whose camera
+///    equals the previous frame's is Converging (unless walkthrough was asked for); otherwise
+///    Walkthrough when asked for, or when every client with sets reported that it shot nothing
+///    (capped); otherwise Accumulate. Clients render by the mode they are sent.
 ///  * Reassignment: clients joining or leaving within an epoch move as few sets as possible
 ///    (rebalance()); moved sets restart accumulation on their new owner, in every mode (a
 ///    Walkthrough frame shoots the first batch of a map that has none: FrameRenderer), and the

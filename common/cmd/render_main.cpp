@@ -189,7 +189,7 @@ int run(int argc, char** argv) {
     for (int f = 0; f < o.frames && gStopSignal == 0; ++f) {
         auto tf = Clock::now();
         const uint32_t passBatches = budget.batches();
-        FrameStats st = job.renderFrame(camera, true, pixels, passBatches);
+        FrameStats st = job.renderFrame(camera, pixels, passBatches);
         auto tfilter = Clock::now();
         for (const SetPixels& sp : pixels)
             scatterSet(image, pattern, sp);

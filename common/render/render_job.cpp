@@ -61,7 +61,15 @@ RenderJob::RenderJob(Scene scene, const RenderSettings& settings, std::vector<ui
 
 RenderJob::~RenderJob() = default;
 
-FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<SetPixels>& out,
+FrameStats RenderJob::renderFrame(const Camera& camera, std::vector<SetPixels>& out, uint32_t passBatches) {
+    FrameFacts facts;
+    facts.epochStart = epochStart_;
+    facts.cameraStill = lastCamera_ && sameCamera(*lastCamera_, camera);
+    facts.progressive = settings_.photons.estimator == CausticEstimatorKind::Progressive;
+    return renderFrame(camera, decideFrameMode(facts), out, passBatches);
+}
+
+FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vector<SetPixels>& out,
                                   uint32_t passBatches, const std::vector<SetPhotons>* shared) {
     RTPM_CHECK(passBatches >= 1);
     FrameStats stats;
@@ -69,16 +77,18 @@ FrameStats RenderJob::renderFrame(const Camera& camera, bool shoot, std::vector<
     uint64_t pathsBefore = 0;
     for (uint32_t s : sets_) pathsBefore += photons_->stats(s).pathsTraced;
     const bool progressive = settings_.photons.estimator == CausticEstimatorKind::Progressive;
+    const bool shoot = mode != FrameMode::Walkthrough;
     // A moving camera (another camera than the previous frame's) ends every progression: its
     // frames take their caustics from the irradiance points, and the first frame of a camera
     // that stopped restarts (docs/ARCHITECTURE.md §6.2).
-    const bool moving = progressive && hasLastCamera_ && !sameCamera(lastCamera_, camera);
+    const bool moving = progressive && lastCamera_ && !sameCamera(*lastCamera_, camera);
     lastCamera_ = camera;
-    hasLastCamera_ = true;
+    epochStart_ = false;
+    // A pass gathers at the progression's eye records: they must be of this very camera.
     std::vector<uint8_t> converge(sets_.size(), 0);
     for (size_t i = 0; i < sets_.size(); ++i) {
         if (moving) progressive_[i].invalidate();
-        converge[i] = progressive && shoot && progressive_[i].valid() &&
+        converge[i] = progressive && mode == FrameMode::Converging && progressive_[i].valid() &&
                       sameCamera(progressive_[i].camera(), camera);
     }
     // Sets shoot and insert concurrently (a batch's tracing is parallel inside, its kd-tree
@@ -186,6 +196,7 @@ void RenderJob::applyEdit(const SceneEdit& edit) {
 void RenderJob::resetPhotons() {
     photons_->reset();
     shots_.clear();
+    epochStart_ = true;
     for (ProgressiveSet& p : progressive_) p.invalidate();
     irradiance_->invalidate();
     areaLights_.reset();  // emissive triangles may have changed

@@ -3,11 +3,13 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "common/trace/embree_scene.h"
 #include "common/photon/irradiance_points.h"
 #include "common/photon/photon_map.h"
+#include "common/core/frame_mode.h"
 #include "common/core/render_settings.h"
 #include "common/scene/scene_edit.h"
 #include "common/render/progressive.h"
@@ -43,7 +45,7 @@ struct FrameStats {
     uint64_t photonsStored = 0;    ///< Σ over owned sets of photons in their maps
     uint64_t pathsTraced = 0;      ///< Σ over owned sets of paths traced since the last reset
     uint64_t pathsThisFrame = 0;   ///< paths traced in this frame
-    bool walkthrough = false;      ///< every owned set reached its cap (no shooting)
+    bool walkthrough = false;      ///< a Walkthrough frame, or every owned set reached its cap
     bool converging = false;       ///< a progressive pass (no eye pass), for every owned set
     bool moving = false;           ///< progressive: the camera moved, caustics from irradiance points
     uint32_t passes = 0;           ///< progressive passes since the restart (largest over sets)
@@ -62,24 +64,31 @@ public:
     RenderJob(Scene scene, const RenderSettings& settings, std::vector<uint32_t> sets);
     ~RenderJob();
 
-    /// Shoots one batch per owned set that has not reached its cap (unless `shoot` is false:
-    /// walkthrough forced), then traces the pixels of every owned set into `out` (one entry per
-    /// owned set, in ownership order; buffers are reused).
-    /// Progressive estimator: a set whose progression is valid and whose camera equals `camera`
-    /// bit for bit (and `shoot`) runs a pass instead (shootPass, no eye pass;
-    /// docs/ARCHITECTURE.md §6.2). When `camera` differs from the previous frame's (a moving
+    /// Renders a frame of mode `mode` (the master's, from FrameBegin) into `out` (one entry per
+    /// owned set, in ownership order; buffers are reused). Every mode but Walkthrough shoots one
+    /// batch per owned set that has not reached its cap, then traces the set's pixels.
+    /// Progressive estimator: in a Converging frame a set runs a pass instead (shootPass, no eye
+    /// pass; docs/ARCHITECTURE.md §6.2) when it can: its progression holds the eye records of
+    /// exactly `camera`, bit for bit. When `camera` differs from the previous frame's (a moving
     /// camera) the sets end their progressions, their caustics come from the maps' irradiance
     /// points (irradiance_points.h: a cost bounded whatever the map holds) and their eye paths
-    /// sample dielectric splits (renderSet's sampleSeed, hashed from the camera); any other set (the
-    /// first frame, the first frame of a camera that stopped, a frame after an edit) restarts its
-    /// progression from a record-mode eye pass and the accumulated map.
+    /// sample dielectric splits (renderSet's sampleSeed, hashed from the camera). Any other set
+    /// that cannot pass (the first frame, the first frame of a camera that stopped, a frame after
+    /// an edit, a set that moved here), and every set in the other modes, restarts its progression
+    /// from a record-mode eye pass and the accumulated map. The knn estimator has no passes:
+    /// Converging shoots a batch as Accumulate does.
     /// `passBatches` (≥ 1): batches a progressive pass shoots (PassBudget); other frames shoot one.
     /// A pass also bins every other set's shot of kSharedPhotonLag frames ago: `shared` when
     /// given (a cluster client: what the master forwarded, any sets), else the job's own record
     /// of its sets' shots (every set, in rtpm-render). Either must hold only photons shot since
     /// the last edit or reset.
-    FrameStats renderFrame(const Camera& camera, bool shoot, std::vector<SetPixels>& out,
+    FrameStats renderFrame(const Camera& camera, FrameMode mode, std::vector<SetPixels>& out,
                            uint32_t passBatches = 1, const std::vector<SetPhotons>* shared = nullptr);
+    /// The next frame without a master (rtpm-render, tests): the mode is decideFrameMode's over
+    /// this job's own frames — the first one, and the first after applyEdit or resetPhotons, start
+    /// an epoch; a camera equal to the previous frame's is still; walkthrough is never asked. Its
+    /// passes bin the job's own record of its sets' shots.
+    FrameStats renderFrame(const Camera& camera, std::vector<SetPixels>& out, uint32_t passBatches = 1);
 
     /// Applies an edit (throws SceneError if the index or a value is invalid; nothing changes then)
     /// and resets the photon maps.
@@ -108,8 +117,9 @@ private:
     std::vector<std::vector<SetPhotons>> shots_;
     std::unique_ptr<AreaLightSampler> areaLights_;
     std::unique_ptr<IrradiancePoints> irradiance_;  ///< the moving camera's caustic estimator
-    Camera lastCamera_;                             ///< the previous frame's camera
-    bool hasLastCamera_ = false;
+    std::optional<Camera> lastCamera_;              ///< the previous frame's camera
+    /// No frame since the job began or since applyEdit/resetPhotons (renderFrame without a mode).
+    bool epochStart_ = true;
 };
 
 }  // namespace rtpm

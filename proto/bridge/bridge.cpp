@@ -91,6 +91,16 @@ RenderSettings fromWire(const proto::Settings& s) {
     return rs;
 }
 
+// The wire's ids are append-only; common's enum mirrors them, so the conversion is a cast.
+static_assert(uint8_t(FrameMode::Interaction) == uint8_t(proto::FrameMode::Interaction) &&
+              uint8_t(FrameMode::Accumulate) == uint8_t(proto::FrameMode::Accumulate) &&
+              uint8_t(FrameMode::Walkthrough) == uint8_t(proto::FrameMode::Walkthrough) &&
+              uint8_t(FrameMode::Converging) == uint8_t(proto::FrameMode::Converging) &&
+              proto::kMaxFrameMode == uint8_t(FrameMode::Converging));
+
+proto::FrameMode toWire(FrameMode mode) { return proto::FrameMode(uint8_t(mode)); }
+FrameMode fromWire(proto::FrameMode mode) { return FrameMode(uint8_t(mode)); }
+
 proto::CameraState toWire(const Camera& c) {
     return proto::CameraState{toWire(c.position), toWire(c.forward), toWire(c.up), c.yfov};
 }

@@ -4,6 +4,7 @@
 #include <optional>
 #include <span>
 
+#include "common/core/frame_mode.h"
 #include "common/core/pixel_radiance.h"
 #include "common/core/render_settings.h"
 #include "common/photon/set_photons.h"
@@ -31,6 +32,10 @@ proto::CameraState toWire(const Camera& camera);
 /// (common/scene/scene.h: non-finite, eye beyond kMaxWorldCoordinate, zero or parallel axes,
 /// yfov outside (1e-4, 3.1)), the rule the server applied before sending it.
 Camera fromWire(const proto::CameraState& camera);
+
+/// The frame mode as FrameBegin carries it, and back (the same four values, the wire's ids).
+proto::FrameMode toWire(FrameMode mode);
+FrameMode fromWire(proto::FrameMode mode);
 
 /// The wire edit that sets light / material / instance `index` of `scene` to its current value.
 /// Precondition: the index exists.

@@ -50,7 +50,7 @@ TEST(AnalyticDirect, PointLitPlaneMatchesClosedFormThroughExr) {
     std::iota(sets.begin(), sets.end(), 0u);
     RenderJob job(std::move(s), rs, sets);
     std::vector<SetPixels> pixels;
-    job.renderFrame(cam, true, pixels);
+    job.renderFrame(cam, pixels);
     FrameImage frame(rs.width, rs.height);
     const Interleave pattern{rs.width, rs.height, m};
     for (const SetPixels& sp : pixels) frame.scatter(pattern, sp.set, sp.pixels);

@@ -45,7 +45,7 @@ std::vector<std::vector<float>> caustics(Scene scene, const RenderSettings& rs, 
     std::vector<SetPixels> pixels;
     std::vector<std::vector<float>> out;
     for (int f = 1; f <= keep.back(); ++f) {
-        job.renderFrame(camera, true, pixels);
+        job.renderFrame(camera, pixels);
         if (std::find(keep.begin(), keep.end(), f) == keep.end()) continue;
         for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
         image.filterAndCompose(rs.filterSize());

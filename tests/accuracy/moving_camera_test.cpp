@@ -44,10 +44,10 @@ std::vector<Score> run(CausticEstimatorKind kind, bool moving, int frames) {
     const Interleave pattern{rs.width, rs.height, rs.interleave};
     FrameImage image(rs.width, rs.height);
     std::vector<SetPixels> pixels;
-    if (moving) job.renderFrame(nudged, false, pixels);
+    if (moving) job.renderFrame(nudged, FrameMode::Walkthrough, pixels);
     std::vector<Score> scores;
     for (int f = 1; f <= frames; ++f) {
-        const FrameStats st = job.renderFrame(moving && f % 2 == 0 ? nudged : camera, true, pixels);
+        const FrameStats st = job.renderFrame(moving && f % 2 == 0 ? nudged : camera, pixels);
         EXPECT_EQ(st.moving, moving);
         for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
         image.filterAndCompose(rs.filterSize());

@@ -45,7 +45,7 @@ std::vector<float> shownCaustic(Scene scene, int frames) {
     FrameImage image(rs.width, rs.height);
     std::vector<SetPixels> pixels;
     for (int f = 0; f < frames; ++f) {
-        job.renderFrame(camera, true, pixels);
+        job.renderFrame(camera, pixels);
         for (const SetPixels& sp : pixels)
             scatterSet(image, pattern, sp);
         image.filterAndCompose(rs.filterSize());

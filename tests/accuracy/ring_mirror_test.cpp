@@ -137,7 +137,7 @@ TEST(RingMirror, ProgressiveErrorFallsAsAPowerOfFrames) {
     std::vector<double> logFrames, logErr;
     double err8 = 0.0, err32 = 0.0, energy32 = 0.0;
     for (int f = 1; f <= 32; ++f) {
-        job.renderFrame(camera, true, pixels);
+        job.renderFrame(camera, pixels);
         for (const SetPixels& sp : pixels)
             scatterSet(image, pattern, sp);
         image.filterAndCompose(rs.filterSize());

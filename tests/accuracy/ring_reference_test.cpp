@@ -46,7 +46,7 @@ Rendered renderRing(int frames) {
     const Interleave pattern{rs.width, rs.height, rs.interleave};
     std::vector<SetPixels> pixels;
     for (int f = 0; f < frames; ++f) {
-        const FrameStats st = job.renderFrame(camera, true, pixels);
+        const FrameStats st = job.renderFrame(camera, pixels);
         out.nonFinite += st.eye.nonFinite;
     }
     for (const SetPixels& sp : pixels) out.frame.scatter(pattern, sp.set, sp.pixels);

@@ -116,7 +116,7 @@ int main(int argc, char** argv) {
         for (uint32_t s : sets) maps.shootBatch(job.embree(), s);
         const double cpu1 = cpuSeconds();
         const IrradiancePointCounts before = job.irradiance().counts();
-        const FrameStats st = job.renderFrame(c, false, out);
+        const FrameStats st = job.renderFrame(c, FrameMode::Walkthrough, out);
         const double cpu2 = cpuSeconds();
         const IrradiancePointCounts after = job.irradiance().counts();
         const uint64_t lookups = after.lookups - before.lookups;

@@ -143,11 +143,11 @@ int converge(const Options& o) {
     const bool moving = o.estimator == "moving";
     Camera nudged = camera;
     nudged.position.y = std::nextafter(nudged.position.y, 1e9f);
-    if (moving) job.renderFrame(nudged, false, pixels);  // no photons yet: the next frame moves
+    if (moving) job.renderFrame(nudged, FrameMode::Walkthrough, pixels);  // no photons yet: the next frame moves
     for (int f = 1; f <= o.frames; ++f) {
         const auto tf = std::chrono::steady_clock::now();
         const uint32_t passBatches = budget.batches();
-        const FrameStats st = job.renderFrame(moving && f % 2 == 0 ? nudged : camera, true, pixels, passBatches);
+        const FrameStats st = job.renderFrame(moving && f % 2 == 0 ? nudged : camera, pixels, passBatches);
         budget.record(st.converging, std::chrono::duration<double>(std::chrono::steady_clock::now() - tf).count());
         batchesShot += st.converging ? passBatches : 1;
         const bool last = f == o.frames ||
@@ -208,7 +208,7 @@ void staticFrame(const Options& o, uint64_t stored) {
     std::vector<SetPixels> pixels;
     int fill = 0;  // ends on `moved`, so the first timed frame restarts the still view
     while (fill % 2 == 0 || (job.photons().stats(0).photonsStored < stored && !job.photons().capped(0))) {
-        job.renderFrame(fill % 2 ? moved : still, true, pixels);
+        job.renderFrame(fill % 2 ? moved : still, pixels);
         ++fill;
     }
     std::vector<double> ms;
@@ -216,7 +216,7 @@ void staticFrame(const Options& o, uint64_t stored) {
     const double cpu0 = cpuSeconds();
     for (int f = 0; f <= o.frames; ++f) {
         const auto t0 = std::chrono::steady_clock::now();
-        const FrameStats st = job.renderFrame(still, true, pixels);
+        const FrameStats st = job.renderFrame(still, pixels);
         const double t = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         if (f == 0) continue;  // the restart
         if (!st.converging) throw std::runtime_error("a still frame did not converge");

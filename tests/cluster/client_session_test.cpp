@@ -166,13 +166,13 @@ TEST(ClientSession, PipelinedFramesAreBitIdenticalToRenderJobAndByeExitsZero) {
     ASSERT_TRUE(fs.peer.send(ringScene()));
     // Both frames go out before any reply: the client must queue the second while rendering.
     ASSERT_TRUE(fs.peer.send(frameBegin(0, 0, 1, {3, 0, 2, 1}, proto::FrameMode::Interaction)));
-    ASSERT_TRUE(fs.peer.send(frameBegin(1, 0, 1, {3, 0, 2, 1}, proto::FrameMode::Accumulate)));
+    ASSERT_TRUE(fs.peer.send(frameBegin(1, 0, 1, {3, 0, 2, 1}, proto::FrameMode::Converging)));
 
     RenderJob ref(loadScene("RING"), client::toRenderSettings(settings), {0, 1, 2, 3});
     std::vector<SetPixels> refPixels;
     const Camera cam = client::toCamera(ringCamera());
     for (uint64_t f = 0; f < 2; ++f) {
-        ref.renderFrame(cam, true, refPixels);
+        ref.renderFrame(cam, refPixels);
         for (uint32_t set : {3u, 0u, 2u, 1u}) {
             proto::FrameData d = fs.expect<proto::FrameData>();
             EXPECT_EQ(d.frame, f);
@@ -206,7 +206,7 @@ TEST(ClientSession, EditBeforeNewEpochIsAppliedAndResetsPhotons) {
     te.instance = 0;
     std::memcpy(te.matrix.data(), &moved[0][0], sizeof(float) * 16);
     ASSERT_TRUE(fs.peer.send(frameBegin(0, 0, 1, {1, 2}, proto::FrameMode::Interaction)));
-    ASSERT_TRUE(fs.peer.send(frameBegin(1, 0, 1, {1, 2}, proto::FrameMode::Accumulate)));
+    ASSERT_TRUE(fs.peer.send(frameBegin(1, 0, 1, {1, 2}, proto::FrameMode::Converging)));
     ASSERT_TRUE(fs.peer.send(proto::Edit{2, te}));
     ASSERT_TRUE(fs.peer.send(frameBegin(2, 1, 2, {1, 2}, proto::FrameMode::Interaction)));
 
@@ -221,7 +221,7 @@ TEST(ClientSession, EditBeforeNewEpochIsAppliedAndResetsPhotons) {
             e.transform = moved;
             ref.applyEdit(e);
         }
-        ref.renderFrame(cam, true, refPixels);
+        ref.renderFrame(cam, refPixels);
         for (int i = 0; i < 2; ++i) expectSamePixels(fs.expect<proto::FrameData>(), refPixels);
         fs.expect<proto::Stats>();
     }
@@ -590,6 +590,55 @@ TEST(FrameRenderer, AnEstimatorChangeRestartsTheSetsWithTheNewEstimator) {
         EXPECT_EQ(knn.data[i].pixels, ref.data[i].pixels) << "set " << knn.data[i].set;
     }
     EXPECT_EQ(r.batches(0), 2u);
+}
+
+// The frame mode is the master's decision: a still camera converges only in a Converging frame,
+// and a Converging frame whose camera differs from the one a set's progression was traced with
+// restarts that set (its client missed the frame the camera moved in).
+TEST(FrameRenderer, RendersByTheFrameModeTheMasterSends) {
+    proto::Settings s = smallSettings();
+    ASSERT_EQ(s.estimator, proto::CausticEstimator::Progressive);
+    client::FrameRenderer r(1);
+    r.setSettings(s);
+    r.setScene(ringScene());
+    const auto now = std::chrono::steady_clock::now();
+    r.render(frameBegin(0, 0, 1, {0, 1}, proto::FrameMode::Interaction), now);
+    client::RenderedFrame f = r.render(frameBegin(1, 0, 1, {0, 1}, proto::FrameMode::Accumulate), now);
+    EXPECT_EQ(f.data[0].passes, 0u) << "an Accumulate frame restarts, even with the camera still";
+    f = r.render(frameBegin(2, 0, 1, {0, 1}, proto::FrameMode::Converging), now);
+    EXPECT_EQ(f.data[0].passes, 1u) << "a Converging frame runs a pass";
+    f = r.render(frameBegin(3, 0, 1, {0, 1}, proto::FrameMode::Converging), now);
+    EXPECT_EQ(f.data[1].passes, 2u);
+    proto::FrameBegin moved = frameBegin(4, 0, 1, {0, 1}, proto::FrameMode::Converging);
+    moved.camera.position.x += 0.01f;
+    f = r.render(moved, now);
+    EXPECT_EQ(f.data[0].passes, 0u) << "no records of this camera: a restart";
+    f = r.render(frameBegin(5, 0, 1, {0, 1}, proto::FrameMode::Walkthrough), now);
+    EXPECT_EQ(f.data[0].passes, 0u);
+    EXPECT_EQ(f.stats.photonsShot, 0u);
+
+    // What a client renders by the master's modes equals what rtpm-render's own decisions give.
+    RenderJob ref(loadScene("RING"), client::toRenderSettings(s), {0, 1});
+    std::vector<SetPixels> refPixels;
+    const Camera cam = client::toCamera(ringCamera());
+    client::FrameRenderer obeying(1);
+    obeying.setSettings(s);
+    obeying.setScene(ringScene());
+    // With its Converging frames the master forwards every set's shot of kSharedPhotonLag frames
+    // ago (server/photon_relay.h), as rtpm-render's job bins its own record of them.
+    std::vector<std::vector<proto::SetShot>> shots;
+    for (uint64_t frame = 0; frame < 4; ++frame) {
+        ref.renderFrame(cam, refPixels);
+        proto::FrameBegin fb = frameBegin(frame, 0, 1, {0, 1},
+                                          frame == 0 ? proto::FrameMode::Interaction : proto::FrameMode::Converging);
+        if (frame >= kSharedPhotonLag) fb.shared = shots[frame - kSharedPhotonLag];
+        f = obeying.render(fb, now);
+        for (const proto::FrameData& d : f.data) expectSamePixels(d, refPixels);
+        std::vector<proto::SetShot>& sent = shots.emplace_back();
+        for (const proto::FrameData& d : f.data)
+            if (d.shotBatches > 0) sent.push_back({d.set, d.shotBatches, d.shot});
+    }
+    EXPECT_FALSE(shots[0].empty()) << "frame 2's passes were handed no photons";
 }
 
 TEST(FrameRenderer, WireSettingsMapOneToOneOntoRenderSettings) {

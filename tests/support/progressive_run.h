@@ -52,7 +52,7 @@ inline Convergence renderConvergence(Scene scene, const RenderSettings& rs, cons
     std::vector<SetPixels> pixels;
     Convergence run;
     for (int f = 1; f <= frames; ++f) {
-        const FrameStats st = job.renderFrame(camera, true, pixels, passBatches);
+        const FrameStats st = job.renderFrame(camera, pixels, passBatches);
         for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
         image.filterAndCompose(rs.filterSize());
         std::vector<float> shown = image.causticFiltered();

@@ -68,6 +68,17 @@ TEST(Bridge, SettingsWithoutWireFormOrRefusedAreErrors) {
     EXPECT_THROW(bridge::fromWire(s), std::invalid_argument);
 }
 
+TEST(Bridge, FrameModesRoundTripWithTheWiresIds) {
+    const FrameMode modes[] = {FrameMode::Interaction, FrameMode::Accumulate, FrameMode::Walkthrough,
+                               FrameMode::Converging};
+    const proto::FrameMode wire[] = {proto::FrameMode::Interaction, proto::FrameMode::Accumulate,
+                                     proto::FrameMode::Walkthrough, proto::FrameMode::Converging};
+    for (size_t i = 0; i < 4; ++i) {
+        EXPECT_EQ(bridge::toWire(modes[i]), wire[i]);
+        EXPECT_EQ(bridge::fromWire(wire[i]), modes[i]);
+    }
+}
+
 TEST(Bridge, CameraRoundTripIsBitExactAndDegenerateCamerasAreRefused) {
     Camera c;
     c.position = Vec3(0.1f, -2.5f, 3.25f);

@@ -34,7 +34,7 @@ double meanToneMapped(const std::string& nameOrPath) {
     const Camera camera = *scene.camera;
     RenderJob job(std::move(scene), rs, sets);
     std::vector<SetPixels> pixels;
-    job.renderFrame(camera, true, pixels);
+    job.renderFrame(camera, pixels);
     FrameImage image(rs.width, rs.height);
     const Interleave pattern{rs.width, rs.height, rs.interleave};
     for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);

@@ -59,7 +59,7 @@ FrameImage renderJob(Scene scene, int w, int h, int frames, CausticEstimatorKind
     FrameImage image(w, h);
     const Interleave pattern{w, h, rs.interleave};
     std::vector<SetPixels> pixels;
-    for (int f = 0; f < frames; ++f) job.renderFrame(camera, true, pixels);
+    for (int f = 0; f < frames; ++f) job.renderFrame(camera, pixels);
     for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
     image.filterAndCompose(rs.filterSize());
     return image;

@@ -39,7 +39,7 @@ Frame render(Scene scene, const RenderSettings& rs, int frames) {
     FrameImage image(rs.width, rs.height);
     std::vector<SetPixels> pixels;
     for (int f = 0; f < frames; ++f) {
-        const FrameStats st = job.renderFrame(camera, true, pixels);
+        const FrameStats st = job.renderFrame(camera, pixels);
         EXPECT_EQ(st.eye.nonFinite, 0u);
         for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
     }

@@ -83,7 +83,7 @@ Picture render(Scene scene, int w, int h, int frames, uint32_t paths, uint32_t d
     FrameImage image(w, h);
     const Interleave pattern{w, h, rs.interleave};
     std::vector<SetPixels> pixels;
-    for (int f = 0; f < frames; ++f) job.renderFrame(camera, true, pixels);
+    for (int f = 0; f < frames; ++f) job.renderFrame(camera, pixels);
     for (const SetPixels& sp : pixels) image.scatter(pattern, sp.set, sp.pixels);
     image.filterAndCompose(rs.filterSize());
     Picture p;

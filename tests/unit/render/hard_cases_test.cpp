@@ -74,7 +74,7 @@ Frame render(RenderJob& job, int frames) {
     const Interleave pattern{rs.width, rs.height, rs.interleave};
     std::vector<SetPixels> pixels;
     for (int i = 0; i < frames; ++i) {
-        f.last = job.renderFrame(*job.scene().camera, true, pixels);
+        f.last = job.renderFrame(*job.scene().camera, pixels);
         f.nonFinite += f.last.eye.nonFinite;
     }
     for (const SetPixels& sp : pixels)

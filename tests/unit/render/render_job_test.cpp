@@ -28,17 +28,17 @@ TEST(RenderJob, AMovingCameraTakesIrradiancePointsAndAStoppedOneRestarts) {
     std::vector<SetPixels> out;
 
     // First frame: a restart (nothing to compare the camera with), then a pass.
-    FrameStats st = job.renderFrame(a, true, out);
+    FrameStats st = job.renderFrame(a, out);
     EXPECT_FALSE(st.moving);
     EXPECT_FALSE(st.converging);
     EXPECT_FALSE(out[0].ownWeights.empty());
-    st = job.renderFrame(a, true, out);
+    st = job.renderFrame(a, out);
     EXPECT_TRUE(st.converging);
     EXPECT_EQ(st.passes, 1u);
     EXPECT_EQ(job.irradiance().counts().lookups, 0u);
 
     // The camera moves: caustics from the points (no progression, the box filter alone).
-    st = job.renderFrame(b, true, out);
+    st = job.renderFrame(b, out);
     EXPECT_TRUE(st.moving);
     EXPECT_FALSE(st.converging);
     EXPECT_EQ(st.passes, 0u);
@@ -54,15 +54,15 @@ TEST(RenderJob, AMovingCameraTakesIrradiancePointsAndAStoppedOneRestarts) {
     EXPECT_GT(caustic, 0.0);
 
     // It stops at b: the first frame restarts there, the next is a pass; no more lookups.
-    st = job.renderFrame(b, true, out);
+    st = job.renderFrame(b, out);
     EXPECT_FALSE(st.moving);
     EXPECT_FALSE(st.converging);
-    st = job.renderFrame(b, true, out);
+    st = job.renderFrame(b, out);
     EXPECT_TRUE(st.converging);
     EXPECT_EQ(job.irradiance().counts().lookups, lookups);
 
     // Back to a: a moving frame again (a's old progression is not resumed).
-    st = job.renderFrame(a, true, out);
+    st = job.renderFrame(a, out);
     EXPECT_TRUE(st.moving);
 }
 
@@ -81,8 +81,8 @@ TEST(RenderJob, TheKnnEstimatorIgnoresMotion) {
     rs.photons.estimator = CausticEstimatorKind::Knn;
     RenderJob job(std::move(scene), rs, {0});
     std::vector<SetPixels> out;
-    job.renderFrame(a, true, out);
-    const FrameStats st = job.renderFrame(b, true, out);
+    job.renderFrame(a, out);
+    const FrameStats st = job.renderFrame(b, out);
     EXPECT_FALSE(st.moving);
     EXPECT_EQ(job.irradiance().counts().lookups, 0u);
 }

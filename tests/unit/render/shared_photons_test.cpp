@@ -45,10 +45,16 @@ TEST(SharedPhotons, TwoJobsHandedEveryShotComputeWhatOneJobComputes) {
     for (int f = 0; f < 6; ++f) {
         std::vector<SetPixels> a, b, c, d;
         const std::vector<SetPhotons>& shared = f >= int(kSharedPhotonLag) ? shots[size_t(f) - kSharedPhotonLag] : none;
-        all.renderFrame(camera, true, a, 1);
-        first.renderFrame(camera, true, b, 1, &shared);
-        second.renderFrame(camera, true, c, 1, &shared);
-        alone.renderFrame(camera, true, d, 1, &none);
+        // The modes a master sends for a still view: decideFrameMode's, as `all` decides its own.
+        FrameFacts facts;
+        facts.epochStart = f == 0;
+        facts.cameraStill = f > 0;
+        facts.progressive = rs.photons.estimator == CausticEstimatorKind::Progressive;
+        const FrameMode mode = decideFrameMode(facts);
+        all.renderFrame(camera, a, 1);
+        first.renderFrame(camera, mode, b, 1, &shared);
+        second.renderFrame(camera, mode, c, 1, &shared);
+        alone.renderFrame(camera, mode, d, 1, &none);
         std::vector<SetPhotons>& frame = shots.emplace_back();
         for (const auto* part : {&b, &c})
             for (const SetPixels& p : *part)
@@ -78,7 +84,7 @@ TEST(SharedPhotons, ASetsShareIsCappedAtWholeBatches) {
     const Scene scene = buildRingScene();
     RenderJob job(scene, rs, {0});
     std::vector<SetPixels> out;
-    job.renderFrame(*scene.camera, true, out, 1);
+    job.renderFrame(*scene.camera, out, 1);
     ASSERT_EQ(out.size(), 1u);
     ASSERT_GT(job.photons().stats(0).photonsStored, kSharedPhotonBudget / 256) << "the batch must exceed the share";
     EXPECT_EQ(out[0].shot.batches, 0u);

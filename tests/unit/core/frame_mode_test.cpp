@@ -1,0 +1,47 @@
+// decideFrameMode: the one rule for a frame's mode, taken by the master and by rtpm-render.
+#include "common/core/frame_mode.h"
+
+#include <gtest/gtest.h>
+
+namespace rtpm {
+namespace {
+
+FrameMode decide(bool epochStart, bool cameraMoved, bool cameraStill, bool progressive, bool walkthrough,
+                 bool allCapped) {
+    FrameFacts f;
+    f.epochStart = epochStart;
+    f.cameraMoved = cameraMoved;
+    f.cameraStill = cameraStill;
+    f.progressive = progressive;
+    f.walkthrough = walkthrough;
+    f.allCapped = allCapped;
+    return decideFrameMode(f);
+}
+
+TEST(FrameMode, TheFirstFrameOfAnEpochIsInteractionWhateverElseHolds) {
+    for (int bits = 0; bits < 32; ++bits)
+        EXPECT_EQ(decide(true, bits & 1, bits & 2, bits & 4, bits & 8, bits & 16), FrameMode::Interaction);
+}
+
+TEST(FrameMode, AMovedCameraIsAWalkthrough) {
+    EXPECT_EQ(decide(false, true, false, true, false, false), FrameMode::Walkthrough);
+    EXPECT_EQ(decide(false, true, true, true, false, false), FrameMode::Walkthrough);
+}
+
+TEST(FrameMode, AStillCameraConvergesOnlyWithTheProgressiveEstimatorAndNoWalkthroughAsked) {
+    EXPECT_EQ(decide(false, false, true, true, false, false), FrameMode::Converging);
+    EXPECT_EQ(decide(false, false, true, true, false, true), FrameMode::Converging) << "passes shoot when capped";
+    EXPECT_EQ(decide(false, false, true, false, false, false), FrameMode::Accumulate) << "knn";
+    EXPECT_EQ(decide(false, false, true, true, true, false), FrameMode::Walkthrough);
+    EXPECT_EQ(decide(false, false, false, true, false, false), FrameMode::Accumulate) << "camera changed";
+}
+
+TEST(FrameMode, CappedMapsOrAnAskedWalkthroughShootNothing) {
+    EXPECT_EQ(decide(false, false, false, false, false, true), FrameMode::Walkthrough);
+    EXPECT_EQ(decide(false, false, true, false, false, true), FrameMode::Walkthrough);
+    EXPECT_EQ(decide(false, false, false, false, true, false), FrameMode::Walkthrough);
+    EXPECT_EQ(decide(false, false, false, false, false, false), FrameMode::Accumulate);
+}
+
+}  // namespace
+}  // namespace rtpm
