@@ -52,16 +52,27 @@ Camera toCamera(const proto::CameraState& c) {
     }
 }
 
-std::optional<SceneEdit> applyWireEdit(Scene& scene, const proto::SceneEdit& wire) {
+namespace {
+
+/// bridge::fromWire for an edit, with its refusal (an index `scene` lacks) as ProtocolViolation.
+std::optional<SceneEdit> wireEdit(const Scene& scene, const proto::SceneEdit& wire) {
     try {
-        std::optional<SceneEdit> edit = bridge::fromWire(scene, wire);
-        if (edit) applyEdit(scene, *edit);  // validates; leaves the scene unchanged if refused
-        return edit;
+        return bridge::fromWire(scene, wire);
     } catch (const std::invalid_argument& e) {
         throw ProtocolViolation(e.what());
+    }
+}
+
+}  // namespace
+
+std::optional<SceneEdit> applyWireEdit(Scene& scene, const proto::SceneEdit& wire) {
+    std::optional<SceneEdit> edit = wireEdit(scene, wire);
+    try {
+        if (edit) applyEdit(scene, *edit);  // validates; leaves the scene unchanged if refused
     } catch (const SceneError& e) {
         throw ProtocolViolation(e.what());
     }
+    return edit;
 }
 
 struct FrameRenderer::Group {
@@ -105,10 +116,15 @@ void FrameRenderer::setScene(const proto::Scene& msg) {
             throw ProtocolViolation("scene edit " + std::to_string(i) + ": " + e.what());
         }
     }
-    scene_ = std::move(scene);
+    groups_.clear();  // they share the old scene: freed before the new BVH is built
+    scene_.reset();
+    try {
+        scene_ = std::make_shared<RenderScene>(std::move(scene));
+    } catch (const SceneError& e) {
+        throw ProtocolViolation(std::string("scene: ") + e.what());
+    }
     sceneVersion_ = queuedVersion_ = msg.sceneVersion;
     queued_.clear();
-    groups_.clear();
 }
 
 void FrameRenderer::queueEdit(const proto::Edit& edit) {
@@ -138,7 +154,7 @@ void FrameRenderer::adoptSets(const std::vector<uint32_t>& sets) {
     if (!missing.empty()) {
         auto g = std::make_unique<Group>();
         g->sets = missing;
-        g->job = std::make_unique<RenderJob>(*scene_, settings_, missing);
+        g->job = std::make_unique<RenderJob>(scene_, settings_, missing);
         groups_.push_back(std::move(g));
     }
 }
@@ -147,18 +163,21 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
     if (!wire_) throw ProtocolViolation("FrameBegin " + std::to_string(fb.frame) + " before any Settings");
     if (!scene_) throw ProtocolViolation("FrameBegin " + std::to_string(fb.frame) + " before any Scene");
 
-    // Edits first (they precede the FrameBegin of their epoch), each on the master copy and on
-    // every live group; RenderJob::applyEdit resets that group's photons.
+    // Edits first (they precede the FrameBegin of their epoch), each applied once to the scene
+    // every group shares (no frame is rendering); the groups' photons are then stale.
     for (const proto::Edit& e : queued_) {
-        std::optional<SceneEdit> edit;
         try {
-            edit = applyWireEdit(*scene_, e.edit);
+            if (std::optional<SceneEdit> edit = wireEdit(scene_->scene(), e.edit)) {
+                scene_->applyEdit(*edit);
+                for (auto& g : groups_) g->job->resetPhotons();
+            }
         } catch (const ProtocolViolation& err) {
             queued_.clear();
             throw ProtocolViolation("Edit to scene version " + std::to_string(e.sceneVersion) + ": " + err.what());
+        } catch (const SceneError& err) {  // refused by validation: the scene is unchanged
+            queued_.clear();
+            throw ProtocolViolation("Edit to scene version " + std::to_string(e.sceneVersion) + ": " + err.what());
         }
-        if (edit)
-            for (auto& g : groups_) g->job->applyEdit(*edit);
         sceneVersion_ = e.sceneVersion;
     }
     queued_.clear();
@@ -234,12 +253,10 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
     });
     encodeMs = msSince(te);
 
-    uint64_t memory = 0;
-    for (auto& g : groups_) {
-        const Scene& sc = g->job->scene();
-        memory += sc.triangleCount() * 64;  // Embree BVH + vertex data, roughly
-        for (const Mesh& m : sc.meshes) memory += m.positions.size() * sizeof(Vec3) * 3 + m.indices.size() * 4;
-    }
+    // One scene and BVH whatever the groups.
+    const Scene& sc = scene_->scene();
+    uint64_t memory = sc.triangleCount() * 64;  // Embree BVH + vertex data, roughly
+    for (const Mesh& m : sc.meshes) memory += m.positions.size() * sizeof(Vec3) * 3 + m.indices.size() * 4;
     memory += stored * (sizeof(Photon) + 8);  // photons + kd-tree nodes, roughly
 
     out.stats.frame = fb.frame;

@@ -43,7 +43,9 @@ struct RenderedFrame {
 };
 
 /// Holds the scene, the settings and the photon maps of the sets this client renders.
-/// Sets are kept in groups, one RenderJob (BVH + photon maps) per group: when the server moves
+/// One scene and one BVH (a RenderScene), shared read-only by every group's RenderJob while a
+/// frame renders; an edit is applied to it once, between frames. Sets are kept in groups, one
+/// RenderJob (photon maps and progressions) per group: when the server moves
 /// sets at a frame boundary, a group whose sets are all still owned keeps accumulating, a group
 /// that lost any set is dropped (its remaining sets restart from batch 0 in a new group, like
 /// sets that moved here). So a set's photons depend only on the batches its current owner shot,
@@ -60,14 +62,14 @@ public:
     /// Takes effect at the next frame. A change of anything but f and the pixel encoding drops
     /// every photon map (new RenderJobs). Throws ProtocolViolation for unusable settings.
     void setSettings(const proto::Settings& settings);
-    /// Loads the scene (built-in name, or glTF/GLB bytes) and applies its edits; replaces any
-    /// previous scene and drops every photon map. Throws ProtocolViolation naming what is wrong.
-    /// Cost: the scene load, O(file size + triangles).
+    /// Loads the scene (built-in name, or glTF/GLB bytes), applies its edits and builds its BVH;
+    /// replaces any previous scene and drops every photon map. Throws ProtocolViolation naming
+    /// what is wrong. Cost: the scene load and the BVH build, O(file size + triangles log triangles).
     void setScene(const proto::Scene& scene);
     /// Queues an edit; edits apply at the next FrameBegin (docs/ARCHITECTURE.md §2: all clients
     /// switch at the same frame). Throws ProtocolViolation if its sceneVersion does not increase.
     void queueEdit(const proto::Edit& edit);
-    /// Renders `frame`: applies queued edits, resets photons when the epoch changed, adopts the
+    /// Renders `frame`: applies queued edits (once, to the shared scene), resets photons when the epoch changed, adopts the
     /// frame's sets, shoots (unless Walkthrough) and traces, encodes the pixels with the settings'
     /// encoding. `received` is when the FrameBegin arrived (for Stats.frameMs).
     /// Throws ProtocolViolation when the frame contradicts what was received (no scene or
@@ -91,7 +93,7 @@ private:
     double slowdown_;
     std::optional<proto::Settings> wire_;
     RenderSettings settings_;
-    std::optional<Scene> scene_;  ///< the scene with every applied edit; new groups copy it
+    std::shared_ptr<RenderScene> scene_;  ///< the scene with every applied edit, shared by the groups
     uint32_t sceneVersion_ = 0;
     uint32_t queuedVersion_ = 0;  ///< sceneVersion after the queued edits
     std::vector<proto::Edit> queued_;

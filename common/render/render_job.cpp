@@ -44,20 +44,23 @@ uint64_t sampleSeedOf(const Camera& c) {
 
 }  // namespace
 
-RenderJob::RenderJob(Scene scene, const RenderSettings& settings, std::vector<uint32_t> sets)
-    : scene_(std::make_unique<Scene>(std::move(scene))), settings_(settings), sets_(std::move(sets)) {
+RenderJob::RenderJob(std::shared_ptr<RenderScene> scene, const RenderSettings& settings, std::vector<uint32_t> sets)
+    : scene_(std::move(scene)), settings_(settings), sets_(std::move(sets)) {
+    RTPM_CHECK(scene_ != nullptr);
     validateSettings(settings_);
     pattern_ = Interleave{settings_.width, settings_.height, settings_.interleave};
     for (uint32_t s : sets_)
         if (s >= uint32_t(pattern_.setCount()))
             throw std::invalid_argument("set " + std::to_string(s) + " out of range for M = " +
                                         std::to_string(settings_.interleave));
-    embree_ = std::make_unique<EmbreeScene>(*scene_);
     photons_ = std::make_unique<PhotonMaps>(settings_.photons, sets_);
     photons_->setShareCap(kSharedPhotonBudget / size_t(pattern_.setCount()));
     progressive_.resize(sets_.size());
     irradiance_ = std::make_unique<IrradiancePoints>(sets_);
 }
+
+RenderJob::RenderJob(Scene scene, const RenderSettings& settings, std::vector<uint32_t> sets)
+    : RenderJob(std::make_shared<RenderScene>(std::move(scene)), settings, std::move(sets)) {}
 
 RenderJob::~RenderJob() = default;
 
@@ -72,6 +75,7 @@ FrameStats RenderJob::renderFrame(const Camera& camera, std::vector<SetPixels>& 
 FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vector<SetPixels>& out,
                                   uint32_t passBatches, const std::vector<SetPhotons>* shared) {
     RTPM_CHECK(passBatches >= 1);
+    const EmbreeScene& embree = scene_->embree();
     FrameStats stats;
     const auto t0 = std::chrono::steady_clock::now();
     uint64_t pathsBefore = 0;
@@ -94,12 +98,12 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     // Sets shoot and insert concurrently (a batch's tracing is parallel inside, its kd-tree
     // insertion is not: with several sets per process both cores stay busy through insertion).
     // Each set's photons depend only on its own sequence, so the maps are the same in any order.
-    if (shoot) photons_->prepare(*embree_);
+    if (shoot) photons_->prepare(embree);
     tbb::parallel_for(size_t(0), sets_.size(), [&](size_t i) {
         if (converge[i])
-            photons_->shootPass(*embree_, sets_[i], passBatches);
+            photons_->shootPass(embree, sets_[i], passBatches);
         else if (shoot)
-            photons_->shootBatch(*embree_, sets_[i]);  // flushes the ended progression's passes
+            photons_->shootBatch(embree, sets_[i]);  // flushes the ended progression's passes
         else
             photons_->flushPasses(sets_[i]);
     });
@@ -110,7 +114,7 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     const std::vector<SetPhotons>* sharedIn = shared;
     if (!sharedIn && shots_.size() == kSharedPhotonLag) sharedIn = &shots_.front();
     SharedPhotons sharedIndex;
-    if (anyPass && sharedIn) sharedIndex.build(embree_->bounds(), *sharedIn);
+    if (anyPass && sharedIn) sharedIndex.build(embree.bounds(), *sharedIn);
 
     const auto t1 = std::chrono::steady_clock::now();
     out.resize(sets_.size());
@@ -120,25 +124,25 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
         out[i].set = set;
         out[i].pixels.resize(size_t(pattern_.pixelCount(set)));
         if (converge[i]) {
-            if (!areaLights_) areaLights_ = std::make_unique<AreaLightSampler>(*embree_, settings_.eye);
-            progressive_[i].pass(*embree_, *photons_, sets_[i], sharedIndex.empty() ? nullptr : &sharedIndex,
+            if (!areaLights_) areaLights_ = std::make_unique<AreaLightSampler>(embree, settings_.eye);
+            progressive_[i].pass(embree, *photons_, sets_[i], sharedIndex.empty() ? nullptr : &sharedIndex,
                                  *areaLights_, out[i].pixels,
                                  stats.eye.shadowRays, stats.eye.nonFinite);
         } else if (moving) {
-            irradiance_->update(*embree_, *photons_, sets_[i]);
-            renderSet(*embree_, camera, settings_.eye, pattern_, set, irradiance_.get(), out[i].pixels,
+            irradiance_->update(embree, *photons_, sets_[i]);
+            renderSet(embree, camera, settings_.eye, pattern_, set, irradiance_.get(), out[i].pixels,
                       &stats.eye, nullptr, sampleSeedOf(camera));
         } else if (progressive) {
             EyeRecords records;
-            renderSet(*embree_, camera, settings_.eye, pattern_, set, nullptr, out[i].pixels,
+            renderSet(embree, camera, settings_.eye, pattern_, set, nullptr, out[i].pixels,
                       &stats.eye, &records);
             const double f = double(settings_.filterSize());
             progressive_[i].setFilterShare(1.0 / (f * f));
             progressive_[i].setImage(pattern_.m, settings_.filterSize(), pattern_.setColumns(set));
-            progressive_[i].restart(*embree_, *photons_, sets_[i], camera, std::move(records),
+            progressive_[i].restart(embree, *photons_, sets_[i], camera, std::move(records),
                                     out[i].pixels);
         } else {
-            renderSet(*embree_, camera, settings_.eye, pattern_, set, photons_.get(), out[i].pixels,
+            renderSet(embree, camera, settings_.eye, pattern_, set, photons_.get(), out[i].pixels,
                       &stats.eye);
         }
         out[i].passes = progressive && !moving ? progressive_[i].passes() : 0;
@@ -177,19 +181,7 @@ void scatterSet(FrameImage& image, const Interleave& pattern, const SetPixels& p
 }
 
 void RenderJob::applyEdit(const SceneEdit& edit) {
-    Material previous;
-    rtpm::applyEdit(*scene_, edit, &previous);  // throws and leaves the scene unchanged if refused
-    const Scene& s = *scene_;
-    switch (edit.kind) {
-        case SceneEdit::Kind::Light: break;  // lights are read from the scene at the next batch
-        case SceneEdit::Kind::Material:
-            // The emissive triangle list is rebuilt through the mesh path, only if emission changed.
-            if (previous.emission != edit.material.emission)
-                for (size_t m = 0; m < s.meshes.size(); ++m)
-                    if (s.meshes[m].material == edit.index) embree_->setMesh(uint32_t(m), s.meshes[m]);
-            break;
-        case SceneEdit::Kind::Transform: embree_->setTransform(edit.index, edit.transform); break;
-    }
+    scene_->applyEdit(edit);
     resetPhotons();
 }
 

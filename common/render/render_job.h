@@ -1,4 +1,4 @@
-// One process's share of rendering: a scene, its Embree BVH and the photon maps of owned sets.
+// One process's share of rendering: the photon maps and progressions of owned sets over a shared scene and BVH.
 #pragma once
 
 #include <cstdint>
@@ -13,6 +13,7 @@
 #include "common/core/render_settings.h"
 #include "common/scene/scene_edit.h"
 #include "common/render/progressive.h"
+#include "common/render/render_scene.h"
 #include "common/trace/eye_pass.h"
 #include "common/image/frame_image.h"
 
@@ -56,11 +57,15 @@ struct FrameStats {
 };
 
 /// Renders frames for a fixed list of interleaving sets. Used by rtpm-render (all sets) and by
-/// each cluster client (its assigned sets), so both compute bit-identical pixels for a set.
+/// each cluster client (its assigned sets, a job per set group), so both compute bit-identical
+/// pixels for a set. The scene and its BVH are a RenderScene, which jobs of one process share.
 /// Not thread-safe; each call uses every core through TBB.
 class RenderJob {
 public:
-    /// Throws std::invalid_argument for bad settings or set ids.
+    /// A job over a shared scene (read only while a frame renders). Throws std::invalid_argument
+    /// for bad settings or set ids.
+    RenderJob(std::shared_ptr<RenderScene> scene, const RenderSettings& settings, std::vector<uint32_t> sets);
+    /// A job with a scene of its own (rtpm-render, tests): builds the BVH.
     RenderJob(Scene scene, const RenderSettings& settings, std::vector<uint32_t> sets);
     ~RenderJob();
 
@@ -90,26 +95,26 @@ public:
     /// passes bin the job's own record of its sets' shots.
     FrameStats renderFrame(const Camera& camera, std::vector<SetPixels>& out, uint32_t passBatches = 1);
 
-    /// Applies an edit (throws SceneError if the index or a value is invalid; nothing changes then)
-    /// and resets the photon maps.
+    /// Applies an edit to the scene (RenderScene::applyEdit: throws SceneError if the index or a
+    /// value is invalid; nothing changes then) and resets the photon maps. Other jobs sharing the
+    /// scene must resetPhotons.
     void applyEdit(const SceneEdit& edit);
     /// Drops every photon; the next frame restarts accumulation.
     void resetPhotons();
 
-    const Scene& scene() const { return *scene_; }
+    const Scene& scene() const { return scene_->scene(); }
     const RenderSettings& settings() const { return settings_; }
     const PhotonMaps& photons() const { return *photons_; }
-    const EmbreeScene& embree() const { return *embree_; }
+    const EmbreeScene& embree() const { return scene_->embree(); }
     const std::vector<uint32_t>& sets() const { return sets_; }
     /// The moving camera's caustic estimator (its counters: the work of the moving frames).
     const IrradiancePoints& irradiance() const { return *irradiance_; }
 
 private:
-    std::unique_ptr<Scene> scene_;  // stable address: EmbreeScene keeps a pointer to it
+    std::shared_ptr<RenderScene> scene_;
     RenderSettings settings_;
     Interleave pattern_;
     std::vector<uint32_t> sets_;
-    std::unique_ptr<EmbreeScene> embree_;
     std::unique_ptr<PhotonMaps> photons_;
     std::vector<ProgressiveSet> progressive_;  ///< per owned set (progressive estimator)
     /// The owned sets' shots of the last kSharedPhotonLag frames, oldest first (renderFrame

@@ -641,6 +641,39 @@ TEST(FrameRenderer, RendersByTheFrameModeTheMasterSends) {
     EXPECT_FALSE(shots[0].empty()) << "frame 2's passes were handed no photons";
 }
 
+// A client holds one scene and one BVH for all its set groups; an edit applied once to it reaches
+// every group, which then renders what a job over the edited scene renders, bit for bit.
+TEST(FrameRenderer, SetGroupsShareOneSceneThatAnEditChangesOnce) {
+    const proto::Settings s = smallSettings();
+    client::FrameRenderer r(1);
+    r.setSettings(s);
+    r.setScene(ringScene());
+    const auto now = std::chrono::steady_clock::now();
+    r.render(frameBegin(0, 0, 1, {0, 1}, proto::FrameMode::Interaction), now);
+    r.render(frameBegin(1, 0, 1, {0, 1, 2, 3}, proto::FrameMode::Accumulate), now);
+    ASSERT_EQ(r.groupCount(), 2u);
+    Scene scene = loadScene("RING");
+    Mat4 moved = scene.instances[0].transform;
+    moved[3][0] += 0.05f;
+    proto::TransformEdit te;
+    te.instance = 0;
+    std::memcpy(te.matrix.data(), &moved[0][0], sizeof(float) * 16);
+    r.queueEdit(proto::Edit{2, te});
+    client::RenderedFrame f = r.render(frameBegin(2, 1, 2, {0, 1, 2, 3}, proto::FrameMode::Interaction), now);
+    EXPECT_EQ(r.groupCount(), 2u) << "the groups survive the edit";
+
+    RenderJob ref(std::move(scene), client::toRenderSettings(s), {0, 1, 2, 3});
+    SceneEdit e;
+    e.kind = SceneEdit::Kind::Transform;
+    e.index = 0;
+    e.transform = moved;
+    ref.applyEdit(e);
+    std::vector<SetPixels> refPixels;
+    ref.renderFrame(client::toCamera(ringCamera()), refPixels);
+    ASSERT_EQ(f.data.size(), 4u);
+    for (const proto::FrameData& d : f.data) expectSamePixels(d, refPixels);
+}
+
 TEST(FrameRenderer, WireSettingsMapOneToOneOntoRenderSettings) {
     proto::Settings s = smallSettings();
     s.maxDepth = 5;
