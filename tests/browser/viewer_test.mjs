@@ -123,6 +123,13 @@ try {
   await waitFor('a converging frame', async () => (await viewer()).modes.some((m) => m.mode === 'converging'));
   const progress = await page.$eval('#progress', (e) => e.textContent);
   check(/estimator progressive: \d+ pass/.test(progress), `the estimator's progress is shown ("${progress}")`);
+  // The status line at its longest (with the error estimate) wraps inside the page: nothing runs
+  // past the 1200 px window, where it was cut off mid-sentence.
+  await waitFor('the error estimate', async () => /estimated caustic error/.test(await page.$eval('#progress', (e) => e.textContent)));
+  const fit = await page.evaluate(() => ({ page: document.documentElement.scrollWidth, window: window.innerWidth,
+    progress: Math.ceil(document.getElementById('progress').getBoundingClientRect().right) }));
+  check(fit.page <= fit.window && fit.progress <= fit.window,
+    `the page fits the window's width (page ${fit.page} px, status line ends at ${fit.progress} px, window ${fit.window} px)`);
 
   // Before any control the page has shown no error. The screenshot README shows is taken here,
   // while the view converges: the viewer as a user first sees it.
