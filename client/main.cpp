@@ -16,10 +16,6 @@ int main(int argc, char** argv) {
     using namespace rtpm::client;
     WorkerOptions o;
     std::string server;
-    char hostName[256] = {};
-    if (gethostname(hostName, sizeof hostName - 1) == 0) o.name = hostName;
-    o.name += "/" + std::to_string(getpid());
-
     CLI::App app{"rtpm-client: render worker of the rtpm cluster. Connects to rtpm-server, renders the "
                  "interleaving sets it is given on every core and streams their pixels back.",
                  "rtpm-client"};
@@ -32,7 +28,11 @@ int main(int argc, char** argv) {
                       {kExitRejected, "refused by the master: token or version at once, capacity once the "
                                       "connect window ran out"},
                       {kExitEvicted, "evicted, and not taken back within --rejoin-timeout"},
-                      {130, "stopped by SIGINT (128 + N for signal N; SIGTERM 143), after saying Bye"}});
+                      {130, "stopped by SIGINT (128 + N for signal N; SIGTERM 143), after saying Bye"}},
+                     {{"RTPM_TOKEN=<the master's token> rtpm-client --server 10.0.0.1",
+                       "render on every core for the master at 10.0.0.1, port 7411"},
+                      {"rtpm-client --port-file /tmp/rtpm.port --threads 2",
+                       "a master on this machine started with --port 0 --port-file /tmp/rtpm.port, on 2 threads"}});
     auto* serverOpt = app.add_option("--server", server,
                                      "server address HOST:PORT ([v6]:PORT for IPv6); HOST alone uses port " +
                                          std::to_string(rtpm::proto::kDefaultPort));
@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
                                        "read the port from this file (rtpm-server --port-file); host from --host");
     app.add_option("--host", o.host, "server host when --port-file gives the port")->capture_default_str();
     app.add_option("--token", o.token, "shared secret (default: environment variable RTPM_TOKEN)");
-    app.add_option("--name", o.name, "client name shown in the server's logs")->capture_default_str();
+    app.add_option("--name", o.name, "client name shown in the server's logs (default: HOST/PID)");
     app.add_option("--threads", o.threads, "render threads (0 = all cores)")
         ->capture_default_str()
         ->check(CLI::Range(0, 4096));
@@ -66,6 +66,11 @@ int main(int argc, char** argv) {
     app.add_option("--tls-ca", o.tlsCa, "PEM file of the CA to trust with --tls (default: the system's)");
     serverOpt->excludes(portFileOpt);
     if (auto code = rtpm::parseCommandLine(app, argc, argv)) return *code;
+    if (o.name.empty()) {
+        char hostName[256] = {};
+        if (gethostname(hostName, sizeof hostName - 1) == 0) o.name = hostName;
+        o.name += "/" + std::to_string(getpid());
+    }
     if (serverOpt->count() == 0 && portFileOpt->count() == 0)
         return rtpm::reportUsageError("rtpm-client", rtpm::UsageError("give --server HOST[:PORT] or --port-file FILE"));
     if (serverOpt->count() && !parseHostPort(server, o.host, o.port))

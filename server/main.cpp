@@ -39,7 +39,13 @@ int run(int argc, char** argv) {
                           "that cannot be listened on"},
                       {server::kExitImageNotWritten, "frames rendered but an image could not be written"},
                       {server::kExitNoCompleteFrame, "frames shown but none complete (clients missing)"},
-                      {130, "a finite run interrupted by SIGINT or SIGTERM (the last image is written)"}});
+                      {130, "a finite run interrupted by SIGINT or SIGTERM (the last image is written)"}},
+                     {{"export RTPM_TOKEN=$(openssl rand -hex 16); rtpm-server --scene RING --http 127.0.0.1:8080",
+                       "a service with the browser viewer at http://127.0.0.1:8080/ until Ctrl-C; clients "
+                       "started with the same RTPM_TOKEN join it on port 7411"},
+                      {"rtpm-server --listen 0.0.0.0 --scene GLASS --frames 64 --min-clients 4 --out out/glass.exr",
+                       "64 frames once 4 clients (with RTPM_TOKEN as above) joined from any interface, written to "
+                       "out/glass.exr and .png"}});
     // Rendering settings: the same names, meanings and defaults as rtpm-render. --help lists the
     // groups scene, image, photons, estimator (these), cluster, viewer, security, output.
     addRenderFlags(app, rs, o.sceneName, plain, noDefaultLight);

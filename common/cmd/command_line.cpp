@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <memory>
 #include <numeric>
+#include <regex>
 #include <vector>
 
 #include "common/core/version.h"
@@ -56,15 +58,68 @@ std::string nearestFlag(const CLI::App& app, std::string_view given) {
     return best;
 }
 
-void addStandardFlags(CLI::App& app, unsigned protocolVersion, ExitCodes exitCodes) {
+void addStandardFlags(CLI::App& app, unsigned protocolVersion, ExitCodes exitCodes, const Examples& examples) {
     const std::string program = app.get_name();
     app.set_version_flag("--version", [program, protocolVersion] { return versionText(program, protocolVersion); },
                          "print the version, the git commit and the protocol version, and exit");
+    app.formatter(std::make_shared<HelpFormatter>());
     exitCodes.emplace_back(kExitUsage, "usage error: unknown flag, bad or out-of-range value");
     std::sort(exitCodes.begin(), exitCodes.end());
     std::string footer = "Exit codes:";
     for (const auto& [code, meaning] : exitCodes) footer += "\n  " + std::to_string(code) + "  " + meaning;
+    if (!examples.empty()) footer += "\n\nExamples:";
+    for (const auto& [command, what] : examples) footer += "\n  " + command + "\n      " + what;
     app.footer(footer);
+}
+
+namespace {
+
+/// An option's type name without the validators' descriptions CLI11 appends to it after colons.
+std::string bareTypeName(const CLI::Option* opt) {
+    const std::string full = opt->get_type_name();
+    return full.substr(0, full.find(':'));
+}
+
+/// The validators' descriptions in words: "INT in [0 - 4096]" → "[0, 4096]", "NONNEGATIVE" → ">= 0".
+std::string rangeInWords(const CLI::Option* opt) {
+    const std::string full = opt->get_type_name();
+    std::string words;
+    for (size_t at = full.find(':'); at != std::string::npos;) {
+        const size_t next = full.find(':', at + 1);
+        const std::string part = full.substr(at + 1, next == std::string::npos ? std::string::npos : next - at - 1);
+        at = next;
+        static const std::regex range(R"(\S+ in \[(.+) - (.+)\])");
+        std::smatch m;
+        std::string text = part;
+        if (std::regex_match(part, m, range))
+            text = "[" + m[1].str() + ", " + m[2].str() + "]";
+        else if (part == "NONNEGATIVE")
+            text = ">= 0";
+        else if (part == "POSITIVE")
+            text = "> 0";
+        words += (words.empty() ? "" : ", ") + text;
+    }
+    return words;
+}
+
+}  // namespace
+
+std::string HelpFormatter::make_option_opts(const CLI::Option* opt) const {
+    if (!opt->get_option_text().empty() || opt->get_type_size() == 0 || opt->get_type_name().find(':') == std::string::npos)
+        return CLI::Formatter::make_option_opts(opt);
+    // CLI::Formatter's own text with the bare type name (its other parts are kept as they are).
+    const std::string full = CLI::Formatter::make_option_opts(opt);
+    const std::string glued = " " + opt->get_type_name();
+    const size_t at = full.find(glued);
+    if (at == std::string::npos) return full;
+    return full.substr(0, at) + " " + bareTypeName(opt) + full.substr(at + glued.size());
+}
+
+std::string HelpFormatter::make_option_desc(const CLI::Option* opt) const {
+    const std::string description = CLI::Formatter::make_option_desc(opt);
+    const std::string range = rangeInWords(opt);
+    if (range.empty() || description.find(range) != std::string::npos) return description;
+    return description + (description.empty() ? "" : ", ") + range;
 }
 
 namespace {

@@ -35,9 +35,22 @@ std::string nearestFlag(const CLI::App& app, std::string_view given);
 /// A program's exit codes and what each means, for its --help.
 using ExitCodes = std::vector<std::pair<int, std::string>>;
 
-/// Adds --version (printing versionText) and lists `exitCodes` with the one every program shares
-/// (kExitUsage), in order, in the --help epilogue.
-void addStandardFlags(CLI::App& app, unsigned protocolVersion, ExitCodes exitCodes);
+/// Command lines a user can start from, each with what it does, for the end of --help.
+using Examples = std::vector<std::pair<std::string, std::string>>;
+
+/// Adds --version (printing versionText), lists `exitCodes` with the one every program shares
+/// (kExitUsage), in order, then `examples`, in the --help epilogue, and formats --help with
+/// HelpFormatter.
+void addStandardFlags(CLI::App& app, unsigned protocolVersion, ExitCodes exitCodes, const Examples& examples = {});
+
+/// CLI11's --help with a flag's range in words: "--max-scene-bytes UINT=536870912  bytes ...,
+/// [1, 1099511627776]" where CLI11 prints "UINT:UINT in [1 - 1099511627776]=536870912" (the
+/// validators' descriptions glued to the type name), and ">= 0" for a non-negative number.
+class HelpFormatter : public CLI::Formatter {
+  public:
+    std::string make_option_opts(const CLI::Option* opt) const override;
+    std::string make_option_desc(const CLI::Option* opt) const override;
+};
 
 /// Parses `argv` into `app`. Returns nullopt to go on, or the code main returns at once: 0 after
 /// --help or --version, kExitUsage after a usage error, printed to stderr as

@@ -111,7 +111,11 @@ int run(int argc, char** argv) {
                      {{0, "compared, within the bounds given"},
                       {kExitError, "cannot compare: missing file or channel, size mismatch"},
                       {kExitOverBound, "a bound given by --max-rel-rmse or --energy-bounds is not met, the pixels "
-                                       "differ under --identical, or OUTPUT holds NaN/Inf values"}});
+                                       "differ under --identical, or OUTPUT holds NaN/Inf values"}},
+                     {{"rtpm-compare out/ring.exr reference.exr",
+                       "the filtered caustic's errors against a reference, and the energy ratio"},
+                      {"rtpm-compare --identical out/cluster.exr out/single.exr",
+                       "exit 0 only if both images hold bit-identical pixels"}});
     if (auto code = parseCommandLine(app, argc, argv)) return *code;
     if (layers.empty()) layers.push_back("caustic_filtered");
     for (std::string& l : layers)

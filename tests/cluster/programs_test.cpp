@@ -44,14 +44,31 @@ TEST(Programs, VersionNamesTheVersionCommitAndProtocol) {
     }
 }
 
-TEST(Programs, HelpListsTheExitCodes) {
+// --help ends with the exit codes and example command lines, shows ranges in words (before:
+// "--max-scene-bytes UINT:UINT in [1 - 1099511627776]=536870912") and no default that is the help
+// process's own (before: the client's --name default was the --help process's pid).
+TEST(Programs, HelpListsTheExitCodesExamplesAndRangesInWords) {
     TempDir dir;
     for (const std::string rel : kPrograms) {
         std::string out, err;
         EXPECT_EQ(run(dir, rel, {"--help"}, out, err), 0) << rel << "\n" << err;
         EXPECT_NE(out.find("Exit codes:\n  0  "), std::string::npos) << out;
         EXPECT_NE(out.find("\n  2  usage error"), std::string::npos) << out;
+        if (rel != std::string("common/cmd/rtpm-render")) {
+            const size_t examples = out.find("\n\nExamples:\n  ");
+            ASSERT_NE(examples, std::string::npos) << out;
+            EXPECT_NE(out.find(programName(rel) + " --", examples), std::string::npos) << out;
+        }
+        EXPECT_EQ(out.find(" in ["), std::string::npos) << out;
+        EXPECT_EQ(out.find("NONNEGATIVE"), std::string::npos) << out;
     }
+    std::string out, err;
+    ASSERT_EQ(run(dir, "server/rtpm-server", {"--help"}, out, err), 0) << err;
+    EXPECT_NE(out.find("--max-scene-bytes UINT=536870912"), std::string::npos) << out;
+    EXPECT_NE(out.find(", [1, 1099511627776]"), std::string::npos) << out;
+    ASSERT_EQ(run(dir, "client/rtpm-client", {"--help"}, out, err), 0) << err;
+    EXPECT_NE(out.find("--name TEXT "), std::string::npos) << out;  // no "=HOST/<pid of --help>"
+    EXPECT_NE(out.find("(default: HOST/PID)"), std::string::npos) << out;
 }
 
 TEST(Programs, AMistypedFlagExitsTwoWithTheFlagMeant) {

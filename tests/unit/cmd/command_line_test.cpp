@@ -51,15 +51,42 @@ int parse(CLI::App& app, std::vector<std::string> args) {
 
 TEST(CommandLine, UsageErrorsReturnTwoHelpAndVersionZero) {
     const auto app = exampleApp();
-    addStandardFlags(*app, 3, {{0, "done"}, {1, "failed"}});
+    addStandardFlags(*app, 3, {{0, "done"}, {1, "failed"}}, {});
     EXPECT_EQ(parse(*app, {"--frames", "3"}), -1);  // go on
     EXPECT_EQ(parse(*exampleApp(), {"--frmaes", "3"}), kExitUsage);
     EXPECT_EQ(parse(*exampleApp(), {"--frames", "three"}), kExitUsage);
     const auto version = exampleApp();
-    addStandardFlags(*version, 3, {});
+    addStandardFlags(*version, 3, {}, {});
     EXPECT_EQ(parse(*version, {"--version"}), 0);
     EXPECT_EQ(app->get_footer(), "Exit codes:\n  0  done\n  1  failed\n  2  usage error: unknown flag, bad or "
                                 "out-of-range value");
+}
+
+// --help shows a checked flag's type, default and range in words. CLI11 alone prints the validators'
+// descriptions glued to the type ("--bytes UINT:UINT in [1 - 1099511627776]=536870912",
+// "--wait FLOAT:NONNEGATIVE=30").
+TEST(CommandLine, HelpShowsRangesInWordsAndExamplesAfterTheExitCodes) {
+    CLI::App app("example", "rtpm-example");
+    uint64_t bytes = 536870912;
+    double wait = 30;
+    int threads = 0;
+    app.add_option("--bytes", bytes, "bytes to read")->capture_default_str()->check(
+        CLI::Range(uint64_t(1), uint64_t(1) << 40));
+    app.add_option("--wait", wait, "seconds to wait")->capture_default_str()->check(CLI::NonNegativeNumber);
+    app.add_option("--threads", threads, "threads, [0, 4096]")->capture_default_str()->check(CLI::Range(0, 4096));
+    addStandardFlags(app, 3, {{0, "done"}}, {{"rtpm-example --bytes 5", "reads 5 bytes"}});
+    const std::string help = app.help();
+    EXPECT_NE(help.find("--bytes UINT=536870912"), std::string::npos) << help;
+    EXPECT_NE(help.find("bytes to read, [1, 1099511627776]"), std::string::npos) << help;
+    EXPECT_NE(help.find("--wait FLOAT=30"), std::string::npos) << help;
+    EXPECT_NE(help.find("seconds to wait, >= 0"), std::string::npos) << help;
+    EXPECT_NE(help.find("threads, [0, 4096]\n"), std::string::npos) << help;  // said once, not twice
+    EXPECT_EQ(help.find(" in ["), std::string::npos) << help;
+    EXPECT_EQ(help.find("NONNEGATIVE"), std::string::npos) << help;
+    EXPECT_NE(help.find("  2  usage error: unknown flag, bad or out-of-range value\n\nExamples:\n"
+                        "  rtpm-example --bytes 5\n      reads 5 bytes"),
+              std::string::npos)
+        << help;
 }
 
 TEST(CommandLine, VersionTextNamesVersionCommitAndProtocol) {
