@@ -6,6 +6,8 @@ stopped (SIGTERM, then SIGKILL) before the next probe.
   tests/bench/viewer_port_probe.py BUILD_DIR [probe ...]
   probes: origin fds guesses tokenless insecure rebinding nodes nat   (default: all)
 
+Each takes up to 5 s but fds (about 30 s: 1 000 connections, then 7 s) and nat (about 50 s: 20 s
+of frames with one client, alone and beside the flood); bench-smoke runs all but those two.
 Prints one line per figure: "probe: figure".
 """
 import atexit
@@ -21,6 +23,9 @@ import tempfile
 import threading
 import time
 
+if len(sys.argv) > 1 and sys.argv[1] in ("-h", "--help"):
+    print(__doc__.strip())
+    sys.exit(0)
 TOKEN = "5f2c8d0a9b7e4c1f3a6d8e2b0c9f7a14"  # `openssl rand -hex 16`
 BUILD = sys.argv[1] if len(sys.argv) > 1 else "build"
 SERVER = os.path.join(BUILD, "server/rtpm-server")
@@ -335,17 +340,35 @@ def probe_nodes():
     say("nodes", f"a glTF of a million nodes ({size / 1e6:.0f} MB), one triangle instanced by each: {outcome}")
 
 
+def frames_in_20_s(flood):
+    """Frames the master shows in 20 s with one client, beside `flood(port, stopped)` if given."""
+    srv = Server(["--min-clients", "1"], name="nat", frames="0", size=("32", "24"))
+    stopped = threading.Event()
+    t = threading.Thread(target=flood, args=(srv.port, stopped)) if flood else None
+    if t:
+        t.start()
+    time.sleep(2)
+    client = subprocess.Popen([CLIENT, "--server", f"127.0.0.1:{srv.port}", "--token", TOKEN, "--threads", "1",
+                               "--connect-timeout", "60"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(20)
+    stopped.set()
+    if t:
+        t.join()
+    srv.stop()
+    client.wait(30)
+    out = open(srv.out_path, "rb").read().decode(errors="replace")
+    return len(re.findall(r"^frame ", out, re.M)), "joined" in srv.err().decode(errors="replace")
+
+
 def probe_nat():
     # A real client and an idle flood share 127.0.0.1 (NAT): the flood keeps 32 idle sockets open,
-    # reconnecting, while the client joins and renders.
-    srv = Server(["--min-clients", "1"], name="nat", frames="0", size=("32", "24"))
-    stop = False
-
-    def flood():
+    # reconnecting, while the client joins and renders. The same run without the flood first: the
+    # frame rate depends on the machine and the frame budget, so only the ratio is a figure.
+    def flood(port, stopped):
         idle = []
-        while not stop:
+        while not stopped.is_set():
             try:
-                idle.append(connect(srv.port, "127.0.0.1"))
+                idle.append(connect(port, "127.0.0.1"))
             except OSError:
                 time.sleep(0.01)
             if len(idle) > 32:
@@ -353,25 +376,18 @@ def probe_nat():
             time.sleep(0.002)
         for s in idle:
             s.close()
-    t = threading.Thread(target=flood)
-    t.start()
-    time.sleep(2)
-    client = subprocess.Popen([CLIENT, "--server", f"127.0.0.1:{srv.port}", "--token", TOKEN, "--threads", "1",
-                               "--connect-timeout", "60"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    time.sleep(20)
-    stop = True
-    t.join()
-    srv.stop()
-    client.wait(30)
-    out = open(srv.out_path, "rb").read().decode(errors="replace")
-    frames = len(re.findall(r"^frame ", out, re.M))
-    say("nat", f"idle flood of 32 sockets from the client's own address: {frames} frames shown in 20 s "
-               f"({'the client joined' if 'joined' in srv.err().decode(errors='replace') else 'the client never joined'})")
+    alone, _ = frames_in_20_s(None)
+    frames, joined = frames_in_20_s(flood)
+    say("nat", f"idle flood of 32 sockets from the client's own address: {frames} frames shown in 20 s, "
+               f"{alone} without the flood ({'the client joined' if joined else 'the client never joined'})")
 
 
 PROBES = {"origin": probe_origin, "fds": probe_fds, "guesses": probe_guesses, "tokenless": probe_tokenless,
           "insecure": probe_insecure, "rebinding": probe_rebinding, "nodes": probe_nodes, "nat": probe_nat}
 
 if __name__ == "__main__":
+    unknown = [name for name in sys.argv[2:] if name not in PROBES]
+    if unknown:
+        sys.exit(f"viewer_port_probe.py: unknown probe {' '.join(unknown)} (probes: {' '.join(PROBES)})")
     for name in sys.argv[2:] or PROBES:
         PROBES[name]()
