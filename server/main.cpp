@@ -212,6 +212,7 @@ int run(int argc, char** argv) {
     prepareOutputFile("--out", outPaths.png);
     o.out = outPaths.exr;
     if (!o.csv.empty()) prepareOutputFile("--csv", o.csv, OutputWrite::Append);
+    if (!o.portFile.empty()) prepareOutputFile("--port-file", o.portFile);
     overrides.defaultLight = !noDefaultLight;
     Scene scene = loadScene(o.sceneName, overrides, sceneInput);
     for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());

@@ -170,11 +170,12 @@ TEST(Programs, ServerStartUpErrorsNameTheAddressAndTheFix) {
     EXPECT_NE(err.find("--listen no-such-host.invalid: expects an IP address or a host name that resolves"),
               std::string::npos)
         << err;
-    // A host name that resolves is accepted.
+    // A host name that resolves is accepted; the port file's missing folder is created, as every
+    // output's is (before: "cannot write .../port.tmp" once listening, after the scene loaded).
     Child first({binaryPath("server/rtpm-server"), "--insecure-no-token", "--listen", "localhost", "--port", "0",
-                 "--port-file", dir.file("port"), "--out", dir.file("a.exr")},
+                 "--port-file", dir.file("missing/folder/port"), "--out", dir.file("a.exr")},
                 dir.file("first"));
-    const uint16_t port = waitForPortFile(dir.file("port"), first, 60s);
+    const uint16_t port = waitForPortFile(dir.file("missing/folder/port"), first, 60s);
     ASSERT_NE(port, 0) << first.logs();
     // Its port is busy for a second server.
     const std::string p = std::to_string(port);
