@@ -90,6 +90,10 @@ void writeThroughTemporary(const std::string& path, const std::function<void(con
 
 ImageOutputPaths imageOutputPaths(const std::string& out) {
     std::filesystem::path p(out);
+    std::error_code ec;
+    if (!out.empty() && (out.back() == '/' || std::filesystem::is_directory(p, ec)))
+        throw OutputError("--out " + out + ": names a folder: give the image's file name in it, ending in .exr (or "
+                          ".png), e.g. " + (p / "image.exr").lexically_normal().string());
     std::string ext = p.extension().string();
     for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
     if (ext != ".exr" && ext != ".png")

@@ -172,6 +172,18 @@ TEST(ImageOutput, OutNamesAnExrAndAPngBesideItOrIsRefused) {
             EXPECT_NE(std::string(e.what()).find("ending in .exr"), std::string::npos) << e.what();
         }
     }
+    // A folder gets a file name in it as the example (before: "e.g. outdir/.exr").
+    const ScratchDir dir;
+    for (const std::string& given : {std::string("outdir/"), dir.path().string()}) {
+        try {
+            imageOutputPaths(given);
+            ADD_FAILURE() << given << " accepted";
+        } catch (const OutputError& e) {
+            const std::string example = (fs::path(given) / "image.exr").lexically_normal().string();
+            EXPECT_NE(std::string(e.what()).find("names a folder"), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("e.g. " + example), std::string::npos) << e.what();
+        }
+    }
 }
 
 TEST(ImageOutput, CsvOutputsGetTheirFolderAndAnUnappendableFileIsRefused) {
