@@ -186,7 +186,9 @@ int run(int argc, char** argv) {
     if (o.token.empty())
         if (const char* env = std::getenv("RTPM_TOKEN")) o.token = env;
     if (o.token.empty() && !o.insecureNoToken)
-        throw UsageError("no token: pass --token or set RTPM_TOKEN (or --insecure-no-token)");
+        throw UsageError("no token: set RTPM_TOKEN for the server and every client, e.g. "
+                         "export RTPM_TOKEN=$(openssl rand -hex 16) (--token works too but shows the token to other "
+                         "users of the machine), or --insecure-no-token on a trusted network");
     auto anim = server::parseAnimation(animate);
     if (!anim) throw UsageError("--animate must be orbit, light, ior or object, got '" + animate + "'");
     o.animation = *anim;

@@ -5,6 +5,7 @@
 
 #include <signal.h>
 
+#include <cstdlib>
 #include <regex>
 #include <string>
 #include <vector>
@@ -186,6 +187,14 @@ TEST(Programs, ServerStartUpErrorsNameTheAddressAndTheFix) {
               std::string::npos)
         << err;
     EXPECT_NE(err.find("or port 0 for any free one"), std::string::npos) << err;
+    // No token: how to make one, and that the environment is the place for it (before: "pass --token
+    // or set RTPM_TOKEN", the command line first, against the docs' advice).
+    ::unsetenv("RTPM_TOKEN");
+    EXPECT_EQ(run(dir, "server/rtpm-server", {"--port", "0", "--out", dir.file("c.exr")}, out, err), 2) << err;
+    EXPECT_NE(err.find("rtpm-server: no token: set RTPM_TOKEN for the server and every client, e.g. export "
+                       "RTPM_TOKEN=$(openssl rand -hex 16)"),
+              std::string::npos)
+        << err;
     first.signal(SIGTERM);
     EXPECT_TRUE(first.wait(30s)) << first.logs();
 }
