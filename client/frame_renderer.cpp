@@ -214,7 +214,8 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
         const Group& g = *groups_[gi];
         const bool empty = g.job->photons().stats(g.sets.front()).batches == 0;
         const FrameMode mode = fb.mode == proto::FrameMode::Walkthrough && empty ? FrameMode::Accumulate : frameMode;
-        FrameStats st = groups_[gi]->job->renderFrame(camera, mode, results[gi], fb.passBatches, &shared);
+        FrameStats st = groups_[gi]->job->renderFrame(camera, mode, results[gi], fb.passBatches, &shared,
+                                                      fb.passPeriod);
         photonMs += st.shootSeconds * 1e3;
         renderMs += st.eyeSeconds * 1e3;
         shot += st.pathsThisFrame;

@@ -128,6 +128,7 @@ void putPayload(Writer& w, const FrameBegin& m) {
     w.u8(static_cast<uint8_t>(m.mode));
     putSets(w, m.sets);
     w.u32(m.passBatches);
+    w.u32(m.passPeriod);
     w.u32(static_cast<uint32_t>(m.shared.size()));
     for (const SetShot& shot : m.shared) {
         w.u32(shot.set);
@@ -426,6 +427,8 @@ void get(Reader& r, FrameBegin& m) {
     getSets(r, m.sets, "frameBegin.sets");
     r.u32(m.passBatches);
     inRange(r, m.passBatches, 1, kMaxPassBatches, "frameBegin.passBatches");
+    r.u32(m.passPeriod);
+    inRange(r, m.passPeriod, 1, kMaxPassPeriod, "frameBegin.passPeriod");
     uint32_t n = 0;
     if (!r.count(n, kMaxSets, 12, "frameBegin.shared")) return;
     m.shared.resize(n);

@@ -35,6 +35,7 @@ inline constexpr uint32_t kMaxDiffuseBounces = 16;   ///< Settings.diffuseBounce
 inline constexpr uint32_t kMaxEditsPerScene = 65536; ///< Scene.edits
 inline constexpr uint32_t kMaxAreaLightSamples = 1024; ///< Settings.areaLightSamples
 inline constexpr uint32_t kMaxPassBatches = 1024;     ///< FrameBegin.passBatches
+inline constexpr uint32_t kMaxPassPeriod = 64;        ///< FrameBegin.passPeriod
 inline constexpr uint32_t kMaxSharedPhotons = 1u << 18;  ///< FrameBegin.shared, FrameData.shot (all photons)
 
 /// Three floats; the protocol's own vector type (proto/ does not depend on GLM).
@@ -231,6 +232,10 @@ struct FrameBegin {
     /// Batches each progressive pass of this frame shoots, in [1, kMaxPassBatches] (version 4:
     /// still views grow their passes to the master's frame-time budget).
     uint32_t passBatches = 1;
+    /// Version 6: in a Converging frame the sets take turns shooting, a set's pass shooting only
+    /// every passPeriod-th pass of its progression (common/render/pass_budget.h passShoots), in
+    /// [1, kMaxPassPeriod]; 1 in every other frame.
+    uint32_t passPeriod = 1;
     /// Version 5: every set's shot of frame `frame` − 2 (kSharedPhotonLag), for the progressive
     /// passes of this frame; empty when none may be binned (the camera moved, the scene changed).
     /// Ascending distinct sets, each with ≥ 1 photon; ≤ kMaxSharedPhotons photons in all.

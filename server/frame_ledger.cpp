@@ -19,12 +19,13 @@ void FrameLedger::start(TimePoint now) {
 }
 
 void FrameLedger::began(uint64_t frame, proto::FrameMode mode, uint32_t epoch, std::vector<ClientId> owners,
-                        uint32_t passBatches) {
+                        uint32_t passBatches, uint32_t passPeriod) {
     FrameInfo& info = frames_[frame];
     info.mode = mode;
     info.epoch = epoch;
     info.owners = std::move(owners);
     info.passBatches = passBatches;
+    info.passPeriod = passPeriod;
 }
 
 void FrameLedger::addData(proto::FrameData&& fd, size_t wireBytes) {
@@ -90,6 +91,7 @@ std::pair<OutputJob, ViewerFrame> FrameLedger::retire(const RetiredFrame& r, Tim
     // Only a frame every set arrived for says how the whole image stands.
     job.errorEstimate = r.missing.empty() ? causticErrorEstimate(error) : 0.0;
     job.passBatches = info.passBatches;
+    job.passPeriod = info.passPeriod;
     job.data = std::move(info.data);
     ViewerFrame shown{r.frame,        info.epoch, info.mode,  job.fps,    job.photonsPerSet, info.slowestStats,
                       info.slowest,   job.arrived, job.owners, passes == UINT32_MAX ? 0u : passes,

@@ -38,7 +38,7 @@ public:
 
     /// Frame `frame` began in `mode` of `epoch`, set s asked of owners[s].
     void began(uint64_t frame, proto::FrameMode mode, uint32_t epoch, std::vector<ClientId> owners,
-               uint32_t passBatches);
+               uint32_t passBatches, uint32_t passPeriod);
     /// Data of a frame in flight (already checked).
     void addData(proto::FrameData&& data, size_t wireBytes);
     /// What a client's Stats belonged to: the frame's mode and the sets the client was asked for.
@@ -71,6 +71,7 @@ private:
         proto::Stats slowestStats;
         std::vector<ClientId> owners;  // who was asked for each set
         uint32_t passBatches = 1;
+        uint32_t passPeriod = 1;
         std::vector<proto::FrameData> data;
     };
 

@@ -246,18 +246,21 @@ void FrameLoop::beginFrame(TimePoint now) {
                      (unsigned long long)f, share.c_str());
     }
     // A still view's passes grow to the frame-time budget; any other frame shoots one batch.
-    const uint32_t passBatches = plan.mode == proto::FrameMode::Converging ? passBudget_.batches() : 1u;
+    const bool converging = plan.mode == proto::FrameMode::Converging;
+    const uint32_t passBatches = converging ? passBudget_.batches() : 1u;
+    const uint32_t passPeriod = converging ? passBudget_.period() : 1u;
     // Every set's shot of two frames ago, for this frame's passes (photon_relay.h).
     relay_.began(f, plan.epoch, start->sceneVersion, setCount());
     const std::vector<proto::SetShot> shared = relay_.forwardFor(f, plan.mode == proto::FrameMode::Converging);
     for (auto& [id, sets] : plan.sets)
         registry.find(id)->connection->send(proto::FrameBegin{f, plan.epoch, start->sceneVersion, start->camera,
-                                                              plan.mode, std::move(sets), passBatches, shared});
+                                                              plan.mode, std::move(sets), passBatches, passPeriod,
+                                                              shared});
     // A joiner's first frame, without sets: nothing of it is rendered, so nothing is shared.
     for (ClientId id : plan.probes)
         registry.find(id)->connection->send(proto::FrameBegin{f, plan.epoch, start->sceneVersion, start->camera,
-                                                              plan.mode, {}, passBatches});
-    ledger_.began(f, plan.mode, plan.epoch, plan.owners, passBatches);
+                                                              plan.mode, {}, passBatches, passPeriod});
+    ledger_.began(f, plan.mode, plan.epoch, plan.owners, passBatches, passPeriod);
     // A frame whose cost the last ones do not predict waits the ceiling, and so does the last
     // frame of a finite run (it is the image written: nothing rendered may be cut short).
     const bool last = opt_.frames > 0 && f + 1 == static_cast<uint64_t>(opt_.frames);
@@ -286,7 +289,7 @@ void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
     // from FrameBegin to its last FrameData: with frames in flight that also holds the wait behind
     // the frame before, about twice the work, and the passes never grew.
     const double workMs = double(job.slowestPhotonMs) + double(job.slowestEyeMs) + double(job.slowestEncodeMs);
-    passBudget_.record(shown.mode == proto::FrameMode::Converging, workMs * 1e-3);
+    passBudget_.record(shown.mode == proto::FrameMode::Converging, workMs * 1e-3, double(job.slowestPhotonMs) * 1e-3);
     if (opt_.targetError > 0.0 && shown.mode == proto::FrameMode::Converging && job.errorEstimate > 0.0 &&
         job.errorEstimate <= opt_.targetError && !targetReached_ && state_ == State::Running) {
         // No new frame begins; the frames in flight finish and the last one shown is written

@@ -34,7 +34,7 @@ ImageOutput::ImageOutput(ImageOutputOptions options)
         if (fresh)
             std::fprintf(csv_, "frame,fps,photons_per_set,mode,bytes,slowest_client,slowest_ms,sets_arrived,"
                                "sets_total,deadline_hit,master_ms,slowest_photon_ms,slowest_eye_ms,"
-                               "slowest_encode_ms,est_error,pass_batches\n");
+                               "slowest_encode_ms,est_error,pass_batches,pass_period\n");
     }
     thread_ = std::thread([this] { io_.run(); });
 }
@@ -139,6 +139,9 @@ OutputResult ImageOutput::process(OutputJob& job) {
         if (job.passBatches > 1)
             std::snprintf(extra + std::strlen(extra), sizeof extra - std::strlen(extra), "  batches %u",
                           job.passBatches);
+        if (job.passPeriod > 1)
+            std::snprintf(extra + std::strlen(extra), sizeof extra - std::strlen(extra), "  sets shoot 1 pass in %u",
+                          job.passPeriod);
         std::printf("frame %5llu  %7.2f fps  %-11s  photons/set %10.0f  sets %3zu/%-3u  %8.2f MB  "
                     "slowest %s %.1f ms  master %.2f ms%s%s\n",
                     (unsigned long long)job.frame, job.fps, proto::frameModeName(job.mode), job.photonsPerSet,
@@ -153,11 +156,12 @@ OutputResult ImageOutput::process(OutputJob& job) {
         }
     }
     if (csv_) {
-        std::fprintf(csv_, "%llu,%.3f,%.1f,%s,%llu,%s,%.3f,%zu,%u,%d,%.3f,%.3f,%.3f,%.3f,%.5f,%u\n",
+        std::fprintf(csv_, "%llu,%.3f,%.1f,%s,%llu,%s,%.3f,%zu,%u,%d,%.3f,%.3f,%.3f,%.3f,%.5f,%u,%u\n",
                      (unsigned long long)job.frame, job.fps, job.photonsPerSet, proto::frameModeName(job.mode),
                      (unsigned long long)job.bytes, job.slowest.c_str(), job.slowestMs, job.arrived,
                      job.setCount, job.deadlineHit ? 1 : 0, result.masterMs, job.slowestPhotonMs,
-                     job.slowestEyeMs, job.slowestEncodeMs, job.errorEstimate, job.passBatches);
+                     job.slowestEyeMs, job.slowestEncodeMs, job.errorEstimate, job.passBatches,
+                     job.passPeriod);
         std::fflush(csv_);
     }
     return result;

@@ -189,7 +189,8 @@ int run(int argc, char** argv) {
     for (int f = 0; f < o.frames && gStopSignal == 0; ++f) {
         auto tf = Clock::now();
         const uint32_t passBatches = budget.batches();
-        FrameStats st = job.renderFrame(camera, pixels, passBatches);
+        const uint32_t passPeriod = budget.period();
+        FrameStats st = job.renderFrame(camera, pixels, passBatches, passPeriod);
         auto tfilter = Clock::now();
         for (const SetPixels& sp : pixels)
             scatterSet(image, pattern, sp);
@@ -199,7 +200,7 @@ int run(int argc, char** argv) {
         last = st;
         double filterMs = std::chrono::duration<double, std::milli>(tend - tfilter).count();
         double totalMs = std::chrono::duration<double, std::milli>(tend - tf).count();
-        budget.record(st.converging, totalMs * 1e-3);
+        budget.record(st.converging, totalMs * 1e-3, st.shootSeconds);
         const double estimate = causticErrorEstimate(st.error);
         uint64_t productive = 0;
         for (uint32_t s : sets) productive += job.photons().stats(s).productivePaths;
@@ -208,10 +209,14 @@ int run(int argc, char** argv) {
                            : st.pathsThisFrame ? (f == 0 ? "interaction" : "accumulate")
                                                : "walkthrough";
         progress.clear();
-        std::printf("%5d %-11s %9.1f %9.1f %9.2f %9.1f %11llu %11llu %6.1f%% %7u %9.4f\n", f, mode,
+        // Batches per set and pass, or "1/p" while the sets take turns shooting (pass_budget.h).
+        char work[16];
+        if (st.converging && passPeriod > 1) std::snprintf(work, sizeof work, "1/%u", passPeriod);
+        else std::snprintf(work, sizeof work, "%u", st.converging ? passBatches : 1u);
+        std::printf("%5d %-11s %9.1f %9.1f %9.2f %9.1f %11llu %11llu %6.1f%% %7s %9.4f\n", f, mode,
                     st.shootSeconds * 1e3, st.eyeSeconds * 1e3, filterMs, totalMs,
                     (unsigned long long)st.photonsStored, (unsigned long long)st.pathsTraced, yield * 100.0,
-                    st.converging ? passBatches : 1u, estimate);
+                    work, estimate);
         std::fflush(stdout);
         if (csv)
             std::fprintf(csv, "%d,%s,%.3f,%.3f,%.3f,%.3f,%llu,%llu\n", f, mode, st.shootSeconds * 1e3,

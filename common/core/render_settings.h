@@ -54,6 +54,8 @@ const char* photonTreeName(PhotonTree tree);
 /// the default 20 000 paths traces 20 M paths per set; the wire's FrameBegin.passBatches has the
 /// same limit).
 inline constexpr uint32_t kMaxPassBatches = 1024;
+/// Largest number of Converging frames between two passes of a set that shoot (PassBudget::period).
+inline constexpr uint32_t kMaxPassPeriod = 64;
 
 /// Upper bound of PhotonSettings::progressiveGamma (wire and flag limit alike).
 inline constexpr float kMaxProgressiveGamma = 16.0f;

@@ -160,7 +160,7 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
     compose(out, nonFinite);
 }
 
-void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set,
+void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, bool shot,
                           const SharedPhotons* shared, const AreaLightSampler& areaLights, std::span<PixelRadiance> out,
                           uint64_t& shadowRays, uint64_t& nonFinite) {
     RTPM_CHECK(valid_ && out.size() + 1 == records_.firstHit.size());
@@ -174,14 +174,14 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
             HitState& s = state_[h];
             found.clear();
             const float r2 = float(disc2(s.outer2, s.active));
-            maps.gatherPassPhotons(scene, set, e.hit, e.normal, r2, found);
+            if (shot) maps.gatherPassPhotons(scene, set, e.hit, e.normal, r2, found);
             if (shared && s.sharing) s.shared += float(maps.gatherSharedPhotons(scene, *shared, set, e.hit, e.normal, r2, found));
             addPhotons(s, found);
             if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, passes_, localRays));
         }
         rays += localRays;
     });
-    batches_ += double(maps.passBatches(set));
+    if (shot) batches_ += double(maps.passBatches(set));
     shadowRays += rays;
     compose(out, nonFinite);
 }

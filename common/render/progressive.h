@@ -155,12 +155,13 @@ public:
     /// Cost: one k-NN gather and one radius search per hit.
     void restart(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, const Camera& camera,
                  EyeRecords records, std::span<PixelRadiance> out);
-    /// One pass, after maps.shootPass(scene, set, b): bins the pass's photons per hit, and those
-    /// of every other set in `shared` (their shots of kSharedPhotonLag frames ago; may be null),
-    /// adds one area-light sample set per hit, and writes every pixel's current estimate to `out`.
-    /// Precondition: valid(). Adds the shadow rays cast to `shadowRays`; counts non-finite pixel
-    /// values (replaced by 0) in `nonFinite`.
-    void pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, const SharedPhotons* shared,
+    /// One pass, after maps.shootPass(scene, set, b) when `shot` (else the set shot nothing this
+    /// frame: its turn comes later, pass_budget.h passShoots): bins the pass's photons per hit
+    /// (when `shot`), and those of every other set in `shared` (their shots of kSharedPhotonLag
+    /// frames ago; may be null), adds one area-light sample set per hit, and writes every pixel's
+    /// current estimate to `out`. Precondition: valid(). Adds the shadow rays cast to
+    /// `shadowRays`; counts non-finite pixel values (replaced by 0) in `nonFinite`.
+    void pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, bool shot, const SharedPhotons* shared,
               const AreaLightSampler& areaLights, std::span<PixelRadiance> out, uint64_t& shadowRays,
               uint64_t& nonFinite);
 

@@ -11,6 +11,7 @@
 
 #include "common/core/check.h"
 #include "common/core/halton.h"
+#include "common/render/pass_budget.h"
 
 namespace rtpm {
 
@@ -64,17 +65,18 @@ RenderJob::RenderJob(Scene scene, const RenderSettings& settings, std::vector<ui
 
 RenderJob::~RenderJob() = default;
 
-FrameStats RenderJob::renderFrame(const Camera& camera, std::vector<SetPixels>& out, uint32_t passBatches) {
+FrameStats RenderJob::renderFrame(const Camera& camera, std::vector<SetPixels>& out, uint32_t passBatches,
+                                  uint32_t passPeriod) {
     FrameFacts facts;
     facts.epochStart = epochStart_;
     facts.cameraStill = lastCamera_ && sameCamera(*lastCamera_, camera);
     facts.progressive = settings_.photons.estimator == CausticEstimatorKind::Progressive;
-    return renderFrame(camera, decideFrameMode(facts), out, passBatches);
+    return renderFrame(camera, decideFrameMode(facts), out, passBatches, nullptr, passPeriod);
 }
 
 FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vector<SetPixels>& out,
-                                  uint32_t passBatches, const std::vector<SetPhotons>* shared) {
-    RTPM_CHECK(passBatches >= 1);
+                                  uint32_t passBatches, const std::vector<SetPhotons>* shared, uint32_t passPeriod) {
+    RTPM_CHECK(passBatches >= 1 && passPeriod >= 1);
     const EmbreeScene& embree = scene_->embree();
     FrameStats stats;
     const auto t0 = std::chrono::steady_clock::now();
@@ -89,20 +91,24 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     lastCamera_ = camera;
     epochStart_ = false;
     // A pass gathers at the progression's eye records: they must be of this very camera.
-    std::vector<uint8_t> converge(sets_.size(), 0);
+    // A pass shoots only on its set's turn (passShoots over the progression's pass count, which
+    // every process rendering the set counts alike).
+    std::vector<uint8_t> converge(sets_.size(), 0), passShot(sets_.size(), 0);
     for (size_t i = 0; i < sets_.size(); ++i) {
         if (moving) progressive_[i].invalidate();
         converge[i] = progressive && mode == FrameMode::Converging && progressive_[i].valid() &&
                       sameCamera(progressive_[i].camera(), camera);
+        passShot[i] = converge[i] && passShoots(progressive_[i].passes() + 1, sets_[i], uint32_t(pattern_.setCount()),
+                                                passPeriod);
     }
     // Sets shoot and insert concurrently (a batch's tracing is parallel inside, its kd-tree
     // insertion is not: with several sets per process both cores stay busy through insertion).
     // Each set's photons depend only on its own sequence, so the maps are the same in any order.
     if (shoot) photons_->prepare(embree);
     tbb::parallel_for(size_t(0), sets_.size(), [&](size_t i) {
-        if (converge[i])
-            photons_->shootPass(embree, sets_[i], passBatches);
-        else if (shoot)
+        if (converge[i]) {
+            if (passShot[i]) photons_->shootPass(embree, sets_[i], passBatches);
+        } else if (shoot)
             photons_->shootBatch(embree, sets_[i]);  // flushes the ended progression's passes
         else
             photons_->flushPasses(sets_[i]);
@@ -125,7 +131,8 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
         out[i].pixels.resize(size_t(pattern_.pixelCount(set)));
         if (converge[i]) {
             if (!areaLights_) areaLights_ = std::make_unique<AreaLightSampler>(embree, settings_.eye);
-            progressive_[i].pass(embree, *photons_, sets_[i], sharedIndex.empty() ? nullptr : &sharedIndex,
+            progressive_[i].pass(embree, *photons_, sets_[i], passShot[i] != 0,
+                                 sharedIndex.empty() ? nullptr : &sharedIndex,
                                  *areaLights_, out[i].pixels,
                                  stats.eye.shadowRays, stats.eye.nonFinite);
         } else if (moving) {

@@ -83,17 +83,22 @@ public:
     /// from a record-mode eye pass and the accumulated map. The knn estimator has no passes:
     /// Converging shoots a batch as Accumulate does.
     /// `passBatches` (≥ 1): batches a progressive pass shoots (PassBudget); other frames shoot one.
+    /// `passPeriod` (≥ 1): the sets take turns, a pass shooting only every passPeriod-th pass of
+    /// its progression (passShoots; PassBudget::period); a pass whose set does not shoot bins
+    /// only the other sets' shared photons.
     /// A pass also bins every other set's shot of kSharedPhotonLag frames ago: `shared` when
     /// given (a cluster client: what the master forwarded, any sets), else the job's own record
     /// of its sets' shots (every set, in rtpm-render). Either must hold only photons shot since
     /// the last edit or reset.
     FrameStats renderFrame(const Camera& camera, FrameMode mode, std::vector<SetPixels>& out,
-                           uint32_t passBatches = 1, const std::vector<SetPhotons>* shared = nullptr);
+                           uint32_t passBatches = 1, const std::vector<SetPhotons>* shared = nullptr,
+                           uint32_t passPeriod = 1);
     /// The next frame without a master (rtpm-render, tests): the mode is decideFrameMode's over
     /// this job's own frames — the first one, and the first after applyEdit or resetPhotons, start
     /// an epoch; a camera equal to the previous frame's is still; walkthrough is never asked. Its
     /// passes bin the job's own record of its sets' shots.
-    FrameStats renderFrame(const Camera& camera, std::vector<SetPixels>& out, uint32_t passBatches = 1);
+    FrameStats renderFrame(const Camera& camera, std::vector<SetPixels>& out, uint32_t passBatches = 1,
+                           uint32_t passPeriod = 1);
 
     /// Applies an edit to the scene (RenderScene::applyEdit: throws SceneError if the index or a
     /// value is invalid; nothing changes then) and resets the photon maps. Other jobs sharing the

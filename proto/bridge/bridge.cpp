@@ -23,6 +23,7 @@ static_assert(sizeof(Vec3) == 3 * sizeof(float), "Vec3 is three packed floats");
 static_assert(sizeof(PixelRadiance) == 6 * sizeof(float), "PixelRadiance is six packed floats");
 static_assert(offsetof(PixelRadiance, caustic) == 3 * sizeof(float), "caustic follows direct");
 static_assert(proto::kMaxPassBatches == kMaxPassBatches, "one limit for a pass's batches");
+static_assert(proto::kMaxPassPeriod == kMaxPassPeriod, "one limit for the sets' turns");
 
 proto::Vec3f toWire(Vec3 v) { return {v.x, v.y, v.z}; }
 Vec3 fromWire(proto::Vec3f v) { return {v.x, v.y, v.z}; }

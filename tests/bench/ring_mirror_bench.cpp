@@ -139,17 +139,19 @@ int converge(const Options& o) {
     std::printf("%6s %9s %9s %9s %8s %10s %9s %7s\n", "frame", "wall_s", "cpu_s", "rel_mae", "energy", "stored",
                 "estimate", "batches");
     PassBudget budget(o.budgetMs * 1e-3);
-    uint64_t batchesShot = 0;
+    double batchesShot = 0.0;  ///< per set: a pass taking turns shoots 1 / period of a batch on average
     const bool moving = o.estimator == "moving";
     Camera nudged = camera;
     nudged.position.y = std::nextafter(nudged.position.y, 1e9f);
     if (moving) job.renderFrame(nudged, FrameMode::Walkthrough, pixels);  // no photons yet: the next frame moves
     for (int f = 1; f <= o.frames; ++f) {
         const auto tf = std::chrono::steady_clock::now();
-        const uint32_t passBatches = budget.batches();
-        const FrameStats st = job.renderFrame(moving && f % 2 == 0 ? nudged : camera, pixels, passBatches);
-        budget.record(st.converging, std::chrono::duration<double>(std::chrono::steady_clock::now() - tf).count());
-        batchesShot += st.converging ? passBatches : 1;
+        const uint32_t passBatches = budget.batches(), passPeriod = budget.period();
+        const FrameStats st = job.renderFrame(moving && f % 2 == 0 ? nudged : camera, pixels, passBatches,
+                                              passPeriod);
+        budget.record(st.converging, std::chrono::duration<double>(std::chrono::steady_clock::now() - tf).count(),
+                      st.shootSeconds);
+        batchesShot += st.converging ? double(passBatches) / double(passPeriod) : 1.0;
         const bool last = f == o.frames ||
                           (o.seconds > 0.0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= o.seconds);
         for (const SetPixels& sp : pixels)
@@ -161,8 +163,8 @@ int converge(const Options& o) {
         const double cpu = cpuSeconds() - cpu0;
         const Score s = score(image.causticFiltered(), ref, mask, rs.width, rs.height);
         const double estimate = causticErrorEstimate(st.error);
-        std::printf("%6d %9.2f %9.2f %9.4f %8.4f %10llu %9.4f %7llu\n", f, wall, cpu, s.relMae, s.energy,
-                    (unsigned long long)st.photonsStored, estimate, (unsigned long long)batchesShot);
+        std::printf("%6d %9.2f %9.2f %9.4f %8.4f %10llu %9.4f %7.1f\n", f, wall, cpu, s.relMae, s.energy,
+                    (unsigned long long)st.photonsStored, estimate, batchesShot);
         std::fflush(stdout);
         if (csv)
             std::fprintf(csv, "%s,%u,%d,%.3f,%.3f,%.5f,%.5f,%.5f\n", o.estimator.c_str(), o.photons, f, wall,

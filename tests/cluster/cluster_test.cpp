@@ -32,7 +32,7 @@ const std::string kToken = "5f2c8d0a9b7e4c1f3a6d8e2b0c9f7a14";  // `openssl rand
 struct RunSettings {
     std::string scene = "RING";
     int width = 96, height = 72, m = 3, frames = 3, photons = 2000;
-    int budgetMs = 0;                ///< --frame-budget-ms
+    double budgetMs = 0.0;           ///< --frame-budget-ms
     std::vector<std::string> extra;  ///< more shared flags
 
     /// Flags that rtpm-render and rtpm-server share (README: "The main ones, shared by rtpm-server").
@@ -267,8 +267,9 @@ TEST(ClusterStillPasses, GrowToTheFrameBudget) {
         std::vector<std::string> cols;
         std::stringstream row(line);
         for (std::string col; std::getline(row, col, ',');) cols.push_back(col);
-        ASSERT_EQ(cols.size(), 16u) << line;
+        ASSERT_EQ(cols.size(), 17u) << line;
         batches.push_back(uint32_t(std::stoul(cols[15])));
+        EXPECT_EQ(cols[16], "1") << "fast frames never take turns: " << line;
         if (cols[3] == "converging") {
             EXPECT_GT(std::stod(cols[14]), 0.0) << "no error estimate: " << line;
         }
@@ -277,6 +278,44 @@ TEST(ClusterStillPasses, GrowToTheFrameBudget) {
     EXPECT_EQ(batches.front(), 1u) << "the first frame is a restart: one batch";
     for (size_t f = 1; f < batches.size(); ++f) EXPECT_GE(batches[f], batches[f - 1]) << "frame " << f;
     EXPECT_GE(batches.back(), 8u) << c.logs();
+}
+
+// A budget every frame exceeds (1 µs) and batches whose shooting is most of a frame (many paths
+// for a tiny image): passes stay at one batch and the sets take turns, the period doubling turn
+// by turn (PassBudget; the CSV's pass_period), while the frames still converge: every
+// converging frame reports an error estimate.
+TEST(ClusterStillPasses, SetsTakeTurnsWhenOneBatchExceedsTheBudget) {
+    RunSettings rs;
+    rs.frames = 12;
+    rs.photons = 100000;
+    rs.width = 48;
+    rs.height = 36;
+    rs.budgetMs = 0.001;
+    Cluster c;
+    c.startServer(rs, 2, "float32", {"--csv", c.dir.file("frames.csv")});
+    c.startClient();
+    c.startClient();
+    c.expectServerFinishes();
+    std::ifstream csv(c.dir.file("frames.csv"));
+    std::string line;
+    ASSERT_TRUE(std::getline(csv, line));
+    EXPECT_NE(line.find(",pass_batches,pass_period"), std::string::npos) << line;
+    std::vector<uint32_t> periods;
+    while (std::getline(csv, line)) {
+        std::vector<std::string> cols;
+        std::stringstream row(line);
+        for (std::string col; std::getline(row, col, ',');) cols.push_back(col);
+        ASSERT_EQ(cols.size(), 17u) << line;
+        EXPECT_EQ(cols[15], "1") << line;
+        periods.push_back(uint32_t(std::stoul(cols[16])));
+        if (cols[3] == "converging") {
+            EXPECT_GT(std::stod(cols[14]), 0.0) << "no error estimate: " << line;
+        }
+    }
+    ASSERT_EQ(periods.size(), size_t(rs.frames));
+    EXPECT_EQ(periods.front(), 1u) << "the first frame is a restart";
+    for (size_t f = 1; f < periods.size(); ++f) EXPECT_GE(periods[f], periods[f - 1]) << "frame " << f;
+    EXPECT_GE(periods.back(), 8u) << c.logs();
 }
 
 // Every setting that reaches the clients through Settings, away from its default, must reach

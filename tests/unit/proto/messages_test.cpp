@@ -55,17 +55,17 @@ TEST(Messages, HelloGoldenBytes) {
     auto bytes = encode(Hello{5, 8, "c1"});
     EXPECT_EQ(hex(bytes),
               "5254504d"   // magic 'RTPM'
-              "0500"       // version 5
+              "0600"       // version 6
               "0100"       // type Hello
               "00000000"   // flags
               "0c000000"   // payload 12 bytes
-              "0500"       // protocolVersion 5
+              "0500"       // protocolVersion 5 (the value given)
               "08000000"   // cores 8
               "020000006331");  // "c1"
 }
 
 TEST(Messages, HeartbeatIsABareHeaderAndRefusesAnyPayload) {
-    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0500" "0d00" "00000000" "00000000");
+    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0600" "0d00" "00000000" "00000000");
     EXPECT_FALSE(decodePayload(MessageType::Heartbeat, std::vector<uint8_t>{0}).ok());
 }
 
@@ -81,11 +81,11 @@ TEST(Messages, OnlyBusyRefusalsAreTransient) {
 TEST(Messages, ChallengeAndAuthGoldenBytes) {
     Challenge c;
     for (size_t i = 0; i < c.nonce.size(); ++i) c.nonce[i] = uint8_t(i);
-    EXPECT_EQ(hex(encode(c)), "5254504d05000b0000000000" "20000000"  // type 11, payload 32
+    EXPECT_EQ(hex(encode(c)), "5254504d06000b0000000000" "20000000"  // type 11, payload 32
                               "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f");
     Auth a;
     a.mac.fill(0xab);
-    EXPECT_EQ(hex(encode(a)).substr(0, 32), "5254504d05000c000000000020000000");  // type 12, payload 32
+    EXPECT_EQ(hex(encode(a)).substr(0, 32), "5254504d06000c000000000020000000");  // type 12, payload 32
 }
 
 TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
@@ -134,7 +134,7 @@ TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
 TEST(Messages, FrameBeginGoldenBytes) {
     FrameBegin fb{5, 2, 3, {{1, 2, 3}, {0, 0, -1}, {0, 1, 0}, 0.5f}, FrameMode::Accumulate, {0, 7}};
     EXPECT_EQ(hex(encode(fb)),
-              "5254504d05000600" "00000000" "4d000000"  // header v5, type 6, payload 77 bytes
+              "5254504d06000600" "00000000" "51000000"  // header v6, type 6, payload 81 bytes
               "0500000000000000"                        // frame 5
               "02000000" "03000000"                     // epoch 2, sceneVersion 3
               "0000803f" "00000040" "00004040"          // position (1, 2, 3)
@@ -144,6 +144,7 @@ TEST(Messages, FrameBeginGoldenBytes) {
               "01"                                      // mode Accumulate
               "02000000" "00000000" "07000000"          // sets [0, 7]
               "01000000"                                // passBatches 1
+              "01000000"                                // passPeriod 1
               "00000000");                              // no shared photons
 }
 
@@ -227,7 +228,7 @@ TEST(Messages, FrameDataClaimingTwoBillionPixelsInTenBytesIsRejected) {
 }
 
 // Version 4: the own weights are absent or one byte per pixel, the error figures finite and ≥ 0,
-// passBatches within [1, kMaxPassBatches].
+// passBatches within [1, kMaxPassBatches]; version 6: passPeriod within [1, kMaxPassPeriod].
 TEST(Messages, ProgressiveFieldsAreValidated) {
     auto reject = [](const Message& m, ErrorCode code) {
         auto r = decodeMessage(encode(m));
@@ -264,6 +265,15 @@ TEST(Messages, ProgressiveFieldsAreValidated) {
     reject(fb, ErrorCode::BadValue);
     fb.passBatches = kMaxPassBatches + 1;
     reject(fb, ErrorCode::BadValue);
+    fb.passBatches = 1;
+    fb.passPeriod = 0;
+    reject(fb, ErrorCode::BadValue);
+    fb.passPeriod = kMaxPassPeriod + 1;
+    reject(fb, ErrorCode::BadValue);
+    fb.passPeriod = kMaxPassPeriod;
+    auto turns = decodeMessage(encode(fb));
+    ASSERT_TRUE(turns.ok()) << turns.error().message;
+    EXPECT_EQ(std::get<FrameBegin>(*turns).passPeriod, kMaxPassPeriod);
 }
 
 TEST(Messages, HostileSetCountIsRejectedBeforeAllocating) {

@@ -98,24 +98,97 @@ TEST(ProgressiveChoose, TheCapCountsPhotonsNotPasses) {
 TEST(PassBudget, GrowsWhileStillAndFastAndResetsOnMotion) {
     PassBudget b(0.2);
     EXPECT_EQ(b.batches(), 1u);
-    b.record(true, 0.05);
+    b.record(true, 0.05, 0.0);
     EXPECT_EQ(b.batches(), 2u);
-    b.record(true, 0.05);
+    b.record(true, 0.05, 0.0);
     EXPECT_EQ(b.batches(), 4u);
-    b.record(true, 0.15);  // within the budget but above half: holds
+    b.record(true, 0.15, 0.0);  // within the budget but above half: holds
     EXPECT_EQ(b.batches(), 4u);
-    b.record(true, 0.3);  // over the budget: halves
+    b.record(true, 0.3, 0.0);  // over the budget: halves
     EXPECT_EQ(b.batches(), 2u);
-    b.record(false, 0.01);  // the view moved
+    b.record(false, 0.01, 0.0);  // the view moved
     EXPECT_EQ(b.batches(), 1u);
-    for (int i = 0; i < 40; ++i) b.record(true, 0.0);
+    for (int i = 0; i < 40; ++i) b.record(true, 0.0, 0.0);
     EXPECT_EQ(b.batches(), kMaxPassBatches);
 }
 
 TEST(PassBudget, ZeroBudgetKeepsOneBatch) {
     PassBudget b(0.0);
-    for (int i = 0; i < 10; ++i) b.record(true, 0.0);
+    for (int i = 0; i < 10; ++i) b.record(true, 0.0, 0.0);
     EXPECT_EQ(b.batches(), 1u);
+    for (int i = 0; i < 10; ++i) b.record(true, 10.0, 0.0);
+    EXPECT_EQ(b.batches(), 1u);
+    EXPECT_EQ(b.period(), 1u);
+}
+
+TEST(PassBudget, SetsTakeTurnsWhenOneBatchPerSetExceedsTheBudget) {
+    // One batch per set costs 1 s against a 0.2 s budget: the sets take turns, every 2nd, 4th,
+    // then 8th frame, until a turn fits; each decision takes the mean frame time of one whole
+    // turn (a frame's cost depends on whose turn it is). Fast turns first shorten the turns,
+    // then grow the passes.
+    PassBudget b(0.2);
+    b.record(true, 1.0, 1.0);
+    EXPECT_EQ(b.batches(), 1u);
+    EXPECT_EQ(b.period(), 2u);
+    b.record(true, 0.9, 0.9);
+    EXPECT_EQ(b.period(), 2u) << "half a turn decides nothing";
+    b.record(true, 0.1, 0.1);  // mean 0.5 s over the turn
+    EXPECT_EQ(b.period(), 4u);
+    for (double t : {0.5, 0.0, 0.5, 0.0}) b.record(true, t, t);  // mean 0.25 s
+    EXPECT_EQ(b.period(), 8u);
+    for (int i = 0; i < 8; ++i) b.record(true, i % 2 ? 0.05 : 0.2, i % 2 ? 0.05 : 0.2);  // mean 0.125 s: within the budget
+    EXPECT_EQ(b.period(), 8u);
+    for (int i = 0; i < 8; ++i) b.record(true, 0.05, 0.05);
+    EXPECT_EQ(b.period(), 4u);
+    for (int i = 0; i < 4 + 2; ++i) b.record(true, 0.05, 0.05);  // a turn of 4 frames, then one of 2
+    EXPECT_EQ(b.period(), 1u);
+    EXPECT_EQ(b.batches(), 1u);
+    b.record(true, 0.05, 0.05);
+    EXPECT_EQ(b.batches(), 2u);
+    for (int i = 0; i < 400; ++i) b.record(true, 5.0, 5.0);
+    EXPECT_EQ(b.batches(), 1u);
+    EXPECT_EQ(b.period(), kMaxPassPeriod);
+    b.record(false, 5.0, 5.0);  // the view moved
+    EXPECT_EQ(b.period(), 1u);
+}
+
+TEST(PassBudget, FramesTheEyePassDominatesNeverTakeTurns) {
+    // 1 s frames of which 0.1 s shoots (a large image of a scene with cheap photon paths): fewer
+    // photons would barely shorten them, so every set keeps shooting every pass.
+    PassBudget b(0.2);
+    for (int i = 0; i < 10; ++i) b.record(true, 1.0, 0.1);
+    EXPECT_EQ(b.batches(), 1u);
+    EXPECT_EQ(b.period(), 1u);
+    b.record(true, 1.0, 0.6);
+    EXPECT_EQ(b.period(), 2u) << "shooting is most of this one";
+}
+
+TEST(PassBudget, TakingTurnsEverySetShootsOncePerPeriod) {
+    for (uint32_t period : {1u, 2u, 3u, 4u, 8u, 16u, 64u}) {
+        for (uint32_t set = 0; set < 9; ++set) {
+            int shots = 0;
+            for (uint64_t pass = 100; pass < 100 + period; ++pass) shots += passShoots(pass, set, 9, period) ? 1 : 0;
+            EXPECT_EQ(shots, 1) << "set " << set << ", period " << period;
+        }
+        // A pass's shooting sets: about 9 / period of the nine, never all of them but with period 1.
+        int shooting = 0;
+        for (uint32_t set = 0; set < 9; ++set) shooting += passShoots(7, set, 9, period) ? 1 : 0;
+        if (period > 1) EXPECT_LT(shooting, 9);
+    }
+}
+
+TEST(PassBudget, TakingTurnsSpreadsAPassesShootingOverRoundRobinClients) {
+    // Two clients get the nine sets round robin (even ids, odd ids). With turns of 2 or 4 passes
+    // every pass that shoots more than one set shoots on both clients.
+    for (uint32_t period : {2u, 4u}) {
+        for (uint64_t pass = 1; pass <= period; ++pass) {
+            int even = 0, odd = 0;
+            for (uint32_t set = 0; set < 9; ++set)
+                if (passShoots(pass, set, 9, period)) ++(set % 2 ? odd : even);
+            EXPECT_GT(even, 0) << "period " << period << ", pass " << pass;
+            EXPECT_GT(odd, 0) << "period " << period << ", pass " << pass;
+        }
+    }
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "common/render/pass_budget.h"
 #include "common/render/render_job.h"
 #include "common/scene/builtin_scenes.h"
 
@@ -75,6 +76,60 @@ TEST(SharedPhotons, TwoJobsHandedEveryShotComputeWhatOneJobComputes) {
         }
     }
     EXPECT_TRUE(differed) << "the other sets' photons never changed a pixel";
+}
+
+// A still view whose one batch per set costs more than the frame budget: the sets take turns
+// shooting (PassBudget::period), every pass still bins the others' shots, and two jobs handed the
+// shots compute what one job computes. Period 3 over 4 sets: a frame's passes shoot for one or
+// two sets, each set on every 3rd pass, and the pixels of a pass that did not shoot still change
+// once the others' photons arrive.
+TEST(SharedPhotons, SetsTakingTurnsShootLessAndStillMatchOneJob) {
+    const RenderSettings rs = smallRing();
+    const Scene scene = buildRingScene();
+    const Camera camera = *scene.camera;
+    constexpr uint32_t kPeriod = 3;
+    RenderJob all(scene, rs, {0, 1, 2, 3}), everyFrame(scene, rs, {0, 1, 2, 3});
+    RenderJob first(scene, rs, {0, 2}), second(scene, rs, {1, 3});
+    std::vector<std::vector<SetPhotons>> shots;
+    const std::vector<SetPhotons> none;
+    std::vector<SetPixels> previous;
+    bool changedWithoutShooting = false;
+    for (int f = 0; f < 8; ++f) {
+        std::vector<SetPixels> a, b, c, e;
+        const std::vector<SetPhotons>& shared = f >= int(kSharedPhotonLag) ? shots[size_t(f) - kSharedPhotonLag] : none;
+        FrameFacts facts;
+        facts.epochStart = f == 0;
+        facts.cameraStill = f > 0;
+        facts.progressive = true;
+        const FrameMode mode = decideFrameMode(facts);
+        const FrameStats st = all.renderFrame(camera, a, 1, kPeriod);
+        const FrameStats full = everyFrame.renderFrame(camera, e, 1, 1);
+        first.renderFrame(camera, mode, b, 1, &shared, kPeriod);
+        second.renderFrame(camera, mode, c, 1, &shared, kPeriod);
+        std::vector<SetPhotons>& frame = shots.emplace_back();
+        for (const auto* part : {&b, &c})
+            for (const SetPixels& p : *part)
+                if (p.shot.batches > 0) frame.push_back(p.shot);
+        if (f == 0) {
+            EXPECT_EQ(frame.size(), 4u) << "the restart shoots a batch for every set";
+            EXPECT_EQ(st.pathsThisFrame, full.pathsThisFrame);
+        } else {
+            // Pass t shoots the group g = ⌊3s/4⌋ with (t + g) mod 3 = 0: sets {0, 1}, {2} or {3}.
+            size_t expected = 0;
+            for (uint32_t set = 0; set < 4; ++set) expected += passShoots(uint64_t(f), set, 4, kPeriod) ? 1 : 0;
+            EXPECT_EQ(frame.size(), expected) << "frame " << f;
+            EXPECT_LT(st.pathsThisFrame, full.pathsThisFrame) << "frame " << f;
+        }
+        for (const SetPixels& p : a) {
+            const SetPixels& q = (p.set % 2 == 0 ? b : c)[size_t(p.set / 2)];
+            EXPECT_TRUE(samePixels(p, q)) << "set " << p.set << " frame " << f;
+            EXPECT_TRUE(sameShot(p.shot, q.shot)) << "set " << p.set << " frame " << f;
+            if (f > int(kSharedPhotonLag) && p.shot.batches == 0 && !samePixels(p, previous[size_t(p.set)]))
+                changedWithoutShooting = true;
+        }
+        previous = a;
+    }
+    EXPECT_TRUE(changedWithoutShooting) << "a pass that did not shoot never took the others' photons";
 }
 
 TEST(SharedPhotons, ASetsShareIsCappedAtWholeBatches) {
