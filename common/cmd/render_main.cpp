@@ -76,31 +76,46 @@ int run(int argc, char** argv) {
                    "frames to render; every frame adds one photon batch per set until the cap "
                    "(accumulation), the last frame is written")
         ->capture_default_str()
-        ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+        ->check(CLI::Range(1, std::numeric_limits<int>::max()))
+        ->group("output");
     app.add_option("--out", o.out,
                    "output image NAME.exr or NAME.png: both NAME.exr (every layer, linear) and NAME.png "
-                   "(tone-mapped) are written (default out/<scene>.exr)");
+                   "(tone-mapped) are written (default out/<scene>.exr)")
+        ->group("output");
     app.add_option("--threads", o.threads, "worker threads (0 = all cores)")
         ->capture_default_str()
         ->check(CLI::Range(0, 4096));
-    app.add_option("--camera-eye", o.eye, "camera position x y z (overrides the scene camera)")->expected(3);
-    app.add_option("--camera-target", o.target, "camera target x y z")->expected(3);
-    app.add_option("--camera-yfov", o.yfov, "vertical field of view in radians (with --camera-eye)");
-    app.add_option("--light", o.lightPos, "add a point light at x y z (OBJ files carry no lights)")->expected(3);
-    app.add_option("--light-intensity", o.lightIntensity, "intensity of --light in W/sr")->capture_default_str();
-    auto* exp = app.add_option("--exposure", o.exposure, "PNG exposure in stops (default: automatic)");
-    app.add_option("--export-glb", o.exportGlb, "write the scene as a .glb file and exit");
+    app.add_option("--camera-eye", o.eye, "camera position x y z (overrides the scene camera)")
+        ->expected(3)
+        ->group("scene");
+    app.add_option("--camera-target", o.target, "camera target x y z")->expected(3)->group("scene");
+    app.add_option("--camera-yfov", o.yfov, "vertical field of view in radians (with --camera-eye)")->group("scene");
+    app.add_option("--light", o.lightPos, "add a point light at x y z (OBJ files carry no lights)")
+        ->expected(3)
+        ->group("scene");
+    app.add_option("--light-intensity", o.lightIntensity, "intensity of --light in W/sr")
+        ->capture_default_str()
+        ->group("scene");
+    auto* exp = app.add_option("--exposure", o.exposure, "PNG exposure in stops (default: automatic)")->group("output");
+    app.add_option("--export-glb", o.exportGlb, "write the scene as a .glb file and exit")->group("output");
     app.add_option("--save-every", o.saveEvery,
                    "also write every n-th frame as <out>_<frame>.exr/.png, as rtpm-server does (0 = off)")
         ->capture_default_str()
-        ->check(CLI::NonNegativeNumber);
-    app.add_option("--csv", o.csv, "append one line of figures per frame to this CSV file");
+        ->check(CLI::NonNegativeNumber)
+        ->group("output");
+    app.add_option("--csv", o.csv, "append one line of figures per frame to this CSV file")->group("output");
     addStandardFlags(app, proto::kProtocolVersion,
                      {{0, "the image was written"},
                       {1, "the scene or an output cannot be used (refused before rendering), or writing failed"},
                       {130, "stopped by SIGINT (Ctrl-C): the frame in flight was finished and the image so far "
                             "written"},
-                      {143, "stopped by SIGTERM, as for SIGINT"}});
+                      {143, "stopped by SIGTERM, as for SIGINT"}},
+                     {{"rtpm-render --scene RING --frames 16 --out out/ring.exr",
+                       "16 frames of the built-in RING at 640x480: out/ring.exr (linear layers) and out/ring.png"},
+                      {"rtpm-render --scene model.glb --width 1280 --height 720 --frames 1000 --target-error 0.02",
+                       "a glTF file until the caustic's estimated error is 2 % (at most 1000 frames)"},
+                      {"rtpm-render --scene GLASS --estimator knn --csv out/glass.csv",
+                       "the paper's k-NN estimator, with one line of figures per frame in out/glass.csv"}});
     if (auto code = parseCommandLine(app, argc, argv)) return *code;
     o.exposureSet = exp->count() > 0;
     rs.photons.selective = !o.plain;

@@ -55,11 +55,9 @@ TEST(Programs, HelpListsTheExitCodesExamplesAndRangesInWords) {
         EXPECT_EQ(run(dir, rel, {"--help"}, out, err), 0) << rel << "\n" << err;
         EXPECT_NE(out.find("Exit codes:\n  0  "), std::string::npos) << out;
         EXPECT_NE(out.find("\n  2  usage error"), std::string::npos) << out;
-        if (rel != std::string("common/cmd/rtpm-render")) {
-            const size_t examples = out.find("\n\nExamples:\n  ");
-            ASSERT_NE(examples, std::string::npos) << out;
-            EXPECT_NE(out.find(programName(rel) + " --", examples), std::string::npos) << out;
-        }
+        const size_t examples = out.find("\n\nExamples:\n  ");
+        ASSERT_NE(examples, std::string::npos) << out;
+        EXPECT_NE(out.find(programName(rel) + " --", examples), std::string::npos) << out;
         EXPECT_EQ(out.find(" in ["), std::string::npos) << out;
         EXPECT_EQ(out.find("NONNEGATIVE"), std::string::npos) << out;
     }
@@ -70,6 +68,29 @@ TEST(Programs, HelpListsTheExitCodesExamplesAndRangesInWords) {
     ASSERT_EQ(run(dir, "client/rtpm-client", {"--help"}, out, err), 0) << err;
     EXPECT_NE(out.find("--name TEXT "), std::string::npos) << out;  // no "=HOST/<pid of --help>"
     EXPECT_NE(out.find("(default: HOST/PID)"), std::string::npos) << out;
+}
+
+// The renderers' --help lists its flags in groups, in this order (before: rtpm-render's own flags,
+// --frames, --out, --csv, the camera and the light among them, stood in one flat list).
+TEST(Programs, HelpGroupsTheFlags) {
+    TempDir dir;
+    const std::pair<const char*, std::vector<std::string>> programs[] = {
+        {"server/rtpm-server", {"scene", "image", "photons", "estimator", "cluster", "viewer", "security", "output"}},
+        {"common/cmd/rtpm-render", {"scene", "image", "photons", "estimator", "output"}}};
+    for (const auto& [rel, groups] : programs) {
+        std::string out, err;
+        ASSERT_EQ(run(dir, rel, {"--help"}, out, err), 0) << err;
+        size_t at = 0;
+        for (const std::string& group : groups) {
+            const size_t found = out.find("\n" + group + ":\n", at);
+            ASSERT_NE(found, std::string::npos) << rel << ": no group '" << group << "' after offset " << at << "\n" << out;
+            at = found + 1;
+        }
+        // Only --help, --version and flags of no group stand before the first group.
+        const std::string head = out.substr(0, out.find("\n" + groups.front() + ":\n"));
+        for (const char* flag : {"--frames", "--out ", "--csv", "--camera-eye", "--light "})
+            EXPECT_EQ(head.find(flag), std::string::npos) << rel << ": " << flag << " outside its group\n" << head;
+    }
 }
 
 TEST(Programs, AMistypedFlagExitsTwoWithTheFlagMeant) {
