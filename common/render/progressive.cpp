@@ -57,17 +57,37 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
     for (int i = 0; i < 2; ++i) {
         lo[i] = -std::numeric_limits<double>::infinity();
         hi[i] = std::numeric_limits<double>::infinity();
-        out[i] = Choice{active, glm::dvec3(0.0), 0.0};
+        out[i] = Choice{active, kDiscScale[size_t(active)], glm::dvec3(0.0), 0.0};
     }
     double previous = 0.0, previousCount = 0.0;  // E and n of the last disc walked
+    double previousDrift = 0.0;                  // and its blur (Choice::drift)
     for (int j = kRadiusBins - 1; j >= active && (open[0] || open[1]); --j) {
         const double scale = 1.0 / kDiscScale[size_t(j)];
-        power += glm::dvec3(rings.power[3 * j], rings.power[3 * j + 1], rings.power[3 * j + 2]);
+        const glm::dvec3 ring(rings.power[3 * j], rings.power[3 * j + 1], rings.power[3 * j + 2]);
+        if (any && count + rings.count[j] > maxCount) {
+            // The cap ends the walk inside ring j: the disc holding exactly maxCount photons, the
+            // ring's photons taken as spread evenly over its area, if the rule still admits it.
+            const double a = (maxCount - count) / double(rings.count[j]);
+            const double inner = kDiscScale[size_t(j + 1)];
+            const double scaleA = inner + a * (kDiscScale[size_t(j)] - inner);
+            const glm::dvec3 p = power + a * ring;
+            const double e = luminance(p) / scaleA;
+            const double sd = e / std::sqrt(maxCount);
+            for (int i = 0; i < 2 && a > 0.0; ++i) {
+                if (!open[i]) continue;
+                if (std::max(lo[i], e - gamma * noiseScale[i] * sd) > std::min(hi[i], e + gamma * noiseScale[i] * sd))
+                    continue;
+                // Its blur: the inner disc's, grown with the area (a kernel's bias grows as r²).
+                out[i] = Choice{j + 1, scaleA, p, maxCount, previousDrift * scaleA / inner};
+            }
+            break;
+        }
+        power += ring;
         count += rings.count[j];
-        if (any && count > maxCount) break;
         if (!any && count < kMinPhotons && j > active) continue;
         const double e = luminance(power) * scale;
         const double sd = count > 0.0 ? e / std::sqrt(count) : 0.0;
+        const double blur = any && e > 0.0 ? drift(e, count, previous, previousCount) : 0.0;
         for (int i = 0; i < 2; ++i) {
             if (!open[i]) continue;
             const double lo2 = std::max(lo[i], e - gamma * noiseScale[i] * sd);
@@ -78,10 +98,11 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             }
             lo[i] = lo2;
             hi[i] = hi2;
-            out[i] = Choice{j, power, count, any && e > 0.0 ? drift(e, count, previous, previousCount) : 0.0};
+            out[i] = Choice{j, kDiscScale[size_t(j)], power, count, blur};
         }
         previous = e;
         previousCount = count;
+        previousDrift = blur;
         any = true;
     }
 }
@@ -228,7 +249,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 choose(s.rings, s.active, gamma, scales, maxDiscPhotons(k_, batches * double(pathsPerBatch_)), c);
                 const glm::dvec3 weight = throughput * glm::dvec3(e.albedo) / double(kPi);
                 for (int i = 0; i < (f_ > 1 ? 2 : 1); ++i) {
-                    const double area = kPi * disc2(s.outer2, c[i].disc) * batches;
+                    const double area = kPi * double(s.outer2) * c[i].scale * batches;
                     const glm::dvec3 value = weight * (c[i].power / area);
                     // Noise and the blur the rule saw, added in quadrature.
                     const double rel = c[i].count > 0.0 ? 1.0 / c[i].count + c[i].drift * c[i].drift : 0.0;

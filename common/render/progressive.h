@@ -71,13 +71,18 @@ inline constexpr int kActiveMargin = 3;
 inline constexpr float kOuterArea = 8.0f;
 /// Paths per unit of maxDiscPhotons (the default P of one batch).
 inline constexpr double kDiscCapPaths = 20000.0;
-/// The widest disc the rule may show holds at most k·√(N / kDiscCapPaths) photons, N the paths
+/// The widest disc the rule may show holds at most k·√(N / kDiscCapPaths) photons — exactly that
+/// many where the cap ends the walk, the disc then lying within a ring (Choice::scale) — N the paths
 /// traced since the restart (every batch of the map and the passes): k at the first default
 /// batch, growing more slowly than N so the shown disc still shrinks (consistency), and the
 /// same for the same photons however they were batched. Without it the rule alone took discs
 /// too wide (a wide disc's small bias hides in its small noise at fold lines): curved mirror,
 /// M = 1, plain shooting, 12.8 M paths as 20 000 × 640 and 1.6 M × 8 passes, rel. MAE 0.0275
-/// against 0.0205 without the cap (Γ = 1), 0.0203 against 0.0205 with it.
+/// against 0.0205 without the cap (Γ = 1), 0.0203 against 0.0205 with it. A cap at whole rings
+/// only (the last disc below it, 0.57–1 × the cap) showed a smooth caustic with more noise than
+/// knn's k photons: the glass slab at the defaults read 0.0201 / 0.0069 at frames 1 / 24 against
+/// 0.0170 / 0.0062 interpolated (curved mirror 0.0861 / 0.0176 at frames 1 / 64 against 0.0888 /
+/// 0.0179, flat mirror 0.0877 / 0.0292 against 0.0899 / 0.0294 at frames 1 / 24).
 inline double maxDiscPhotons(uint32_t k, double paths) {
     return double(k) * std::sqrt(std::max(1.0, paths / kDiscCapPaths));
 }
@@ -168,6 +173,10 @@ public:
     /// The discs the rule chooses for one hit's rings (exposed for tests).
     struct Choice {
         int disc = 0;            ///< index into the ladder
+        /// r² of the shown disc relative to the ladder's outer disc: kBinRatio2^disc, or between
+        /// disc and the next wider one where the cap ends the walk inside a ring (its photons
+        /// taken as spread evenly over the ring's area, up to exactly maxCount photons).
+        double scale = 1.0;
         glm::dvec3 power{0.0};   ///< Σ power within it (W, summed over batches)
         double count = 0.0;      ///< photons within it
         /// The disc's blur relative to E: from the step to the disc admitted just inside it (E',
