@@ -7,7 +7,7 @@
 #   tests/bench/smoke.sh CASE BUILD_DIR
 #
 # CASE: viewer_encode ring_mirror viewer_cost cluster_convergence pov_compare cluster_bench
-#       frame_profile sweep tls_cost viewer_port_probe scale_bench balance. Exit status 77: skipped (the reason is printed).
+#       frame_profile sweep tls_cost viewer_port_probe scale_bench balance modes. Exit status 77: skipped (the reason is printed).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
 case=${1:?usage: smoke.sh CASE BUILD_DIR}
@@ -34,6 +34,11 @@ run() {
 num='[0-9]+(\.[0-9]+)?'
 
 case $case in
+modes)
+    # RING at 64x48, 4 frames, in the five modes.
+    run "$work/out.log" bash "$root/tests/bench/modes_bench.sh"
+    expectRows 1 "^\| RING \| $num \| $num \| $num \| $num \| $num \| $num, (1/)?[0-9]+ \|$" "$work/out.log"
+    ;;
 balance)
     # Both clients alone, round-robin and balanced, in the light-edit mode at 64x48.
     run "$work/out.log" bash "$root/tests/bench/balance_bench.sh"
