@@ -107,7 +107,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
     }
 }
 
-void ProgressiveSet::addPhotons(HitState& s, std::span<const FoundPhoton> photons) {
+void ProgressiveSet::bin(Rings& rings, float outer2, int active, std::span<const FoundPhoton> photons) {
     // One pass's photons are summed per ring first, then added to the ring totals: the totals
     // take one addition per pass, not per photon, so float sums stay accurate over many passes.
     // A photon's ring is the number of inner discs it lies inside (r_{j+1}² ≤ d² < r_j²): 19
@@ -115,7 +115,7 @@ void ProgressiveSet::addPhotons(HitState& s, std::span<const FoundPhoton> photon
     // photon cost more, and rounded at the ring boundaries).
     alignas(32) float inner2[kRadiusBins];
     inner2[0] = 0.0f;  // unused: every photon lies inside the outer disc
-    for (int j = 1; j < kRadiusBins; ++j) inner2[j] = float(disc2(s.outer2, j));
+    for (int j = 1; j < kRadiusBins; ++j) inner2[j] = float(disc2(outer2, j));
     Rings local;
     for (const FoundPhoton& p : photons) {
         int j = 0;
@@ -125,9 +125,9 @@ void ProgressiveSet::addPhotons(HitState& s, std::span<const FoundPhoton> photon
         local.power[3 * j + 2] += p.power.z;
         local.count[j] += 1.0f;
     }
-    for (int j = s.active; j < kRadiusBins; ++j) {
-        for (int c = 0; c < 3; ++c) s.rings.power[3 * j + c] += local.power[3 * j + c];
-        s.rings.count[j] += local.count[j];
+    for (int j = active; j < kRadiusBins; ++j) {
+        for (int c = 0; c < 3; ++c) rings.power[3 * j + c] += local.power[3 * j + c];
+        rings.count[j] += local.count[j];
     }
 }
 
@@ -172,7 +172,7 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
                 s.outer2 = std::nextafter(s.outer2, std::numeric_limits<float>::infinity());
                 found.clear();
                 maps.gatherMapPhotons(scene, set, e.hit, e.normal, s.outer2, found);
-                addPhotons(s, found);
+                bin(s.rings, s.outer2, s.active, found);
             }
         }
     });
@@ -197,7 +197,7 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
             const float r2 = float(disc2(s.outer2, s.active));
             if (shot) maps.gatherPassPhotons(scene, set, e.hit, e.normal, r2, found);
             if (shared && s.sharing) s.shared += float(maps.gatherSharedPhotons(scene, *shared, set, e.hit, e.normal, r2, found));
-            addPhotons(s, found);
+            bin(s.rings, s.outer2, s.active, found);
             if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, passes_, localRays));
         }
         rays += localRays;

@@ -194,6 +194,12 @@ public:
     /// multiplied by `noiseScale[i]` for choice i (two choices from one walk over the rings).
     static void choose(const Rings& rings, int active, double gamma, const double (&noiseScale)[2],
                        double maxCount, Choice (&out)[2]);
+    /// Adds one pass's photons (squared distance from the end point, power) to the rings of a
+    /// ladder whose outer disc has squared radius `outer2`: a photon with r_{j+1}² ≤ d² < r_j² to
+    /// ring j (the innermost ring holds the whole innermost disc); rings inside `active` are no
+    /// longer kept and take nothing. Photons beyond the outer disc must not be passed (the gathers
+    /// search within it). Exposed for tests.
+    static void bin(Rings& rings, float outer2, int active, std::span<const FoundPhoton> photons);
 
 private:
     struct HitState {
@@ -205,7 +211,6 @@ private:
         bool sharing = false;      ///< bins the other sets' photons (its pixel shows its own estimate)
     };
     void compose(std::span<PixelRadiance> out, uint64_t& nonFinite);
-    static void addPhotons(HitState& s, std::span<const FoundPhoton> photons);
 
     bool valid_ = false;
     Camera camera_;

@@ -27,6 +27,7 @@
 #include "common/photon/kd_tree.h"
 #include "common/photon/photon_map.h"
 #include "common/photon/photon_tracer.h"
+#include "common/photon/shared_photons.h"
 #include "common/render/render_job.h"
 #include "common/scene/scene_loader.h"
 #include "tests/support/test_scenes.h"
@@ -394,6 +395,46 @@ TEST_P(HardCases, ThinWallCausticDoesNotLeakWithinGatherRadius) {
     EXPECT_EQ(beside, plainJob->photons().radiance(plainJob->embree(), 0, lit, Vec3(0, 1, 0), Vec3(0.5f)).x);
     EXPECT_GT(plainJob->photons().radiance(plainJob->embree(), 0, dark, Vec3(0, 1, 0), Vec3(0.5f)).x, 0.0f)
         << "without the visibility test the leak this test guards against is expected";
+}
+
+// The progressive estimator's own gathers (the restart's over the map, a pass's over its new
+// photons, the other sets' shared photons) test visibility as the k-NN gather does. Two still
+// frames of the thin wall (a restart, then a pass); from 5 mm on the dark side, within 2 cm:
+// expectation, with gatherVisibility no photon of the lit side is found, without it some are.
+TEST(HardCasesProgressive, GathersDoNotLeakThroughAThinWall) {
+    RenderSettings rs = smallSettings(24, 18, 1, 40000);
+    rs.photons.diffuseBounces = 0;
+    rs.photons.estimator = CausticEstimatorKind::Progressive;
+    RenderSettings plain = rs;
+    rs.photons.gatherVisibility = true;
+    auto job = makeJob(thinWallScene(), rs);
+    auto plainJob = makeJob(thinWallScene(), plain);
+    render(*plainJob, 2);
+    render(*job, 2);
+    SurfaceHit dark;
+    dark.position = Vec3(0.005f, 0.0f, 0.0f);
+    dark.geometricNormal = dark.shadingNormal = Vec3(0, 1, 0);
+    const float r2 = 0.02f * 0.02f;
+    SetPhotons shot{0, 1, job->photons().photons(0)};
+    SharedPhotons shared;
+    shared.build(job->embree().bounds(), std::span(&shot, 1));
+    for (RenderJob* j : {job.get(), plainJob.get()}) {
+        const bool visibility = j == job.get();
+        std::vector<FoundPhoton> map, pass, others;
+        j->photons().gatherMapPhotons(j->embree(), 0, dark, Vec3(0, 1, 0), r2, map);
+        ASSERT_GE(j->photons().gatherPassPhotons(j->embree(), 0, dark, Vec3(0, 1, 0), r2, pass), 1u)
+            << "the second frame is a pass";
+        j->photons().gatherSharedPhotons(j->embree(), shared, 1, dark, Vec3(0, 1, 0), r2, others);
+        if (visibility) {
+            EXPECT_TRUE(map.empty()) << map.size() << " map photons through the wall";
+            EXPECT_TRUE(pass.empty()) << pass.size() << " pass photons through the wall";
+            EXPECT_TRUE(others.empty()) << others.size() << " shared photons through the wall";
+        } else {
+            EXPECT_FALSE(map.empty()) << "without the visibility test the leak is expected";
+            EXPECT_FALSE(pass.empty());
+            EXPECT_FALSE(others.empty());
+        }
+    }
 }
 
 // ---- coincident and duplicate photons -----------------------------------------------------------

@@ -70,18 +70,83 @@ TEST(ProgressiveChoose, InactiveRingsAreNeverChosen) {
 }
 
 TEST(ProgressiveChoose, NoDiscHoldsMoreThanTheCap) {
-    // A flat density takes the widest disc (above); with a cap the widest disc holding at most
-    // that many photons is shown, whatever the rule would allow.
+    // A flat density takes the widest disc (above); with a cap the disc holding that many photons
+    // is shown, whatever the rule would allow: it lies within the ring the cap falls in.
     const auto rings = ringsOf([](double) { return 4000.0; });
     ProgressiveSet::Choice c[2];
     ProgressiveSet::choose(rings, 0, 2.0, kScales, 500.0, c);
     for (const auto& choice : c) {
         EXPECT_LE(choice.count, 500.0);
-        // The next wider disc would hold more than the cap.
+        // The next wider whole disc would hold more than the cap.
         ASSERT_GT(choice.disc, 0);
         double wider = 0.0;
         for (int j = choice.disc - 1; j < kRadiusBins; ++j) wider += rings.count[j];
         EXPECT_GT(wider, 500.0) << "disc " << choice.disc;
+    }
+}
+
+// The update of a pass: each photon lands in the ring between the two discs around its distance,
+// the rings' sums grow pass by pass, and rings no longer kept (inside `active`) take nothing.
+TEST(ProgressiveBin, APhotonLandsInTheRingAroundItsDistanceAndPassesAddUp) {
+    const float outer2 = 4.0f;  // r₀ = 2
+    auto r2 = [&](int j) { return double(outer2) * std::pow(kBinRatio2, double(j)); };
+    std::vector<FoundPhoton> photons;
+    for (int j = 0; j + 1 < kRadiusBins; ++j) {
+        // Midway between disc j+1 and disc j (by r²), power j + 1 in red, 1 in green and blue.
+        photons.push_back({float(0.5 * (r2(j) + r2(j + 1))), Vec3(float(j + 1), 1.0f, 1.0f)});
+    }
+    photons.push_back({0.0f, Vec3(100.0f, 0.0f, 0.0f)});  // at the end point: the innermost ring
+    ProgressiveSet::Rings rings;
+    ProgressiveSet::bin(rings, outer2, 0, photons);
+    for (int j = 0; j + 1 < kRadiusBins; ++j) {
+        EXPECT_EQ(rings.count[size_t(j)], 1.0f) << "ring " << j;
+        EXPECT_EQ(rings.power[3 * size_t(j)], float(j + 1)) << "ring " << j;
+        EXPECT_EQ(rings.power[3 * size_t(j) + 1], 1.0f) << "ring " << j;
+    }
+    EXPECT_EQ(rings.count[kRadiusBins - 1], 1.0f);
+    EXPECT_EQ(rings.power[3 * (kRadiusBins - 1)], 100.0f);
+    // A second pass of the same photons doubles every sum.
+    ProgressiveSet::bin(rings, outer2, 0, photons);
+    for (int j = 0; j < kRadiusBins; ++j) EXPECT_EQ(rings.count[size_t(j)], 2.0f) << "ring " << j;
+    EXPECT_EQ(rings.power[3 * 5], 12.0f);
+}
+
+TEST(ProgressiveBin, ADiscsBoundaryBelongsToTheRingOutsideIt) {
+    // A photon at exactly r_j (j ≥ 1) is not inside disc j: it counts in ring j − 1, so a disc
+    // holds the photons strictly within its radius, as the gathers find them.
+    const float outer2 = 1.0f;
+    for (int j = 1; j < kRadiusBins; ++j) {
+        ProgressiveSet::Rings rings;
+        const float d2 = float(double(outer2) * std::pow(kBinRatio2, double(j)));
+        const FoundPhoton p{d2, Vec3(1.0f)};
+        ProgressiveSet::bin(rings, outer2, 0, std::span(&p, 1));
+        EXPECT_EQ(rings.count[size_t(j - 1)], 1.0f) << "boundary of disc " << j;
+    }
+}
+
+TEST(ProgressiveBin, RingsNoLongerKeptTakeNothing) {
+    const float outer2 = 1.0f;
+    std::vector<FoundPhoton> photons;
+    for (int j = 0; j < kRadiusBins; ++j)
+        photons.push_back({float(0.99 * std::pow(kBinRatio2, double(j))), Vec3(1.0f)});
+    ProgressiveSet::Rings rings;
+    ProgressiveSet::bin(rings, outer2, 7, photons);
+    for (int j = 0; j < kRadiusBins; ++j)
+        EXPECT_EQ(rings.count[size_t(j)], j < 7 ? 0.0f : 1.0f) << "ring " << j;
+}
+
+TEST(ProgressiveChoose, TheCapEndsTheDiscInsideARingWithExactlyItsPhotons) {
+    // A flat density and a cap that falls inside a ring: the shown disc holds exactly the cap's
+    // photons, its r² between the two whole discs around it, and its estimate the density.
+    const auto rings = ringsOf([](double) { return 4000.0; });
+    ProgressiveSet::Choice c[2];
+    ProgressiveSet::choose(rings, 0, 2.0, kScales, 500.0, c);
+    for (const auto& choice : c) {
+        EXPECT_DOUBLE_EQ(choice.count, 500.0);
+        EXPECT_LT(choice.scale, std::pow(kBinRatio2, double(choice.disc - 1)));
+        EXPECT_GT(choice.scale, std::pow(kBinRatio2, double(choice.disc)));
+        const double density = choice.power.x / (3.141592653589793 * choice.scale);
+        EXPECT_NEAR(density, 4000.0, 4000.0 * 0.02);
     }
 }
 
