@@ -246,6 +246,39 @@ TEST_P(ClusterEnvironment, MapWithASunEqualsSingleProcessBitForBit) {
 
 INSTANTIATE_TEST_SUITE_P(Estimators, ClusterEnvironment, ::testing::Values("progressive", "knn"));
 
+// The server's per-frame CSV (--csv): the header, then each row's columns
+// (frame,fps,photons_per_set,mode,…,est_error,pass_batches,pass_period).
+struct FrameCsv {
+    std::string header;
+    std::vector<std::vector<std::string>> rows;
+};
+FrameCsv readFrameCsv(const std::string& path) {
+    FrameCsv out;
+    std::ifstream csv(path);
+    std::getline(csv, out.header);
+    for (std::string line; std::getline(csv, line);) {
+        std::vector<std::string>& cols = out.rows.emplace_back();
+        std::stringstream row(line);
+        for (std::string col; std::getline(row, col, ',');) cols.push_back(col);
+    }
+    return out;
+}
+constexpr size_t kEstError = 14, kPassBatches = 15, kPassPeriod = 16;
+
+// Per frame of a still view: the pass work column `column` (it never falls), and an error
+// estimate in every converging frame.
+std::vector<uint32_t> stillPassWork(const FrameCsv& csv, size_t column) {
+    std::vector<uint32_t> work;
+    for (const auto& cols : csv.rows) {
+        EXPECT_EQ(cols.size(), 17u) << csv.header;
+        if (cols.size() != 17u) break;
+        work.push_back(uint32_t(std::stoul(cols[column])));
+        if (cols[3] == "converging") EXPECT_GT(std::stod(cols[kEstError]), 0.0) << "no error estimate, frame " << cols[0];
+    }
+    for (size_t f = 1; f < work.size(); ++f) EXPECT_GE(work[f], work[f - 1]) << "frame " << f;
+    return work;
+}
+
 // A still view's passes grow while the clients' work per frame stays under half the budget
 // (a budget no frame of this size reaches: doubling every frame once the first converging frame
 // is recorded), and every converging frame reports the estimator's error. The CSV's
@@ -258,26 +291,13 @@ TEST(ClusterStillPasses, GrowToTheFrameBudget) {
     c.startServer(rs, 1, "float32", {"--csv", c.dir.file("frames.csv")});
     c.startClient();
     c.expectServerFinishes();
-    std::ifstream csv(c.dir.file("frames.csv"));
-    std::string line;
-    ASSERT_TRUE(std::getline(csv, line));
-    EXPECT_NE(line.find(",est_error,pass_batches"), std::string::npos) << line;
-    std::vector<uint32_t> batches;
-    while (std::getline(csv, line)) {
-        std::vector<std::string> cols;
-        std::stringstream row(line);
-        for (std::string col; std::getline(row, col, ',');) cols.push_back(col);
-        ASSERT_EQ(cols.size(), 17u) << line;
-        batches.push_back(uint32_t(std::stoul(cols[15])));
-        EXPECT_EQ(cols[16], "1") << "fast frames never take turns: " << line;
-        if (cols[3] == "converging") {
-            EXPECT_GT(std::stod(cols[14]), 0.0) << "no error estimate: " << line;
-        }
-    }
+    const FrameCsv csv = readFrameCsv(c.dir.file("frames.csv"));
+    EXPECT_NE(csv.header.find(",est_error,pass_batches"), std::string::npos) << csv.header;
+    const std::vector<uint32_t> batches = stillPassWork(csv, kPassBatches);
     ASSERT_EQ(batches.size(), size_t(rs.frames));
     EXPECT_EQ(batches.front(), 1u) << "the first frame is a restart: one batch";
-    for (size_t f = 1; f < batches.size(); ++f) EXPECT_GE(batches[f], batches[f - 1]) << "frame " << f;
     EXPECT_GE(batches.back(), 8u) << c.logs();
+    for (const auto& cols : csv.rows) EXPECT_EQ(cols[kPassPeriod], "1") << "fast frames never take turns";
 }
 
 // A budget every frame exceeds (1 µs) and batches whose shooting is most of a frame (many paths
@@ -296,26 +316,13 @@ TEST(ClusterStillPasses, SetsTakeTurnsWhenOneBatchExceedsTheBudget) {
     c.startClient();
     c.startClient();
     c.expectServerFinishes();
-    std::ifstream csv(c.dir.file("frames.csv"));
-    std::string line;
-    ASSERT_TRUE(std::getline(csv, line));
-    EXPECT_NE(line.find(",pass_batches,pass_period"), std::string::npos) << line;
-    std::vector<uint32_t> periods;
-    while (std::getline(csv, line)) {
-        std::vector<std::string> cols;
-        std::stringstream row(line);
-        for (std::string col; std::getline(row, col, ',');) cols.push_back(col);
-        ASSERT_EQ(cols.size(), 17u) << line;
-        EXPECT_EQ(cols[15], "1") << line;
-        periods.push_back(uint32_t(std::stoul(cols[16])));
-        if (cols[3] == "converging") {
-            EXPECT_GT(std::stod(cols[14]), 0.0) << "no error estimate: " << line;
-        }
-    }
+    const FrameCsv csv = readFrameCsv(c.dir.file("frames.csv"));
+    EXPECT_NE(csv.header.find(",pass_batches,pass_period"), std::string::npos) << csv.header;
+    const std::vector<uint32_t> periods = stillPassWork(csv, kPassPeriod);
     ASSERT_EQ(periods.size(), size_t(rs.frames));
     EXPECT_EQ(periods.front(), 1u) << "the first frame is a restart";
-    for (size_t f = 1; f < periods.size(); ++f) EXPECT_GE(periods[f], periods[f - 1]) << "frame " << f;
     EXPECT_GE(periods.back(), 8u) << c.logs();
+    for (const auto& cols : csv.rows) EXPECT_EQ(cols[kPassBatches], "1") << "turns only below one batch";
 }
 
 // Every setting that reaches the clients through Settings, away from its default, must reach

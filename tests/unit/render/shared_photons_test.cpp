@@ -29,6 +29,16 @@ bool sameShot(const SetPhotons& a, const SetPhotons& b) {
            std::memcmp(a.photons.data(), b.photons.data(), a.photons.size() * sizeof(Photon)) == 0;
 }
 
+// The mode a master sends for frame f of a still view: decideFrameMode's, as a job without a
+// master decides its own.
+FrameMode stillViewMode(int f) {
+    FrameFacts facts;
+    facts.epochStart = f == 0;
+    facts.cameraStill = f > 0;
+    facts.progressive = true;
+    return decideFrameMode(facts);
+}
+
 bool samePixels(const SetPixels& a, const SetPixels& b) {
     return a.set == b.set && a.pixels.size() == b.pixels.size() &&
            std::memcmp(a.pixels.data(), b.pixels.data(), a.pixels.size() * sizeof(PixelRadiance)) == 0;
@@ -46,12 +56,7 @@ TEST(SharedPhotons, TwoJobsHandedEveryShotComputeWhatOneJobComputes) {
     for (int f = 0; f < 6; ++f) {
         std::vector<SetPixels> a, b, c, d;
         const std::vector<SetPhotons>& shared = f >= int(kSharedPhotonLag) ? shots[size_t(f) - kSharedPhotonLag] : none;
-        // The modes a master sends for a still view: decideFrameMode's, as `all` decides its own.
-        FrameFacts facts;
-        facts.epochStart = f == 0;
-        facts.cameraStill = f > 0;
-        facts.progressive = rs.photons.estimator == CausticEstimatorKind::Progressive;
-        const FrameMode mode = decideFrameMode(facts);
+        const FrameMode mode = stillViewMode(f);
         all.renderFrame(camera, a, 1);
         first.renderFrame(camera, mode, b, 1, &shared);
         second.renderFrame(camera, mode, c, 1, &shared);
@@ -97,11 +102,7 @@ TEST(SharedPhotons, SetsTakingTurnsShootLessAndStillMatchOneJob) {
     for (int f = 0; f < 8; ++f) {
         std::vector<SetPixels> a, b, c, e;
         const std::vector<SetPhotons>& shared = f >= int(kSharedPhotonLag) ? shots[size_t(f) - kSharedPhotonLag] : none;
-        FrameFacts facts;
-        facts.epochStart = f == 0;
-        facts.cameraStill = f > 0;
-        facts.progressive = true;
-        const FrameMode mode = decideFrameMode(facts);
+        const FrameMode mode = stillViewMode(f);
         const FrameStats st = all.renderFrame(camera, a, 1, kPeriod);
         const FrameStats full = everyFrame.renderFrame(camera, e, 1, 1);
         first.renderFrame(camera, mode, b, 1, &shared, kPeriod);
