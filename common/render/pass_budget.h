@@ -28,11 +28,11 @@ inline bool passShoots(uint64_t pass, uint32_t set, uint32_t sets, uint32_t peri
 /// whenever a frame took less than half the budget (first the period halves, then the batches
 /// double) and halves when one took more than the budget (first the batches, then the period
 /// doubles, where shooting is at least half of the frame; while the sets take turns, the means
-/// over a whole turn decide): a still view does ever more work per frame while the viewer still gets 1/budget
-/// updates a second, and a scene whose single batch per set costs more than the budget (costly
-/// photon paths) still updates at about that rate, never slower than a frame that moves. A
-/// budget of 0 keeps one batch per set and pass (deterministic: the frame sequence does not
-/// depend on the machine's speed). Pure: the caller measures time.
+/// over a whole turn decide). So a still view does ever more work per frame while the viewer
+/// still gets 1/budget updates a second, and a scene whose single batch per set costs more than
+/// the budget (costly photon paths) still updates at about that rate, not slower than a frame
+/// that moves. A budget of 0 keeps one batch per set and pass (deterministic: the frame sequence
+/// does not depend on the machine's speed). Pure: the caller measures time.
 class PassBudget {
 public:
     explicit PassBudget(double budgetSeconds = 0.0) : budget_(budgetSeconds) {}
@@ -78,7 +78,7 @@ private:
     uint32_t period_ = 1;
     double turnSeconds_ = 0.0;       ///< Σ frame seconds of the current turn
     double turnShootSeconds_ = 0.0;  ///< Σ of their shooting seconds
-    uint32_t turnFrames_ = 0;   ///< frames of the current turn recorded
+    uint32_t turnFrames_ = 0;        ///< frames of the current turn recorded
 };
 
 }  // namespace rtpm

@@ -264,7 +264,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                         ownSd += sdv;
                     }
                 }
-                if (h == records_.firstHit[p]) radius = std::sqrt(disc2(s.outer2, c[0].disc));
+                if (h == records_.firstHit[p]) radius = std::sqrt(double(s.outer2) * c[0].scale);
                 const Choice& shown = c[0];
                 // Rings far outside the shown disc are no longer gathered.
                 s.active = std::max(s.active, shown.disc - kActiveMargin);
