@@ -289,7 +289,7 @@ void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
     // from FrameBegin to its last FrameData: with frames in flight that also holds the wait behind
     // the frame before, about twice the work, and the passes never grew.
     const double workMs = double(job.slowestPhotonMs) + double(job.slowestEyeMs) + double(job.slowestEncodeMs);
-    passBudget_.record(shown.mode == proto::FrameMode::Converging, workMs * 1e-3, double(job.slowestPhotonMs) * 1e-3);
+    passBudget_.record(shown.mode == proto::FrameMode::Converging, workMs * 1e-3);
     if (opt_.targetError > 0.0 && shown.mode == proto::FrameMode::Converging && job.errorEstimate > 0.0 &&
         job.errorEstimate <= opt_.targetError && !targetReached_ && state_ == State::Running) {
         // No new frame begins; the frames in flight finish and the last one shown is written

@@ -215,7 +215,7 @@ int run(int argc, char** argv) {
         last = st;
         double filterMs = std::chrono::duration<double, std::milli>(tend - tfilter).count();
         double totalMs = std::chrono::duration<double, std::milli>(tend - tf).count();
-        budget.record(st.converging, totalMs * 1e-3, st.shootSeconds);
+        budget.record(st.converging, totalMs * 1e-3);
         const double estimate = causticErrorEstimate(st.error);
         uint64_t productive = 0;
         for (uint32_t s : sets) productive += job.photons().stats(s).productivePaths;

@@ -23,16 +23,20 @@ inline bool passShoots(uint64_t pass, uint32_t set, uint32_t sets, uint32_t peri
 }
 
 /// Work of the next frame's progressive passes: `batches` per set and pass, and the sets taking
-/// turns every `period` frames. A frame that moves (camera, edit, restart) resets both to 1, so
-/// motion stays as cheap as the settings make it. While frames converge the work doubles
-/// whenever a frame took less than half the budget (first the period halves, then the batches
-/// double) and halves when one took more than the budget (first the batches, then the period
-/// doubles, where shooting is at least half of the frame; while the sets take turns, the means
-/// over a whole turn decide). So a still view does ever more work per frame while the viewer
-/// still gets 1/budget updates a second, and a scene whose single batch per set costs more than
-/// the budget (costly photon paths) still updates at about that rate, not slower than a frame
-/// that moves. A budget of 0 keeps one batch per set and pass (deterministic: the frame sequence
-/// does not depend on the machine's speed). Pure: the caller measures time.
+/// turns every `period` frames (a pass off its set's turn neither shoots nor samples the area
+/// lights: it bins the photons the other sets shared). A frame that moves (camera, edit, restart)
+/// resets both to 1, so motion stays as cheap as the settings make it. While frames converge the
+/// work doubles whenever a frame took less than half the budget (first the period halves, then
+/// the batches double) and halves when one took more than the budget (first the batches, then
+/// the period doubles). While the sets take turns, the mean over a whole turn decides. A doubled
+/// period is a trial: unless its first whole turn is at least 1 − kTurnGain faster than the
+/// turn before, it is undone and the period grows no more until the view moves (a pass whose
+/// cost is its binning gains nothing by turns, and would only shoot fewer photons). So a still
+/// view does ever more work per frame while the viewer still gets 1/budget updates a second, and
+/// a scene whose single batch per set costs more than the budget (costly photon paths, many
+/// area-light samples) still updates at about that rate, not slower than a frame that moves.
+/// A budget of 0 keeps one batch per set and pass (deterministic: the frame sequence does not
+/// depend on the machine's speed). Pure: the caller measures time.
 class PassBudget {
 public:
     explicit PassBudget(double budgetSeconds = 0.0) : budget_(budgetSeconds) {}
@@ -42,43 +46,53 @@ public:
     /// Frames between two shooting passes of a set, in [1, kMaxPassPeriod] (passShoots); > 1
     /// only while batches() is 1.
     uint32_t period() const { return period_; }
-    /// After a frame: whether it was a progressive pass (converging), how long it took and how
-    /// much of that was shooting photons.
-    void record(bool converging, double frameSeconds, double shootSeconds) {
+    /// After a frame: whether it was a progressive pass (converging) and how long it took.
+    void record(bool converging, double frameSeconds) {
         if (!converging || !(budget_ > 0.0)) {
-            batches_ = 1;
-            period_ = 1;
-            turnSeconds_ = turnShootSeconds_ = 0.0;
-            turnFrames_ = 0;
+            *this = PassBudget(budget_);
             return;
         }
         // While the sets take turns a frame's cost depends on whose turn it is: decide on the
         // mean over one whole turn (period frames).
         turnSeconds_ += frameSeconds;
-        turnShootSeconds_ += shootSeconds;
         if (++turnFrames_ < period_) return;
-        frameSeconds = turnSeconds_ / double(turnFrames_);
-        shootSeconds = turnShootSeconds_ / double(turnFrames_);
-        turnSeconds_ = turnShootSeconds_ = 0.0;
+        const double mean = turnSeconds_ / double(turnFrames_);
+        turnSeconds_ = 0.0;
         turnFrames_ = 0;
-        if (frameSeconds < 0.5 * budget_) {
+        if (trialBefore_ > 0.0) {
+            const bool paid = mean <= kTurnGain * trialBefore_;
+            trialBefore_ = 0.0;
+            if (!paid) {
+                period_ /= 2;
+                turnsBlocked_ = true;
+                return;
+            }
+        }
+        if (mean < 0.5 * budget_) {
             if (period_ > 1) period_ /= 2;
             else batches_ = std::min(kMaxPassBatches, batches_ * 2);
-        } else if (frameSeconds > budget_) {
-            if (batches_ > 1) batches_ = std::max(1u, batches_ / 2);
-            // Turns pay only where shooting is most of the frame: elsewhere (the eye pass and the
-            // binning dominate) fewer photons would barely shorten it.
-            else if (shootSeconds >= 0.5 * frameSeconds) period_ = std::min(kMaxPassPeriod, period_ * 2);
+        } else if (mean > budget_) {
+            if (batches_ > 1) {
+                batches_ = std::max(1u, batches_ / 2);
+            } else if (!turnsBlocked_ && period_ < kMaxPassPeriod) {
+                trialBefore_ = mean;
+                period_ *= 2;
+            }
         }
     }
+
+    /// A doubled period stays only if its turns' mean frame time is at most this share of the
+    /// mean before it.
+    static constexpr double kTurnGain = 0.8;
 
 private:
     double budget_;
     uint32_t batches_ = 1;
     uint32_t period_ = 1;
-    double turnSeconds_ = 0.0;       ///< Σ frame seconds of the current turn
-    double turnShootSeconds_ = 0.0;  ///< Σ of their shooting seconds
-    uint32_t turnFrames_ = 0;        ///< frames of the current turn recorded
+    double turnSeconds_ = 0.0;   ///< Σ frame seconds of the current turn
+    uint32_t turnFrames_ = 0;    ///< frames of the current turn recorded
+    double trialBefore_ = 0.0;   ///< > 0 while a doubled period is on trial: the mean before it
+    bool turnsBlocked_ = false;  ///< a trial did not pay: no more turns until the view moves
 };
 
 }  // namespace rtpm

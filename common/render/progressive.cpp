@@ -137,6 +137,7 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
     records_ = std::move(records);
     camera_ = camera;
     passes_ = 0;
+    areaSets_ = 0;
     batches_ = double(maps.stats(set).batches);
     gamma_ = maps.settings().progressiveGamma;
     k_ = maps.settings().k;
@@ -186,7 +187,10 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
                           uint64_t& shadowRays, uint64_t& nonFinite) {
     RTPM_CHECK(valid_ && out.size() + 1 == records_.firstHit.size());
     ++passes_;
-    const bool sampleArea = !areaLights.empty();
+    // Off its turn a pass skips the area-light samples too: the sets take turns where a pass
+    // costs more than the budget, and those samples are the other part of a pass's cost.
+    const bool sampleArea = shot && !areaLights.empty();
+    if (sampleArea) ++areaSets_;
     std::atomic<uint64_t> rays{0};
     tbb::parallel_for(tbb::blocked_range<size_t>(0, records_.hits.size()), [&](const auto& range) {
         uint64_t localRays = 0;
@@ -198,7 +202,7 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
             if (shot) maps.gatherPassPhotons(scene, set, e.hit, e.normal, r2, found);
             if (shared && s.sharing) s.shared += float(maps.gatherSharedPhotons(scene, *shared, set, e.hit, e.normal, r2, found));
             bin(s.rings, s.outer2, s.active, found);
-            if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, passes_, localRays));
+            if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, areaSets_, localRays));
         }
         rays += localRays;
     });
@@ -208,7 +212,7 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
 }
 
 void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) {
-    const double samples = double(passes_) + 1.0;  // area-light sample sets per hit
+    const double samples = double(areaSets_) + 1.0;  // area-light sample sets per hit
     const double gamma = gamma_;
     const double filterNoise = std::sqrt(filterShare_);
     std::atomic<uint64_t> bad{0};

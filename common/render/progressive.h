@@ -163,8 +163,8 @@ public:
     /// One pass, after maps.shootPass(scene, set, b) when `shot` (else the set shot nothing this
     /// frame: its turn comes later, pass_budget.h passShoots): bins the pass's photons per hit
     /// (when `shot`), and those of every other set in `shared` (their shots of kSharedPhotonLag
-    /// frames ago; may be null), adds one area-light sample set per hit, and writes every pixel's
-    /// current estimate to `out`. Precondition: valid(). Adds the shadow rays cast to
+    /// frames ago; may be null), adds one area-light sample set per hit (when `shot`), and writes
+    /// every pixel's current estimate to `out`. Precondition: valid(). Adds the shadow rays cast to
     /// `shadowRays`; counts non-finite pixel values (replaced by 0) in `nonFinite`.
     void pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, bool shot, const SharedPhotons* shared,
               const AreaLightSampler& areaLights, std::span<PixelRadiance> out, uint64_t& shadowRays,
@@ -215,6 +215,7 @@ private:
     bool valid_ = false;
     Camera camera_;
     uint32_t passes_ = 0;
+    uint32_t areaSets_ = 0;  ///< area-light sample sets added by passes (the restart's is one more)
     double batches_ = 0.0;
     double filterShare_ = 1.0;
     double gamma_ = 2.0;

@@ -149,8 +149,7 @@ int converge(const Options& o) {
         const uint32_t passBatches = budget.batches(), passPeriod = budget.period();
         const FrameStats st = job.renderFrame(moving && f % 2 == 0 ? nudged : camera, pixels, passBatches,
                                               passPeriod);
-        budget.record(st.converging, std::chrono::duration<double>(std::chrono::steady_clock::now() - tf).count(),
-                      st.shootSeconds);
+        budget.record(st.converging, std::chrono::duration<double>(std::chrono::steady_clock::now() - tf).count());
         batchesShot += st.converging ? double(passBatches) / double(passPeriod) : 1.0;
         const bool last = f == o.frames ||
                           (o.seconds > 0.0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= o.seconds);
