@@ -105,7 +105,8 @@ struct ConvergenceFlags {
 inline void addConvergenceFlags(CLI::App& app, ConvergenceFlags& flags) {
     app.add_option("--frame-budget-ms", flags.frameBudgetMs,
                    "progressive: a still view's passes grow (more photon batches per frame) while a "
-                   "frame takes less than half this, so the view keeps 1000/budget updates a second; "
+                   "frame takes less than half this, and the sets take turns shooting while one batch "
+                   "per set takes more, so the view keeps about 1000/budget updates a second; "
                    "0 = one batch per pass (the frames then do not depend on the machine's speed)")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 60000.0))
