@@ -172,7 +172,7 @@ void ImageOutput::writeImages(const std::string& exrPath) {
     if (!dir.empty()) std::filesystem::create_directories(dir);
     writeExr(exrPath, image_, false, metadata());
     const std::string png = std::filesystem::path(exrPath).replace_extension(".png").string();
-    writePng(png, image_.width(), image_.height(), image_.final());
+    writePng(png, image_.width(), image_.height(), image_.final(), ToneMap{.stopsAboveAuto = settings_.exposure});
     progress_.clear();
     std::fprintf(stderr, "rtpm-server: wrote %s and %s\n", exrPath.c_str(), png.c_str());
 }

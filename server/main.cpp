@@ -26,7 +26,7 @@ using namespace rtpm;
 int run(int argc, char** argv) {
     server::MasterOptions o;
     RenderSettings& rs = o.settings;
-    bool plain = false, noDefaultLight = false;
+    bool noDefaultLight = false;
     std::string animate, editScript, encoding = "rgb9e5-zstd";
     std::string deadline = "auto";
     CLI::App app{"rtpm-server: the cluster master. Waits for rtpm-client processes, deals them the M×M "
@@ -48,7 +48,7 @@ int run(int argc, char** argv) {
                        "out/glass.exr and .png"}});
     // Rendering settings: the same names, meanings and defaults as rtpm-render. --help lists the
     // groups scene, image, photons, estimator (these), cluster, viewer, security, output.
-    addRenderFlags(app, rs, o.sceneName, plain, noDefaultLight);
+    addRenderFlags(app, rs, o.sceneName, noDefaultLight);
     SceneInputPolicy sceneInput;
     addSceneInputFlags(app, sceneInput);
     SceneOverrides overrides;
@@ -156,7 +156,6 @@ int run(int argc, char** argv) {
     app.add_flag("--quiet", o.quiet, "no per-frame line")
         ->group("output");
     if (auto code = parseCommandLine(app, argc, argv)) return *code;
-    rs.photons.selective = !plain;
     o.frameBudgetMs = convergence.frameBudgetMs;
     o.targetError = convergence.targetError;
     if (!o.http.empty() && framesOpt->count() == 0) o.frames = 0;

@@ -48,13 +48,10 @@ struct Options {
     int frames = 10;
     int saveEvery = 0;
     int threads = 0;
-    bool plain = false;
     bool noDefaultLight = false;
     std::vector<float> eye, target, lightPos;
     float yfov = 0.0f;
     float lightIntensity = 10.0f;
-    float exposure = 0.0f;
-    bool exposureSet = false;
     SceneInputPolicy sceneInput;
     ConvergenceFlags convergence;
 };
@@ -67,7 +64,7 @@ int run(int argc, char** argv) {
                  "image-space box filter). Writes a multi-layer EXR (R G B, direct.*, caustic.*, "
                  "caustic_filtered.*) and a tone-mapped PNG beside it.",
                  "rtpm-render"};
-    addRenderFlags(app, rs, o.scene, o.plain, o.noDefaultLight);
+    addRenderFlags(app, rs, o.scene, o.noDefaultLight);
     addSceneInputFlags(app, o.sceneInput);
     SceneOverrides overrides;
     addSceneChoiceFlags(app, overrides);
@@ -96,7 +93,6 @@ int run(int argc, char** argv) {
     app.add_option("--light-intensity", o.lightIntensity, "intensity of --light in W/sr")
         ->capture_default_str()
         ->group("scene");
-    auto* exp = app.add_option("--exposure", o.exposure, "PNG exposure in stops (default: automatic)")->group("output");
     app.add_option("--export-glb", o.exportGlb, "write the scene as a .glb file and exit")->group("output");
     app.add_option("--save-every", o.saveEvery,
                    "also write every n-th frame as <out>_<frame>.exr/.png, as rtpm-server does (0 = off)")
@@ -117,8 +113,6 @@ int run(int argc, char** argv) {
                       {"rtpm-render --scene GLASS --estimator knn --csv out/glass.csv",
                        "the paper's k-NN estimator, with one line of figures per frame in out/glass.csv"}});
     if (auto code = parseCommandLine(app, argc, argv)) return *code;
-    o.exposureSet = exp->count() > 0;
-    rs.photons.selective = !o.plain;
     try {
         validateSettings(rs);
     } catch (const std::invalid_argument& e) {
@@ -239,9 +233,8 @@ int run(int argc, char** argv) {
                          (unsigned long long)st.pathsTraced);
         if (o.saveEvery > 0 && f > 0 && f % o.saveEvery == 0) {
             writeExr(numberedPath(outPaths.exr, uint64_t(f), ".exr"), image, false, metadata());
-            ToneMap frameTm;
-            if (o.exposureSet) frameTm.exposureStops = o.exposure;
-            writePng(numberedPath(outPaths.exr, uint64_t(f), ".png"), rs.width, rs.height, image.final(), frameTm);
+            writePng(numberedPath(outPaths.exr, uint64_t(f), ".png"), rs.width, rs.height, image.final(),
+                     ToneMap{.stopsAboveAuto = rs.exposure});
         }
         if (st.eye.nonFinite) std::fprintf(stderr, "warning: %llu non-finite pixel values replaced by 0\n",
                                            (unsigned long long)st.eye.nonFinite);
@@ -265,9 +258,7 @@ int run(int argc, char** argv) {
 
     if (framesDone > 0) {
         writeExr(outPaths.exr, image, false, metadata());
-        ToneMap tm;
-        if (o.exposureSet) tm.exposureStops = o.exposure;
-        writePng(outPaths.png, rs.width, rs.height, image.final(), tm);
+        writePng(outPaths.png, rs.width, rs.height, image.final(), ToneMap{.stopsAboveAuto = rs.exposure});
         std::printf("wrote %s and %s\n", outPaths.exr.c_str(), outPaths.png.c_str());
     }
     std::printf("summary: %d of %d frames in %s = %.2f fps, %llu photons stored, %llu photon paths traced%s\n",

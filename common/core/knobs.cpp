@@ -1,4 +1,4 @@
-// Limits, text forms and the reset rule of the live knobs, all read from kKnobs.
+// Limits, text forms and the reset rule of the settings, all read from kKnobs and kFixedSettings.
 #include "common/core/knobs.h"
 
 #include <charconv>
@@ -8,17 +8,26 @@ namespace rtpm {
 
 namespace {
 
-constexpr bool rowsInOrderWithTheirDefaults() {
+constexpr bool rowFitsItsDefault(const SettingRow& r) {
     const RenderSettings defaults{};
+    return r.min <= r.max && r.get(defaults) == r.defaultValue && r.defaultValue >= r.min &&
+           r.defaultValue <= r.max && (r.form == FlagForm::Value || (r.integer && r.min == 0 && r.max == 1));
+}
+
+constexpr bool rowsInOrderWithTheirDefaults() {
     for (size_t i = 0; i < kKnobCount; ++i) {
         const KnobRow& r = kKnobs[i];
-        if (size_t(r.id) != i || r.min > r.max || r.get(defaults) != r.defaultValue) return false;
-        if (r.defaultValue < r.min || r.defaultValue > r.max) return false;
+        if (size_t(r.id) != i || !rowFitsItsDefault(r) || r.form != FlagForm::Value) return false;
+        // A knob the clients never see may change only what the master's output stage does.
+        if (r.wireField.empty() && r.resets != KnobReset::Output) return false;
     }
+    for (const SettingRow& r : kFixedSettings)
+        if (!rowFitsItsDefault(r) || r.wireField.empty()) return false;
     return true;
 }
 static_assert(rowsInOrderWithTheirDefaults(),
-              "kKnobs: rows in Knob order, min <= default <= max, default = RenderSettings{}'s");
+              "kKnobs in Knob order; every row: min <= default <= max, default = RenderSettings{}'s, a "
+              "switch 0 or 1; a live knob off the wire resets only Output, a fixed setting has a wire field");
 
 // The shortest fixed-point text that reads back to `v`; as a float when `v` is one (a value read
 // back from a float field prints as "0.3", not "0.300000012").
@@ -32,14 +41,14 @@ std::string number(double v) {
 
 }  // namespace
 
-std::optional<std::string> knobValueError(const KnobRow& row, double v) {
+std::optional<std::string> knobValueError(const SettingRow& row, double v) {
     const bool whole = !row.integer || std::floor(v) == v;
     if (std::isfinite(v) && whole && v >= row.min && v <= row.max) return std::nullopt;
     return std::string(row.name) + " must be " + (row.isChoice() ? "" : row.integer ? "a whole number in " : "in ") +
            knobRange(row) + ", got " + (row.isChoice() ? number(v) : number(v));
 }
 
-std::optional<double> parseKnobValue(const KnobRow& row, std::string_view text) {
+std::optional<double> parseKnobValue(const SettingRow& row, std::string_view text) {
     if (row.isChoice()) {
         for (size_t i = 0; i < row.choices.size() && !row.choices[i].empty(); ++i)
             if (text == row.choices[i]) return double(i);
@@ -51,7 +60,7 @@ std::optional<double> parseKnobValue(const KnobRow& row, std::string_view text) 
     return v;
 }
 
-std::string formatKnobValue(const KnobRow& row, double v) {
+std::string formatKnobValue(const SettingRow& row, double v) {
     if (row.isChoice()) {
         const size_t i = size_t(v);
         return i < row.choices.size() && !row.choices[i].empty() ? std::string(row.choices[i]) : number(v);
@@ -59,7 +68,7 @@ std::string formatKnobValue(const KnobRow& row, double v) {
     return number(v);
 }
 
-std::string knobRange(const KnobRow& row) {
+std::string knobRange(const SettingRow& row) {
     if (!row.isChoice()) return "[" + number(row.min) + ", " + number(row.max) + "]";
     std::string s;
     for (std::string_view c : row.choices)

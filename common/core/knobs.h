@@ -1,7 +1,10 @@
-// The live knobs — the settings a running cluster may change (a flag at start, an edit-script
-// line, a viewer control) — one table row each. Every consumer reads its row: the command-line
-// flags and their --help group, validateSettings, the wire limits (static_assert in proto/bridge),
-// the edit-script grammar, the viewer's controls and form, and what a change resets.
+// The settings of a render, one table row each: the live knobs (kKnobs: a running cluster may
+// change them through a flag at start, an edit-script line or a viewer control) and the settings
+// fixed for a run (kFixedSettings: a flag at start). Every consumer reads the rows: the
+// command-line flags and their --help group, validateSettings, the image metadata, the wire limits
+// (static_assert in proto/bridge), and for live knobs the edit-script grammar, the viewer's
+// controls and form, and what a change resets. A new setting is a row here, its RenderSettings
+// field, and the code that uses it.
 #pragma once
 
 #include <array>
@@ -22,13 +25,20 @@ enum class KnobReset : uint8_t {
     Resize,  ///< every structure sized by M² is rebuilt once no frame is in flight, then an epoch
 };
 
-enum class Knob : uint8_t { Interleave, Filter, Photons, K, RMax, Tree, Estimator, Confidence };
-inline constexpr size_t kKnobCount = 8;
+enum class Knob : uint8_t { Interleave, Filter, Photons, K, RMax, Tree, Estimator, Confidence, Exposure };
+inline constexpr size_t kKnobCount = 9;
 
-/// One live knob. Values travel as double (every integer knob fits exactly; a choice knob's
-/// value is the index of its name in `choices`, which is its enum's value).
-struct KnobRow {
-    Knob id;
+/// How a row's flag takes its value.
+enum class FlagForm : uint8_t {
+    Value,     ///< `--flag VALUE`
+    Switch,    ///< `--flag` alone sets the value 1 (default 0)
+    ClearSwitch,  ///< `--flag` alone sets the value 0 (default 1), e.g. --no-spt
+};
+
+/// One setting: what its flag, --help text, validation and the image metadata read. Values travel
+/// as double (every integer setting fits exactly; a choice's value is the index of its name in
+/// `choices`, which is its enum's value; a switch is 0 or 1).
+struct SettingRow {
     std::string_view name;       ///< what --help and error messages call it
     std::string_view flag;       ///< long flag of rtpm-render and rtpm-server
     std::string_view shortFlag;  ///< short flag, or empty
@@ -37,64 +47,129 @@ struct KnobRow {
     double min, max;             ///< inclusive limits (choice knobs: first and last index)
     double defaultValue;         ///< RenderSettings{}'s value (static_assert in knobs.cpp)
     bool integer;                ///< whole numbers only
-    std::array<std::string_view, 3> choices;  ///< a choice knob's value names in enum order; else empty
-    std::string_view wireField;  ///< the Settings field that carries it (PROTOCOL.md §4)
-    std::string_view scriptKey;  ///< keyword after `settings` in an edit script line
-    std::string_view viewerKey;  ///< key of the viewer's {"type":"settings"} control
-    KnobReset resets;            ///< what a change of it resets
+    std::array<std::string_view, 3> choices;  ///< a choice's value names in enum order; else empty
+    std::string_view wireField;  ///< the Settings field that carries it (PROTOCOL.md §4); empty:
+                                 ///< the master's alone (a live knob that resets only Output)
     std::string_view help;       ///< --help text (the range is appended)
     double (*get)(const RenderSettings&);
     void (*set)(RenderSettings&, double);
+    FlagForm form = FlagForm::Value;
 
     constexpr bool isChoice() const { return !choices[0].empty(); }
 };
 
+/// One live knob: a setting a running cluster may change, with what only a live knob has.
+struct KnobRow : SettingRow {
+    Knob id;
+    std::string_view scriptKey;  ///< keyword after `settings` in an edit script line
+    std::string_view viewerKey;  ///< key of the viewer's {"type":"settings"} control
+    KnobReset resets;            ///< what a change of it resets
+};
+
 // clang-format off
 inline constexpr std::array<KnobRow, kKnobCount> kKnobs{{
-    {Knob::Interleave, "interleave M", "--interleave", "-M", "image", "sets per side",
-     1, 16, 3, true, {}, "Settings.m", "M", "M", KnobReset::Resize,
-     "M: the image is split into M×M interleaving sets, one photon map each",
-     [](const RenderSettings& s) { return double(s.interleave); },
-     [](RenderSettings& s, double v) { s.interleave = int(v); }},
-    {Knob::Filter, "filter F", "--filter", "-F", "image", "pixels",
-     0, 64, 0, true, {}, "Settings.f", "F", "F", KnobReset::Output,
-     "F: caustic box filter size (0 = M)",
-     [](const RenderSettings& s) { return double(s.filter); },
-     [](RenderSettings& s, double v) { s.filter = int(v); }},
-    {Knob::Photons, "photons P", "--photons", "-P", "photons", "paths",
-     1, 50'000'000, 20000, true, {}, "Settings.photonsPerBatch", "P", "P", KnobReset::Epoch,
-     "P: photon paths traced per set per frame",
-     [](const RenderSettings& s) { return double(s.photons.photonsPerBatch); },
-     [](RenderSettings& s, double v) { s.photons.photonsPerBatch = uint32_t(v); }},
-    {Knob::K, "k", "--k", "", "estimator", "photons",
-     1, 4096, 64, true, {}, "Settings.k", "k", "k", KnobReset::Epoch,
-     "photons per density estimate",
-     [](const RenderSettings& s) { return double(s.photons.k); },
-     [](RenderSettings& s, double v) { s.photons.k = uint32_t(v); }},
-    {Knob::RMax, "gather radius r_max", "--rmax", "", "estimator", "metres",
-     0, 1e6, 0, false, {}, "Settings.rMax", "rmax", "rmax", KnobReset::Epoch,
-     "maximum gather radius (0 = 2% of the scene diagonal)",
-     [](const RenderSettings& s) { return double(s.photons.rMax); },
-     [](RenderSettings& s, double v) { s.photons.rMax = float(v); }},
-    {Knob::Tree, "photon index", "--tree", "", "photons", "",
-     0, 2, 0, true, {"middle", "median", "grid"}, "Settings.tree", "tree", "tree", KnobReset::Epoch,
-     "photon map index: middle (incremental middle-split kd-tree), median (balanced kd-tree rebuilt "
-     "each frame) or grid (uniform grid rebuilt each frame)",
-     [](const RenderSettings& s) { return double(s.photons.tree); },
-     [](RenderSettings& s, double v) { s.photons.tree = PhotonTree(uint8_t(v)); }},
-    {Knob::Estimator, "estimator", "--estimator", "", "estimator", "",
-     0, 1, 0, true, {"progressive", "knn"}, "Settings.estimator", "estimator", "estimator", KnobReset::Epoch,
-     "caustic estimator: progressive (while the view is still, every photon of every pass counted, each "
-     "pixel's gather disc chosen from them; converges) or knn (the paper's k nearest photons and box filter)",
-     [](const RenderSettings& s) { return double(s.photons.estimator); },
-     [](RenderSettings& s, double v) { s.photons.estimator = CausticEstimatorKind(uint8_t(v)); }},
-    {Knob::Confidence, "confidence width", "--confidence", "", "estimator", "standard deviations",
-     0.001, kMaxProgressiveGamma, 1.5, false, {}, "Settings.progressiveGamma", "confidence", "confidence",
-     KnobReset::Epoch,
-     "progressive: confidence width Γ by which each pixel chooses its gather disc; larger is smoother, "
-     "smaller sharper",
-     [](const RenderSettings& s) { return double(s.photons.progressiveGamma); },
-     [](RenderSettings& s, double v) { s.photons.progressiveGamma = float(v); }},
+    {{"interleave M", "--interleave", "-M", "image", "sets per side", 1, 16, 3, true, {}, "Settings.m",
+      "M: the image is split into M×M interleaving sets, one photon map each",
+      [](const RenderSettings& s) { return double(s.interleave); },
+      [](RenderSettings& s, double v) { s.interleave = int(v); }},
+     Knob::Interleave, "M", "M", KnobReset::Resize},
+    {{"filter F", "--filter", "-F", "image", "pixels", 0, 64, 0, true, {}, "Settings.f",
+      "F: caustic box filter size (0 = M)",
+      [](const RenderSettings& s) { return double(s.filter); },
+      [](RenderSettings& s, double v) { s.filter = int(v); }},
+     Knob::Filter, "F", "F", KnobReset::Output},
+    {{"photons P", "--photons", "-P", "photons", "paths", 1, 50'000'000, 20000, true, {}, "Settings.photonsPerBatch",
+      "P: photon paths traced per set per frame",
+      [](const RenderSettings& s) { return double(s.photons.photonsPerBatch); },
+      [](RenderSettings& s, double v) { s.photons.photonsPerBatch = uint32_t(v); }},
+     Knob::Photons, "P", "P", KnobReset::Epoch},
+    {{"k", "--k", "", "estimator", "photons", 1, 4096, 64, true, {}, "Settings.k",
+      "photons per density estimate",
+      [](const RenderSettings& s) { return double(s.photons.k); },
+      [](RenderSettings& s, double v) { s.photons.k = uint32_t(v); }},
+     Knob::K, "k", "k", KnobReset::Epoch},
+    {{"gather radius r_max", "--rmax", "", "estimator", "metres", 0, 1e6, 0, false, {}, "Settings.rMax",
+      "maximum gather radius (0 = 2% of the scene diagonal)",
+      [](const RenderSettings& s) { return double(s.photons.rMax); },
+      [](RenderSettings& s, double v) { s.photons.rMax = float(v); }},
+     Knob::RMax, "rmax", "rmax", KnobReset::Epoch},
+    {{"photon index", "--tree", "", "photons", "", 0, 2, 0, true, {"middle", "median", "grid"}, "Settings.tree",
+      "photon map index: middle (incremental middle-split kd-tree), median (balanced kd-tree rebuilt "
+      "each frame) or grid (uniform grid rebuilt each frame)",
+      [](const RenderSettings& s) { return double(s.photons.tree); },
+      [](RenderSettings& s, double v) { s.photons.tree = PhotonTree(uint8_t(v)); }},
+     Knob::Tree, "tree", "tree", KnobReset::Epoch},
+    {{"estimator", "--estimator", "", "estimator", "", 0, 1, 0, true, {"progressive", "knn"}, "Settings.estimator",
+      "caustic estimator: progressive (while the view is still, every photon of every pass counted, each "
+      "pixel's gather disc chosen from them; converges) or knn (the paper's k nearest photons and box filter)",
+      [](const RenderSettings& s) { return double(s.photons.estimator); },
+      [](RenderSettings& s, double v) { s.photons.estimator = CausticEstimatorKind(uint8_t(v)); }},
+     Knob::Estimator, "estimator", "estimator", KnobReset::Epoch},
+    {{"confidence width", "--confidence", "", "estimator", "standard deviations", 0.001, kMaxProgressiveGamma, 1.5,
+      false, {}, "Settings.progressiveGamma",
+      "progressive: confidence width Γ by which each pixel chooses its gather disc; larger is smoother, "
+      "smaller sharper",
+      [](const RenderSettings& s) { return double(s.photons.progressiveGamma); },
+      [](RenderSettings& s, double v) { s.photons.progressiveGamma = float(v); }},
+     Knob::Confidence, "confidence", "confidence", KnobReset::Epoch},
+    {{"exposure", "--exposure", "", "image", "stops", -20, 20, 0, false, {}, "",
+      "exposure of the PNG and of the viewer's frames, in stops above the automatic one (which maps "
+      "the 99th-percentile luminance to white); the EXR stays linear",
+      [](const RenderSettings& s) { return double(s.exposure); },
+      [](RenderSettings& s, double v) { s.exposure = float(v); }},
+     Knob::Exposure, "exposure", "exposure", KnobReset::Output},
+}};
+
+/// The settings fixed for a run (a flag at start; the edit script and the viewer cannot change
+/// them): rows of the live knobs' shape without the edit-script key, viewer control and reset.
+/// The flags, --help groups, validateSettings and describeSettings read them as they read kKnobs;
+/// the wire's ceilings are at least their limits (static_assert in proto/bridge).
+inline constexpr size_t kFixedSettingCount = 10;
+inline constexpr std::array<SettingRow, kFixedSettingCount> kFixedSettings{{
+    {"width", "--width", "", "image", "pixels", 1, 16384, 640, true, {}, "Settings.width",
+     "image width",
+     [](const RenderSettings& s) { return double(s.width); },
+     [](RenderSettings& s, double v) { s.width = int(v); }},
+    {"height", "--height", "", "image", "pixels", 1, 16384, 480, true, {}, "Settings.height",
+     "image height",
+     [](const RenderSettings& s) { return double(s.height); },
+     [](RenderSettings& s, double v) { s.height = int(v); }},
+    {"eye depth", "--depth", "", "image", "bounces", 0, 64, 16, true, {}, "Settings.maxDepth",
+     "specular depth limit of eye paths",
+     [](const RenderSettings& s) { return double(s.eye.maxDepth); },
+     [](RenderSettings& s, double v) { s.eye.maxDepth = int(v); }},
+    {"area light samples", "--area-samples", "", "image", "rays", 1, 256, 4, true, {}, "Settings.areaLightSamples",
+     "shadow samples per emissive triangle for a near, large light; a small or far one takes fewer, by "
+     "its solid angle (down to 1 per pixel)",
+     [](const RenderSettings& s) { return double(s.eye.areaLightSamples); },
+     [](RenderSettings& s, double v) { s.eye.areaLightSamples = int(v); }},
+    {"diffuse bounces", "--diffuse-bounces", "", "photons", "bounces", 0, 8, 1, true, {}, "Settings.diffuseBounces",
+     "diffuse bounces a photon may take (0 = only L S+ D caustics)",
+     [](const RenderSettings& s) { return double(s.photons.diffuseBounces); },
+     [](RenderSettings& s, double v) { s.photons.diffuseBounces = uint32_t(v); }},
+    {"photon cap", "--cap", "", "photons", "photons", 0, double(uint64_t(1) << 30), 2'000'000, true, {},
+     "Settings.capPhotonsPerSet",
+     "stored photons per set at which accumulation stops (0 = none)",
+     [](const RenderSettings& s) { return double(s.photons.capPhotons); },
+     [](RenderSettings& s, double v) { s.photons.capPhotons = uint64_t(v); }},
+    {"photon depth", "--photon-depth", "", "photons", "segments", 1, 64, 16, true, {}, "Settings.photonMaxDepth",
+     "ray segments per photon path",
+     [](const RenderSettings& s) { return double(s.photons.maxDepth); },
+     [](RenderSettings& s, double v) { s.photons.maxDepth = uint32_t(v); }},
+    {"seed", "--seed", "", "photons", "", 0, double(uint64_t(1) << 53), double(PhotonSettings{}.seed), true, {},
+     "Settings.seed",
+     "seed of the Halton rotations",
+     [](const RenderSettings& s) { return double(s.photons.seed); },
+     [](RenderSettings& s, double v) { s.photons.seed = uint64_t(v); }},
+    {"plain shooting", "--no-spt", "", "photons", "", 0, 1, 1, true, {}, "Settings.spt",
+     "plain QMC photon shooting instead of Selective Photon Tracing",
+     [](const RenderSettings& s) { return s.photons.selective ? 1.0 : 0.0; },
+     [](RenderSettings& s, double v) { s.photons.selective = v != 0.0; }, FlagForm::ClearSwitch},
+    {"gather visibility", "--gather-visibility", "", "estimator", "", 0, 1, 0, true, {}, "Settings.gatherVisibility",
+     "count only photons visible from the shaded point (a shadow ray per gathered photon): no caustic "
+     "leaks through thin walls, k more rays per pixel",
+     [](const RenderSettings& s) { return s.photons.gatherVisibility ? 1.0 : 0.0; },
+     [](RenderSettings& s, double v) { s.photons.gatherVisibility = v != 0.0; }, FlagForm::Switch},
 }};
 // clang-format on
 
@@ -105,17 +180,17 @@ using KnobValues = std::array<std::optional<double>, kKnobCount>;
 
 /// The error naming the knob when `value` is outside its row's limits (or not whole for an
 /// integer knob, or not finite); nullopt when it fits.
-std::optional<std::string> knobValueError(const KnobRow& row, double value);
+std::optional<std::string> knobValueError(const SettingRow& row, double value);
 
 /// A value as an edit script and the viewer write it: a number, or a choice knob's name;
 /// nullopt when `text` is neither (the limits are not checked: knobValueError does).
-std::optional<double> parseKnobValue(const KnobRow& row, std::string_view text);
+std::optional<double> parseKnobValue(const SettingRow& row, std::string_view text);
 /// Inverse of parseKnobValue: the shortest number that reads back to `value` (to the same float
 /// when `value` is one, as the float-valued knobs store it), or the choice's name.
-std::string formatKnobValue(const KnobRow& row, double value);
+std::string formatKnobValue(const SettingRow& row, double value);
 
 /// "[1, 16]" or "middle|median|grid", for --help and error messages.
-std::string knobRange(const KnobRow& row);
+std::string knobRange(const SettingRow& row);
 
 /// The strongest reset among the knobs whose value differs between `before` and `after`;
 /// nullopt when no knob changed.

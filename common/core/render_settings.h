@@ -117,19 +117,24 @@ struct RenderSettings {
     int height = 480;
     int interleave = 3;  ///< M: M×M interleaving sets (docs/ARCHITECTURE.md §3)
     int filter = 0;      ///< F: caustic box filter size; 0 → F = M (every window holds each set once)
+    /// Display exposure in stops above the automatic one (1 / 99th-percentile luminance): the PNG's
+    /// and the viewer's tone map only; the EXR and every radiance value are unaffected.
+    float exposure = 0.0f;
     EyeSettings eye;
     PhotonSettings photons;
 
     int filterSize() const { return filter > 0 ? filter : interleave; }
 };
 
-/// Throws std::invalid_argument naming the setting when a value is absurd (zero or negative
-/// sizes, M larger than the image, F over 64, k = 0, a non-finite or negative radius, …).
+/// Throws std::invalid_argument naming the setting when a value is outside its row's limits
+/// (common/core/knobs.h: zero or negative sizes, F over 64, k = 0, a non-finite or negative
+/// radius, …) or M is larger than the image.
 void validateSettings(const RenderSettings& settings);
 
 /// The settings that decide an image, as the flags that give them ("--width 640 --height 480 -M 3
-/// -F 3 -P 20000 --k 64 ...": the live knobs in the order of their rows, common/core/knobs.h, then
-/// the others), for image metadata and logs. One line, stable order.
+/// -F 3 -P 20000 --k 64 ... --exposure 0 --depth 16 ...": the rows of common/core/knobs.h in table
+/// order, the two image-size rows first, then the live knobs, then the other fixed settings, a
+/// switch only when it is given), for image metadata and logs. One line, stable order.
 std::string describeSettings(const RenderSettings& settings);
 
 }  // namespace rtpm

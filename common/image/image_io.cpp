@@ -289,7 +289,8 @@ float autoExposureScale(std::span<const float> rgb) {
 float writePng(const std::string& path, int width, int height, std::span<const float> rgb,
                const ToneMap& toneMap) {
     checkSize(path.c_str(), width, height, rgb.size());
-    const float scale = toneMap.exposureStops ? std::exp2(*toneMap.exposureStops) : autoExposureScale(rgb);
+    const float scale = toneMap.exposureStops ? std::exp2(*toneMap.exposureStops)
+                                              : autoExposureScale(rgb) * std::exp2(toneMap.stopsAboveAuto);
     std::vector<unsigned char> bytes(rgb.size());
     for (size_t i = 0; i < rgb.size(); ++i)
         bytes[i] = static_cast<unsigned char>(std::lround(255.0f * linearToSrgb(finiteOrZero(rgb[i] * scale))));

@@ -72,11 +72,13 @@ struct ExrImage {
 ExrImage readExr(const std::string& path);
 
 /// Tone mapping for PNG output. The operator: scale every channel by 2^exposureStops (or, when
-/// unset, by 1 / (99th-percentile luminance of the image), so the brightest 1% of pixels clip and
-/// a lone hot pixel cannot darken the frame), clamp to [0, 1], apply the sRGB transfer curve
-/// (IEC 61966-2-1) and quantise to 8 bits with rounding. Non-finite values become black.
+/// unset, by the automatic exposure 1 / (99th-percentile luminance of the image), so the brightest
+/// 1% of pixels clip and a lone hot pixel cannot darken the frame, times 2^stopsAboveAuto), clamp
+/// to [0, 1], apply the sRGB transfer curve (IEC 61966-2-1) and quantise to 8 bits with rounding.
+/// Non-finite values become black.
 struct ToneMap {
     std::optional<float> exposureStops;
+    float stopsAboveAuto = 0.0f;  ///< RenderSettings::exposure; 0 leaves the automatic scale as is
 };
 
 /// Writes an 8-bit sRGB PNG of linear RGB `rgb` (width·height·3, row-major from the top).

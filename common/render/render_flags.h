@@ -14,46 +14,48 @@
 
 namespace rtpm {
 
-/// Adds one flag per live knob (common/core/knobs.h: its name, short form, help group, range and
-/// default come from its row), bound to `settings`. A value outside the row's limits is refused
-/// by the parser (CLI::ValidationError naming the flag).
-inline void addKnobFlags(CLI::App& app, RenderSettings& settings) {
-    for (const KnobRow& row : kKnobs) {
-        std::string names(row.flag);
-        if (!row.shortFlag.empty()) names += "," + std::string(row.shortFlag);
-        std::string help = std::string(row.help) + ", " + knobRange(row);
-        if (!row.unit.empty()) help += " " + std::string(row.unit);
-        help += ", default " + formatKnobValue(row, row.defaultValue);
-        // Refusals in the parser's own words, as for every other flag ("--photons: Value 0 not in
-        // range 1 to 50000000").
-        auto set = [&settings, &row](const std::string& text) {
-            const std::optional<double> v = parseKnobValue(row, text);
-            if (!v)
-                throw CLI::ValidationError(std::string(row.flag), "'" + text + "' is not " +
-                                                                      (row.isChoice() ? "one of " : "a number in ") +
-                                                                      knobRange(row));
-            if (knobValueError(row, *v))
-                throw CLI::ValidationError(std::string(row.flag),
-                                           row.integer && std::floor(*v) != *v
-                                               ? "Value " + text + " is not a whole number"
-                                               : "Value " + text + " not in range " + formatKnobValue(row, row.min) +
-                                                     " to " + formatKnobValue(row, row.max));
-            row.set(settings, *v);
-        };
-        app.add_option_function<std::string>(names, set, help)
-            ->type_name(row.isChoice() ? "NAME" : row.integer ? "INT" : "FLOAT")
+/// Adds the flag of setting `row` (common/core/knobs.h: its name, short form, help group, range and
+/// default come from the row), bound to `settings`. A value outside the row's limits is refused by
+/// the parser (CLI::ValidationError naming the flag); a switch takes no value.
+inline void addSettingFlag(CLI::App& app, const SettingRow& row, RenderSettings& settings) {
+    std::string names(row.flag);
+    if (!row.shortFlag.empty()) names += "," + std::string(row.shortFlag);
+    if (row.form != FlagForm::Value) {
+        const double value = row.form == FlagForm::Switch ? 1.0 : 0.0;
+        app.add_flag_callback(names, [&settings, &row, value] { row.set(settings, value); }, std::string(row.help))
             ->group(std::string(row.group));
+        return;
     }
+    std::string help = std::string(row.help) + ", " + knobRange(row);
+    if (!row.unit.empty()) help += " " + std::string(row.unit);
+    help += ", default " + formatKnobValue(row, row.defaultValue);
+    // Refusals in the parser's own words, as for every other flag ("--photons: Value 0 not in
+    // range 1 to 50000000").
+    auto set = [&settings, &row](const std::string& text) {
+        const std::optional<double> v = parseKnobValue(row, text);
+        if (!v)
+            throw CLI::ValidationError(std::string(row.flag), "'" + text + "' is not " +
+                                                                  (row.isChoice() ? "one of " : "a number in ") +
+                                                                  knobRange(row));
+        if (knobValueError(row, *v))
+            throw CLI::ValidationError(std::string(row.flag),
+                                       row.integer && std::floor(*v) != *v
+                                           ? "Value " + text + " is not a whole number"
+                                           : "Value " + text + " not in range " + formatKnobValue(row, row.min) +
+                                                 " to " + formatKnobValue(row, row.max));
+        row.set(settings, *v);
+    };
+    app.add_option_function<std::string>(names, set, help)
+        ->type_name(row.isChoice() ? "NAME" : row.integer ? "INT" : "FLOAT")
+        ->group(std::string(row.group));
 }
 
-/// Adds every flag that decides what a frame looks like to `app`, bound to `settings`, in the
-/// --help groups scene, image, photons and estimator (the live knobs through addKnobFlags).
-/// `plainShooting` receives --no-spt; the caller sets settings.photons.selective = !plainShooting
-/// after parsing. `sceneName` receives --scene, `noDefaultLight` --no-default-light (the caller
-/// passes SceneOverrides::defaultLight = !noDefaultLight to loadScene).
-inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string& sceneName,
-                           bool& plainShooting, bool& noDefaultLight) {
-    RenderSettings& rs = settings;
+/// Adds every flag that decides what a frame looks like to `app`, bound to `settings`: --scene and
+/// --no-default-light, then one flag per row of common/core/knobs.h (the fixed settings, then the
+/// live knobs), in the --help groups scene, image, photons and estimator. `sceneName` receives
+/// --scene, `noDefaultLight` --no-default-light (the caller passes SceneOverrides::defaultLight =
+/// !noDefaultLight to loadScene).
+inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string& sceneName, bool& noDefaultLight) {
     app.add_option("--scene", sceneName,
                    "built-in scene (RING GLASS EGG HEADLIGHT CORNELL) or .gltf/.glb/.obj file")
         ->capture_default_str()
@@ -62,36 +64,8 @@ inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string&
                  "refuse a scene with no light and no emissive material instead of adding the "
                  "default lights (a caustic spot light behind it, a key light on the camera's side; see README)")
         ->group("scene");
-    app.add_option("--width", rs.width, "image width in pixels")->capture_default_str()
-        ->group("image");
-    app.add_option("--height", rs.height, "image height in pixels")->capture_default_str()
-        ->group("image");
-    app.add_flag("--no-spt", plainShooting,
-                 "plain QMC photon shooting instead of Selective Photon Tracing")
-        ->group("photons");
-    addKnobFlags(app, settings);  // after one flag of each group: --help lists scene, image, photons, estimator
-    app.add_option("--diffuse-bounces", rs.photons.diffuseBounces,
-                   "diffuse bounces a photon may take (0 = only L S+ D caustics)")
-        ->capture_default_str()
-        ->group("photons");
-    app.add_option("--cap", rs.photons.capPhotons,
-                   "stored photons per set at which accumulation stops (0 = none)")
-        ->capture_default_str()
-        ->group("photons");
-    app.add_option("--depth", rs.eye.maxDepth, "specular depth limit of eye paths")->capture_default_str()
-        ->group("image");
-    app.add_option("--photon-depth", rs.photons.maxDepth, "ray segments per photon path")
-        ->capture_default_str()
-        ->group("photons");
-    app.add_option("--area-samples", rs.eye.areaLightSamples, "shadow samples per emissive triangle for a near, large light; a small or far one takes fewer, by its solid angle (down to 1 per pixel)")
-        ->capture_default_str()
-        ->group("image");
-    app.add_option("--seed", rs.photons.seed, "seed of the Halton rotations")->capture_default_str()
-        ->group("photons");
-    app.add_flag("--gather-visibility", rs.photons.gatherVisibility,
-                 "count only photons visible from the shaded point (a shadow ray per gathered "
-                 "photon): no caustic leaks through thin walls, k more rays per pixel")
-        ->group("estimator");
+    for (const SettingRow& row : kFixedSettings) addSettingFlag(app, row, settings);
+    for (const KnobRow& row : kKnobs) addSettingFlag(app, row, settings);
 }
 
 /// How a still view converges: the frame-time budget its passes grow to (PassBudget) and the

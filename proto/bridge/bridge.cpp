@@ -19,6 +19,20 @@ static_assert(knobRow(Knob::K).max == proto::kMaxK, "k: knob row and Settings.k 
 static_assert(knobRow(Knob::Photons).max == proto::kMaxPhotonsPerBatch, "P: knob row and Settings.photonsPerBatch differ");
 static_assert(knobRow(Knob::Confidence).max == proto::kMaxProgressiveGamma,
               "confidence: knob row and Settings.progressiveGamma differ");
+// The fixed settings' rows are the flags' limits; the wire's ceilings (which bound what a decoder
+// accepts from a peer) hold at least every value the rows allow.
+constexpr const SettingRow& fixedRow(std::string_view flag) {
+    for (const SettingRow& r : kFixedSettings)
+        if (r.flag == flag) return r;
+    throw "no such fixed setting";  // not a constant expression: fails the static_assert below
+}
+static_assert(fixedRow("--width").max == proto::kMaxImageSide && fixedRow("--height").max == proto::kMaxImageSide,
+              "image size: rows and Settings.width/height differ");
+static_assert(fixedRow("--depth").max <= proto::kMaxDepthLimit && fixedRow("--photon-depth").max <= proto::kMaxDepthLimit,
+              "depths: the wire cannot carry the rows' limits");
+static_assert(fixedRow("--diffuse-bounces").max <= proto::kMaxDiffuseBounces, "diffuse bounces: wire below the row");
+static_assert(fixedRow("--area-samples").max <= proto::kMaxAreaLightSamples, "area samples: wire below the row");
+static_assert(fixedRow("--cap").max <= double(UINT32_MAX), "cap: Settings.capPhotonsPerSet is 32 bits");
 static_assert(sizeof(Vec3) == 3 * sizeof(float), "Vec3 is three packed floats");
 static_assert(sizeof(PixelRadiance) == 6 * sizeof(float), "PixelRadiance is six packed floats");
 static_assert(offsetof(PixelRadiance, caustic) == 3 * sizeof(float), "caustic follows direct");

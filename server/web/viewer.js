@@ -205,7 +205,9 @@ function onEvent(e) {
 // ---- scene controls --------------------------------------------------------------------------
 function onScene(s) {
   const first = !state.scene;
+  const exposureBefore = first ? 0 : state.scene.settings.exposure;
   state.scene = s;
+  if (s.settings.exposure !== exposureBefore) sendDisplay();
   $('scene-name').textContent = `${s.name} ${s.width}×${s.height}`;
   fillSelect($('light-index'), lightItems().map((l) => l.label));
   fillSelect($('material-index'), s.materials.map((m) => `material ${m.index} (${m.type})`));
@@ -367,10 +369,13 @@ function setupCamera() {
 }
 
 // ---- other controls --------------------------------------------------------------------------
+// The frames this page receives: the page's own exposure on top of the master's exposure knob
+// (the PNG's), within the [-20, 20] stops a display control may ask for.
 function sendDisplay() {
   const ev = Number($('exposure').value);
+  const knob = state.scene ? Number(state.scene.settings.exposure) || 0 : 0;
   $('exposure-value').textContent = ev;
-  send({ type: 'display', layer: $('layer').value, exposure: ev });
+  send({ type: 'display', layer: $('layer').value, exposure: Math.max(-20, Math.min(20, ev + knob)) });
 }
 
 function saveScript(text) {

@@ -1,4 +1,4 @@
-// The live-knob table: rows agree with RenderSettings, text forms round-trip, limits and the reset rule.
+// The settings tables: rows agree with RenderSettings, text forms round-trip, limits and the reset rule.
 #include "common/core/knobs.h"
 
 #include <gtest/gtest.h>
@@ -20,7 +20,8 @@ TEST(Knobs, EveryRowNamesItsFlagKeysAndDefault) {
         EXPECT_TRUE(viewerKeys.insert(row.viewerKey).second) << row.viewerKey;
         EXPECT_EQ(row.get(defaults), row.defaultValue) << row.name;
         EXPECT_FALSE(row.group.empty());
-        EXPECT_FALSE(row.wireField.empty());
+        // Off the wire only when the clients need not know it: the master's output alone changes.
+        EXPECT_TRUE(!row.wireField.empty() || row.resets == KnobReset::Output) << row.name;
         // set() then get() gives a value within the limits back at both limits (a float field
         // holds the nearest float, which formats back to the same text).
         RenderSettings s;
@@ -30,6 +31,46 @@ TEST(Knobs, EveryRowNamesItsFlagKeysAndDefault) {
             EXPECT_EQ(formatKnobValue(row, row.get(s)), formatKnobValue(row, v)) << row.name;
         }
     }
+}
+
+TEST(Knobs, FixedSettingRowsAgreeWithRenderSettingsAndNoFlagIsTwice) {
+    std::set<std::string_view> flags;
+    for (const KnobRow& row : kKnobs) flags.insert(row.flag);
+    const RenderSettings defaults;
+    for (const SettingRow& row : kFixedSettings) {
+        EXPECT_TRUE(flags.insert(row.flag).second) << row.flag;
+        EXPECT_EQ(row.get(defaults), row.defaultValue) << row.name;
+        EXPECT_FALSE(row.group.empty()) << row.name;
+        EXPECT_FALSE(row.wireField.empty()) << row.name;
+        RenderSettings s;
+        for (double v : {row.min, row.max}) {
+            row.set(s, v);
+            EXPECT_EQ(row.get(s), v) << row.name;
+        }
+    }
+    // The limits validateSettings applies are the rows': one past a limit is refused by name.
+    RenderSettings s;
+    s.eye.maxDepth = 65;
+    try {
+        validateSettings(s);
+        ADD_FAILURE() << "eye depth 65 accepted";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("eye depth must be a whole number in [0, 64], got 65"), std::string::npos)
+            << e.what();
+    }
+}
+
+TEST(Knobs, ExposureIsALiveKnobOfTheOutputAlone) {
+    const KnobRow& row = knobRow(Knob::Exposure);
+    EXPECT_EQ(row.flag, "--exposure");
+    EXPECT_EQ(row.resets, KnobReset::Output);
+    EXPECT_TRUE(row.wireField.empty());
+    EXPECT_FALSE(knobValueError(row, -20));
+    EXPECT_FALSE(knobValueError(row, 1.5));
+    EXPECT_TRUE(knobValueError(row, 20.5));
+    RenderSettings a, b;
+    b.exposure = 2.0f;
+    EXPECT_EQ(knobChangeReset(a, b), KnobReset::Output);  // no new epoch, no Settings to clients
 }
 
 TEST(Knobs, ValuesRoundTripThroughTheirText) {
