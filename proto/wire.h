@@ -10,12 +10,15 @@
 #include <variant>
 #include <vector>
 
+#include "common/core/version.h"
+
 namespace rtpm::proto {
 
 /// 'R','T','P','M' on the wire (little-endian u32 0x4D505452).
 inline constexpr uint32_t kMagic = 0x4D505452u;
-/// Bumped on any change of a message layout; peers must match exactly (PROTOCOL.md §2).
-inline constexpr uint16_t kProtocolVersion = 6;
+/// Bumped on any change of a message layout (in common/core/version.h, where every program's
+/// --version reads it); peers must match exactly (PROTOCOL.md §2).
+inline constexpr uint16_t kProtocolVersion = kWireProtocolVersion;
 /// The master's TCP port when none is given (rtpm-server --port, rtpm-client --server HOST).
 inline constexpr uint16_t kDefaultPort = 7411;
 /// Size of the fixed header that precedes every payload.

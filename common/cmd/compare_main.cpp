@@ -10,10 +10,10 @@
 #include <vector>
 
 #include "common/cmd/command_line.h"
+#include "common/core/version.h"
 #include "common/core/console.h"
 #include "common/image/error_metrics.h"
 #include "common/image/image_io.h"
-#include "proto/wire.h"
 
 namespace {
 
@@ -107,7 +107,7 @@ int run(int argc, char** argv) {
     app.add_flag("--identical", identical,
                  "fail (exit 3) unless both files hold the same channels with bit-identical values (the "
                  "header's attributes, such as the program that wrote it, are not compared)");
-    addStandardFlags(app, proto::kProtocolVersion,
+    addStandardFlags(app, kWireProtocolVersion,
                      {{0, "compared, within the bounds given"},
                       {kExitError, "cannot compare: missing file or channel, size mismatch"},
                       {kExitOverBound, "a bound given by --max-rel-rmse or --energy-bounds is not met, the pixels "

@@ -15,6 +15,7 @@
 
 #include "common/core/console.h"
 #include "common/cmd/command_line.h"
+#include "common/core/version.h"
 #include "common/core/output_file.h"
 #include "common/core/progress.h"
 #include "common/core/strings.h"
@@ -26,7 +27,6 @@
 #include "common/render/pass_budget.h"
 #include "common/render/render_job.h"
 #include "common/scene/scene_loader.h"
-#include "proto/wire.h"
 
 namespace {
 
@@ -56,17 +56,16 @@ struct Options {
     ConvergenceFlags convergence;
 };
 
-
-int run(int argc, char** argv) {
-    Options o;
-    RenderSettings rs;
+// rtpm-render's flags into `o`, `rs` and `overrides`: nullopt to go on, or the code main returns at
+// once (--help, --version, a usage error). Throws UsageError for settings out of range.
+std::optional<int> parseFlags(int argc, char** argv, Options& o, RenderSettings& rs,
+                              SceneOverrides& overrides) {
     CLI::App app{"rtpm-render: single-process caustic renderer (photon maps per interleaving set, "
                  "image-space box filter). Writes a multi-layer EXR (R G B, direct.*, caustic.*, "
                  "caustic_filtered.*) and a tone-mapped PNG beside it.",
                  "rtpm-render"};
     addRenderFlags(app, rs, o.scene, o.noDefaultLight);
     addSceneInputFlags(app, o.sceneInput);
-    SceneOverrides overrides;
     addSceneChoiceFlags(app, overrides);
     addConvergenceFlags(app, o.convergence);
     app.add_option("--frames", o.frames,
@@ -100,7 +99,7 @@ int run(int argc, char** argv) {
         ->check(CLI::NonNegativeNumber)
         ->group("output");
     app.add_option("--csv", o.csv, "append one line of figures per frame to this CSV file")->group("output");
-    addStandardFlags(app, proto::kProtocolVersion,
+    addStandardFlags(app, kWireProtocolVersion,
                      {{0, "the image was written"},
                       {1, "the scene or an output cannot be used (refused before rendering), or writing failed"},
                       {130, "stopped by SIGINT (Ctrl-C): the frame in flight was finished and the image so far "
@@ -112,29 +111,17 @@ int run(int argc, char** argv) {
                        "a glTF file until the caustic's estimated error is 2 % (at most 1000 frames)"},
                       {"rtpm-render --scene GLASS --estimator knn --csv out/glass.csv",
                        "the paper's k-NN estimator, with one line of figures per frame in out/glass.csv"}});
-    if (auto code = parseCommandLine(app, argc, argv)) return *code;
+    if (auto code = parseCommandLine(app, argc, argv)) return code;
     try {
         validateSettings(rs);
     } catch (const std::invalid_argument& e) {
         throw UsageError(e.what());
     }
+    return std::nullopt;
+}
 
-    // Every output is checked (and its folder created) before any work: a render is never lost
-    // to a path that cannot be written after its last frame.
-    if (!o.exportGlb.empty()) prepareOutputFile("--export-glb", o.exportGlb);
-    const std::string stem = toLower(std::filesystem::path(o.scene).stem().string());
-    const ImageOutputPaths outPaths = imageOutputPaths(o.out.empty() ? "out/" + stem + ".exr" : o.out);
-    if (o.exportGlb.empty()) {
-        prepareOutputFile("--out", outPaths.exr);
-        prepareOutputFile("--out", outPaths.png);
-        if (!o.csv.empty()) prepareOutputFile("--csv", o.csv, OutputWrite::Append);
-    }
-
-    std::unique_ptr<tbb::global_control> threadLimit;
-    if (o.threads > 0)
-        threadLimit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                            size_t(o.threads));
-
+// The scene --scene names, with the camera and light the flags give; its warnings and figures printed.
+Scene loadFlaggedScene(const Options& o, SceneOverrides overrides) {
     overrides.defaultLight = !o.noDefaultLight;
     if (!o.eye.empty()) {
         CameraOverride c;
@@ -153,6 +140,78 @@ int run(int argc, char** argv) {
     for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     std::printf("scene %s: %zu triangles, %zu lights, %zu materials, loaded in %.1f ms\n", scene.name.c_str(),
                 scene.triangleCount(), scene.lights.size(), scene.materials.size(), loadSeconds * 1e3);
+    return scene;
+}
+
+// The --csv file, opened for appending, its header written when it is new.
+FILE* openCsv(const std::string& path) {
+    const bool fresh = !std::filesystem::exists(path);
+    FILE* csv = std::fopen(path.c_str(), "a");
+    if (!csv) throw OutputError("--csv " + path + ": cannot open: " + std::strerror(errno));
+    if (fresh) std::fprintf(csv, "frame,mode,shoot_ms,eye_ms,filter_ms,total_ms,photons,paths\n");
+    return csv;
+}
+
+// The settings line and the column heads of the per-frame lines.
+void printRunHeader(const RenderSettings& rs) {
+    std::printf("%dx%d, M=%d (%d sets), F=%d, P=%u paths/set/frame, k=%u, %s, diffuse bounces %u, %s estimator\n",
+                rs.width, rs.height, rs.interleave, rs.interleave * rs.interleave, rs.filterSize(),
+                rs.photons.photonsPerBatch, rs.photons.k, rs.photons.selective ? "SPT" : "plain shooting",
+                rs.photons.diffuseBounces, causticEstimatorName(rs.photons.estimator));
+    std::printf("%5s %-11s %9s %9s %9s %9s %11s %11s %7s %7s %9s\n", "frame", "mode", "shoot_ms", "eye_ms",
+                "filter_ms", "total_ms", "photons", "paths", "yield", "batches", "est_error");
+    std::fflush(stdout);
+}
+
+// What a frame's line shows besides its FrameStats.
+struct FrameFigures {
+    double filterMs, totalMs, yield, estimate;
+};
+
+// Frame `f`'s line under printRunHeader's heads, and its CSV line.
+void printFrameLine(FILE* csv, int f, const FrameStats& st, const FrameFigures& fig, uint32_t passBatches,
+                    uint32_t passPeriod) {
+    const char* mode = st.converging         ? "converging"
+                       : st.pathsThisFrame ? (f == 0 ? "interaction" : "accumulate")
+                                           : "walkthrough";
+    // Batches per set and pass, or "1/p" while the sets take turns shooting (pass_budget.h).
+    char work[16];
+    if (st.converging && passPeriod > 1) std::snprintf(work, sizeof work, "1/%u", passPeriod);
+    else std::snprintf(work, sizeof work, "%u", st.converging ? passBatches : 1u);
+    std::printf("%5d %-11s %9.1f %9.1f %9.2f %9.1f %11llu %11llu %6.1f%% %7s %9.4f\n", f, mode,
+                st.shootSeconds * 1e3, st.eyeSeconds * 1e3, fig.filterMs, fig.totalMs,
+                (unsigned long long)st.photonsStored, (unsigned long long)st.pathsTraced, fig.yield * 100.0, work,
+                fig.estimate);
+    std::fflush(stdout);
+    if (csv)
+        std::fprintf(csv, "%d,%s,%.3f,%.3f,%.3f,%.3f,%llu,%llu\n", f, mode, st.shootSeconds * 1e3,
+                     st.eyeSeconds * 1e3, fig.filterMs, fig.totalMs, (unsigned long long)st.photonsStored,
+                     (unsigned long long)st.pathsTraced);
+}
+
+int run(int argc, char** argv) {
+    Options o;
+    RenderSettings rs;
+    SceneOverrides overrides;
+    if (auto code = parseFlags(argc, argv, o, rs, overrides)) return *code;
+
+    // Every output is checked (and its folder created) before any work: a render is never lost
+    // to a path that cannot be written after its last frame.
+    if (!o.exportGlb.empty()) prepareOutputFile("--export-glb", o.exportGlb);
+    const std::string stem = toLower(std::filesystem::path(o.scene).stem().string());
+    const ImageOutputPaths outPaths = imageOutputPaths(o.out.empty() ? "out/" + stem + ".exr" : o.out);
+    if (o.exportGlb.empty()) {
+        prepareOutputFile("--out", outPaths.exr);
+        prepareOutputFile("--out", outPaths.png);
+        if (!o.csv.empty()) prepareOutputFile("--csv", o.csv, OutputWrite::Append);
+    }
+
+    const auto threadLimit = o.threads > 0 ? std::make_unique<tbb::global_control>(
+                                                 tbb::global_control::max_allowed_parallelism, size_t(o.threads))
+                                           : nullptr;
+
+    using Clock = std::chrono::steady_clock;
+    Scene scene = loadFlaggedScene(o, overrides);
     if (!o.exportGlb.empty()) {
         exportGlb(scene, o.exportGlb);
         std::printf("wrote %s\n", o.exportGlb.c_str());
@@ -160,28 +219,15 @@ int run(int argc, char** argv) {
     }
     const Camera camera = *scene.camera;
 
-    const int setCount = rs.interleave * rs.interleave;
-    std::vector<uint32_t> sets(static_cast<size_t>(setCount));
+    std::vector<uint32_t> sets(static_cast<size_t>(rs.interleave * rs.interleave));
     std::iota(sets.begin(), sets.end(), 0u);
     RenderJob job(std::move(scene), rs, sets);
     Interleave pattern{rs.width, rs.height, rs.interleave};
     FrameImage image(rs.width, rs.height);
     std::vector<SetPixels> pixels;
 
-    FILE* csv = nullptr;
-    if (!o.csv.empty()) {
-        bool fresh = !std::filesystem::exists(o.csv);
-        csv = std::fopen(o.csv.c_str(), "a");
-        if (!csv) throw OutputError("--csv " + o.csv + ": cannot open: " + std::strerror(errno));
-        if (fresh) std::fprintf(csv, "frame,mode,shoot_ms,eye_ms,filter_ms,total_ms,photons,paths\n");
-    }
-    std::printf("%dx%d, M=%d (%d sets), F=%d, P=%u paths/set/frame, k=%u, %s, diffuse bounces %u, %s estimator\n",
-                rs.width, rs.height, rs.interleave, setCount, rs.filterSize(), rs.photons.photonsPerBatch,
-                rs.photons.k, rs.photons.selective ? "SPT" : "plain shooting", rs.photons.diffuseBounces,
-                causticEstimatorName(rs.photons.estimator));
-    std::printf("%5s %-11s %9s %9s %9s %9s %11s %11s %7s %7s %9s\n", "frame", "mode", "shoot_ms", "eye_ms",
-                "filter_ms", "total_ms", "photons", "paths", "yield", "batches", "est_error");
-    std::fflush(stdout);
+    FILE* csv = o.csv.empty() ? nullptr : openCsv(o.csv);
+    printRunHeader(rs);
     PassBudget budget(o.convergence.frameBudgetMs * 1e-3);
 
     // SIGINT/SIGTERM: the frame in flight is finished and the image so far written; a second
@@ -214,23 +260,8 @@ int run(int argc, char** argv) {
         uint64_t productive = 0;
         for (uint32_t s : sets) productive += job.photons().stats(s).productivePaths;
         double yield = st.pathsTraced ? double(productive) / double(st.pathsTraced) : 0.0;
-        const char* mode = st.converging         ? "converging"
-                           : st.pathsThisFrame ? (f == 0 ? "interaction" : "accumulate")
-                                               : "walkthrough";
         progress.clear();
-        // Batches per set and pass, or "1/p" while the sets take turns shooting (pass_budget.h).
-        char work[16];
-        if (st.converging && passPeriod > 1) std::snprintf(work, sizeof work, "1/%u", passPeriod);
-        else std::snprintf(work, sizeof work, "%u", st.converging ? passBatches : 1u);
-        std::printf("%5d %-11s %9.1f %9.1f %9.2f %9.1f %11llu %11llu %6.1f%% %7s %9.4f\n", f, mode,
-                    st.shootSeconds * 1e3, st.eyeSeconds * 1e3, filterMs, totalMs,
-                    (unsigned long long)st.photonsStored, (unsigned long long)st.pathsTraced, yield * 100.0,
-                    work, estimate);
-        std::fflush(stdout);
-        if (csv)
-            std::fprintf(csv, "%d,%s,%.3f,%.3f,%.3f,%.3f,%llu,%llu\n", f, mode, st.shootSeconds * 1e3,
-                         st.eyeSeconds * 1e3, filterMs, totalMs, (unsigned long long)st.photonsStored,
-                         (unsigned long long)st.pathsTraced);
+        printFrameLine(csv, f, st, {filterMs, totalMs, yield, estimate}, passBatches, passPeriod);
         if (o.saveEvery > 0 && f > 0 && f % o.saveEvery == 0) {
             writeExr(numberedPath(outPaths.exr, uint64_t(f), ".exr"), image, false, metadata());
             writePng(numberedPath(outPaths.exr, uint64_t(f), ".png"), rs.width, rs.height, image.final(),

@@ -1,7 +1,15 @@
-// rtpm's version and the git commit it was built from, for --version and image metadata.
+// rtpm's version, the git commit it was built from and its wire protocol's version, for --version
+// and image metadata.
 #pragma once
 
+#include <cstdint>
+
 namespace rtpm {
+
+/// The wire protocol's version (proto/PROTOCOL.md §2), bumped on any change of a message layout.
+/// Kept here, below every program, so that each one's --version names it (rtpm-render and
+/// rtpm-compare speak no protocol); proto::kProtocolVersion is this number.
+inline constexpr uint16_t kWireProtocolVersion = 6;
 
 /// rtpm's version (CMake's project version), e.g. "0.1.0".
 const char* rtpmVersion();
