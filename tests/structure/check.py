@@ -42,8 +42,6 @@ ALLOWED = {
         "the server's rooms (peers, frame loop, viewer) are being split into smaller ones",
     ("members", "server/frame_loop.h", "FrameLoop"):
         "the server's rooms are being split into smaller ones",
-    ("function", "server/main.cpp", "run"):
-        "rtpm-server's flags and start-up, to split with the server's rooms",
     ("lines", "server/viewer/viewer_server.cpp", ""):
         "the viewer server is being split (connections, frame feed, HTTP)",
     ("members", "server/viewer/viewer_server.cpp", "ViewerServer::Impl"):
