@@ -105,11 +105,11 @@ void animate(Animation a, uint64_t frame, LiveScene& live, std::vector<proto::Sc
             if (!loaded.lights.empty()) {
                 e.kind = ScriptEdit::Kind::Light;
                 e.index = 0;
-                e.position = loaded.lights[0].position + offset;
+                e.light.position = loaded.lights[0].position + offset;
             } else {
                 e.kind = ScriptEdit::Kind::Transform;
                 e.index = *firstInstanceWith(loaded, isEmissive);
-                e.translate = offset;
+                e.transform.translate = offset;
             }
             live.apply(e, "--animate light", out);
             return;
@@ -119,7 +119,7 @@ void animate(Animation a, uint64_t frame, LiveScene& live, std::vector<proto::Sc
             ScriptEdit e;
             e.kind = ScriptEdit::Kind::Material;
             e.index = m;
-            e.ior = std::max(1.01f, loaded.materials[m].ior + 0.2f * std::sin(2.0f * kPi * f / 60.0f));
+            e.material.ior = std::max(1.01f, loaded.materials[m].ior + 0.2f * std::sin(2.0f * kPi * f / 60.0f));
             live.apply(e, "--animate ior", out);
             return;
         }
@@ -128,7 +128,7 @@ void animate(Animation a, uint64_t frame, LiveScene& live, std::vector<proto::Sc
             ScriptEdit e;
             e.kind = ScriptEdit::Kind::Transform;
             e.index = i;
-            e.matrix = spinY(instanceBounds(loaded, i).centre(), 3.0f * f) * loaded.instances[i].transform;
+            e.transform.matrix = spinY(instanceBounds(loaded, i).centre(), 3.0f * f) * loaded.instances[i].transform;
             live.apply(e, "--animate object", out);
             return;
         }

@@ -53,12 +53,12 @@ void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<
         case K::Settings: fail(file, e.line, "settings edits are applied by the master, not the scene");
         case K::Camera: {
             Camera c = camera_;
-            if (e.eye) c.position = *e.eye;
-            if (e.target) {
-                if (glm::length(*e.target - c.position) < 1e-6f) fail(file, e.line, "camera target equals its eye");
-                c = Camera::lookAt(c.position, *e.target, Vec3(0, 1, 0), c.yfov);
+            if (e.camera.eye) c.position = *e.camera.eye;
+            if (e.camera.target) {
+                if (glm::length(*e.camera.target - c.position) < 1e-6f) fail(file, e.line, "camera target equals its eye");
+                c = Camera::lookAt(c.position, *e.camera.target, Vec3(0, 1, 0), c.yfov);
             }
-            if (e.yfov) c.yfov = *e.yfov;
+            if (e.camera.yfov) c.yfov = *e.camera.yfov;
             validateCamera(c, file, lineEl(e.line));
             camera_ = c;
             return;
@@ -68,14 +68,14 @@ void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<
                 fail(file, e.line, "light " + std::to_string(e.index) + " does not exist (scene has " +
                                        std::to_string(scene_.lights.size()) + " punctual lights)");
             Light l = scene_.lights[e.index];
-            if (e.position) l.position = *e.position;
-            if (e.direction) {
-                if (glm::length(*e.direction) == 0.0f) fail(file, e.line, "light direction is zero");
-                l.direction = glm::normalize(*e.direction);
+            if (e.light.position) l.position = *e.light.position;
+            if (e.light.direction) {
+                if (glm::length(*e.light.direction) == 0.0f) fail(file, e.line, "light direction is zero");
+                l.direction = glm::normalize(*e.light.direction);
             }
-            if (e.intensity) {
-                if (!nonNegative(*e.intensity)) fail(file, e.line, "light intensity must be >= 0");
-                l.intensity = *e.intensity;
+            if (e.light.intensity) {
+                if (!nonNegative(*e.light.intensity)) fail(file, e.line, "light intensity must be >= 0");
+                l.intensity = *e.light.intensity;
             }
             validateLight(l, file, lineEl(e.line));  // the rule every client applies
             scene_.lights[e.index] = l;
@@ -87,22 +87,22 @@ void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<
                 fail(file, e.line, "material " + std::to_string(e.index) + " does not exist (scene has " +
                                        std::to_string(scene_.materials.size()) + ")");
             Material m = scene_.materials[e.index];
-            if (e.type) m.type = *e.type;
-            if (e.color) {
-                if (!inUnit(*e.color)) fail(file, e.line, "material color must be in [0, 1]");
-                m.baseColor = *e.color;
+            if (e.material.type) m.type = *e.material.type;
+            if (e.material.color) {
+                if (!inUnit(*e.material.color)) fail(file, e.line, "material color must be in [0, 1]");
+                m.baseColor = *e.material.color;
             }
-            if (e.ior) {
-                if (!(*e.ior > 0.0f)) fail(file, e.line, "ior must be > 0");
-                m.ior = *e.ior;
+            if (e.material.ior) {
+                if (!(*e.material.ior > 0.0f)) fail(file, e.line, "ior must be > 0");
+                m.ior = *e.material.ior;
             }
-            if (e.absorption) {
-                if (!nonNegative(*e.absorption)) fail(file, e.line, "absorption must be >= 0");
-                m.absorption = *e.absorption;
+            if (e.material.absorption) {
+                if (!nonNegative(*e.material.absorption)) fail(file, e.line, "absorption must be >= 0");
+                m.absorption = *e.material.absorption;
             }
-            if (e.emission) {
-                if (!nonNegative(*e.emission)) fail(file, e.line, "emission must be >= 0");
-                m.emission = *e.emission;
+            if (e.material.emission) {
+                if (!nonNegative(*e.material.emission)) fail(file, e.line, "emission must be >= 0");
+                m.emission = *e.material.emission;
             }
             validateMaterial(m, scene_.textures.size(), file, lineEl(e.line));
             scene_.materials[e.index] = m;
@@ -114,13 +114,13 @@ void LiveScene::apply(const ScriptEdit& e, const std::string& file, std::vector<
                 fail(file, e.line, "instance " + std::to_string(e.index) + " does not exist (scene has " +
                                        std::to_string(scene_.instances.size()) + ")");
             Mat4 m;
-            if (e.matrix) {
-                m = *e.matrix;
+            if (e.transform.matrix) {
+                m = *e.transform.matrix;
             } else {
                 Mat4 t(1.0f);
-                if (e.translate) t = glm::translate(t, *e.translate);
-                if (e.rotate) t = glm::rotate(t, glm::radians(e.rotate->w), glm::normalize(Vec3(*e.rotate)));
-                if (e.scale) t = glm::scale(t, Vec3(*e.scale));
+                if (e.transform.translate) t = glm::translate(t, *e.transform.translate);
+                if (e.transform.rotate) t = glm::rotate(t, glm::radians(e.transform.rotate->w), glm::normalize(Vec3(*e.transform.rotate)));
+                if (e.transform.scale) t = glm::scale(t, Vec3(*e.transform.scale));
                 m = t * loaded_.instances[e.index].transform;
             }
             validateInstanceTransform(m, meshBoxes_[scene_.instances[e.index].mesh], file, lineEl(e.line));

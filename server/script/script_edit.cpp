@@ -143,12 +143,12 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
             std::string key = p.word("a keyword");
             any = true;
             using K = ScriptEdit::Kind;
-            if (e.kind == K::Camera && key == "eye") setOnce(p, e.eye, p.vec3("eye"), key);
-            else if (e.kind == K::Camera && key == "target") setOnce(p, e.target, p.vec3("target"), key);
-            else if (e.kind == K::Camera && key == "yfov") setOnce(p, e.yfov, p.number("yfov"), key);
-            else if (e.kind == K::Light && key == "position") setOnce(p, e.position, p.vec3("position"), key);
-            else if (e.kind == K::Light && key == "direction") setOnce(p, e.direction, p.vec3("direction"), key);
-            else if (e.kind == K::Light && key == "intensity") setOnce(p, e.intensity, p.vec3("intensity"), key);
+            if (e.kind == K::Camera && key == "eye") setOnce(p, e.camera.eye, p.vec3("eye"), key);
+            else if (e.kind == K::Camera && key == "target") setOnce(p, e.camera.target, p.vec3("target"), key);
+            else if (e.kind == K::Camera && key == "yfov") setOnce(p, e.camera.yfov, p.number("yfov"), key);
+            else if (e.kind == K::Light && key == "position") setOnce(p, e.light.position, p.vec3("position"), key);
+            else if (e.kind == K::Light && key == "direction") setOnce(p, e.light.direction, p.vec3("direction"), key);
+            else if (e.kind == K::Light && key == "intensity") setOnce(p, e.light.intensity, p.vec3("intensity"), key);
             else if (e.kind == K::Material && key == "type") {
                 std::string t = p.word("diffuse, mirror or dielectric");
                 MaterialType mt = MaterialType::Diffuse;
@@ -156,22 +156,22 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
                 else if (t == "mirror") mt = MaterialType::Mirror;
                 else if (t == "dielectric") mt = MaterialType::Dielectric;
                 else p.fail("unknown material type '" + printableText(t) + "' (expected diffuse, mirror or dielectric)");
-                setOnce(p, e.type, mt, key);
-            } else if (e.kind == K::Material && key == "color") setOnce(p, e.color, p.vec3("color"), key);
-            else if (e.kind == K::Material && key == "ior") setOnce(p, e.ior, p.number("ior"), key);
-            else if (e.kind == K::Material && key == "absorption") setOnce(p, e.absorption, p.vec3("absorption"), key);
-            else if (e.kind == K::Material && key == "emission") setOnce(p, e.emission, p.vec3("emission"), key);
-            else if (e.kind == K::Transform && key == "translate") setOnce(p, e.translate, p.vec3("translate"), key);
+                setOnce(p, e.material.type, mt, key);
+            } else if (e.kind == K::Material && key == "color") setOnce(p, e.material.color, p.vec3("color"), key);
+            else if (e.kind == K::Material && key == "ior") setOnce(p, e.material.ior, p.number("ior"), key);
+            else if (e.kind == K::Material && key == "absorption") setOnce(p, e.material.absorption, p.vec3("absorption"), key);
+            else if (e.kind == K::Material && key == "emission") setOnce(p, e.material.emission, p.vec3("emission"), key);
+            else if (e.kind == K::Transform && key == "translate") setOnce(p, e.transform.translate, p.vec3("translate"), key);
             else if (e.kind == K::Transform && key == "rotate") {
                 Vec3 axis = p.vec3("rotate axis");
                 float deg = p.number("rotate degrees");
-                setOnce(p, e.rotate, glm::vec4(axis, deg), key);
-            } else if (e.kind == K::Transform && key == "scale") setOnce(p, e.scale, p.number("scale"), key);
+                setOnce(p, e.transform.rotate, glm::vec4(axis, deg), key);
+            } else if (e.kind == K::Transform && key == "scale") setOnce(p, e.transform.scale, p.number("scale"), key);
             else if (e.kind == K::Transform && key == "matrix") {
                 Mat4 m(1.0f);
                 for (int c = 0; c < 4; ++c)
                     for (int r = 0; r < 4; ++r) m[c][r] = p.number("matrix");
-                setOnce(p, e.matrix, m, key);
+                setOnce(p, e.transform.matrix, m, key);
             } else if (e.kind == K::Settings) {
                 setKnob(p, e, key);
             } else {
@@ -179,11 +179,11 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
             }
         }
         if (!any) p.fail("a " + kind + " edit needs at least one keyword");
-        if (e.matrix && (e.translate || e.rotate || e.scale))
+        if (e.transform.matrix && (e.transform.translate || e.transform.rotate || e.transform.scale))
             p.fail("'matrix' cannot be combined with translate, rotate or scale");
-        if (e.rotate && glm::length(Vec3(*e.rotate)) == 0.0f) p.fail("rotate axis is zero");
-        if (e.scale && !(*e.scale > 0.0f)) p.fail("scale must be > 0");
-        if (e.yfov && !(*e.yfov > 0.0f && *e.yfov < kPi)) p.fail("yfov must be in (0, pi) radians");
+        if (e.transform.rotate && glm::length(Vec3(*e.transform.rotate)) == 0.0f) p.fail("rotate axis is zero");
+        if (e.transform.scale && !(*e.transform.scale > 0.0f)) p.fail("scale must be > 0");
+        if (e.camera.yfov && !(*e.camera.yfov > 0.0f && *e.camera.yfov < kPi)) p.fail("yfov must be in (0, pi) radians");
         if (edits.size() >= kMaxScriptEdits)
             p.fail("more than " + std::to_string(kMaxScriptEdits) + " edits in one script");
         edits.push_back(e);
@@ -221,26 +221,26 @@ std::string formatScriptEdit(const ScriptEdit& e) {
         case K::Transform: o << "transform " << e.index; break;
         case K::Settings: o << "settings"; break;
     }
-    v3("eye", e.eye);
-    v3("target", e.target);
-    if (e.yfov) o << " yfov " << *e.yfov;
-    v3("position", e.position);
-    v3("direction", e.direction);
-    v3("intensity", e.intensity);
-    if (e.type)
+    v3("eye", e.camera.eye);
+    v3("target", e.camera.target);
+    if (e.camera.yfov) o << " yfov " << *e.camera.yfov;
+    v3("position", e.light.position);
+    v3("direction", e.light.direction);
+    v3("intensity", e.light.intensity);
+    if (e.material.type)
         o << " type "
-          << (*e.type == MaterialType::Mirror ? "mirror" : *e.type == MaterialType::Dielectric ? "dielectric" : "diffuse");
-    v3("color", e.color);
-    if (e.ior) o << " ior " << *e.ior;
-    v3("absorption", e.absorption);
-    v3("emission", e.emission);
-    v3("translate", e.translate);
-    if (e.rotate) o << " rotate " << e.rotate->x << ' ' << e.rotate->y << ' ' << e.rotate->z << ' ' << e.rotate->w;
-    if (e.scale) o << " scale " << *e.scale;
-    if (e.matrix) {
+          << (*e.material.type == MaterialType::Mirror ? "mirror" : *e.material.type == MaterialType::Dielectric ? "dielectric" : "diffuse");
+    v3("color", e.material.color);
+    if (e.material.ior) o << " ior " << *e.material.ior;
+    v3("absorption", e.material.absorption);
+    v3("emission", e.material.emission);
+    v3("translate", e.transform.translate);
+    if (e.transform.rotate) o << " rotate " << e.transform.rotate->x << ' ' << e.transform.rotate->y << ' ' << e.transform.rotate->z << ' ' << e.transform.rotate->w;
+    if (e.transform.scale) o << " scale " << *e.transform.scale;
+    if (e.transform.matrix) {
         o << " matrix";
         for (int c = 0; c < 4; ++c)
-            for (int r = 0; r < 4; ++r) o << ' ' << (*e.matrix)[c][r];
+            for (int r = 0; r < 4; ++r) o << ' ' << (*e.transform.matrix)[c][r];
     }
     for (const KnobRow& row : kKnobs)
         if (const auto& v = e.settings[size_t(row.id)]) o << ' ' << row.scriptKey << ' ' << formatKnobValue(row, *v);

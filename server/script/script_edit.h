@@ -36,21 +36,35 @@ namespace rtpm::server {
 /// effect at the start of frame n.
 struct ScriptEdit {
     enum class Kind { Camera, Light, Material, Transform, Settings };
+    /// The keywords of each kind (only the kind's own group is set).
+    struct CameraKeys {
+        std::optional<Vec3> eye, target;
+        std::optional<float> yfov;
+    };
+    struct LightKeys {
+        std::optional<Vec3> position, direction, intensity;
+    };
+    struct MaterialKeys {
+        std::optional<MaterialType> type;
+        std::optional<Vec3> color, absorption, emission;
+        std::optional<float> ior;
+    };
+    struct TransformKeys {
+        std::optional<Vec3> translate;
+        std::optional<glm::vec4> rotate;  ///< axis xyz, angle in degrees
+        std::optional<float> scale;
+        std::optional<Mat4> matrix;
+    };
+
     uint64_t frame = 0;
     int line = 0;  ///< 1-based line in the file, for error messages
     Kind kind = Kind::Camera;
     uint32_t index = 0;  ///< light, material or instance index
 
-    std::optional<Vec3> eye, target;
-    std::optional<float> yfov;
-    std::optional<Vec3> position, direction, intensity;
-    std::optional<MaterialType> type;
-    std::optional<Vec3> color, absorption, emission;
-    std::optional<float> ior;
-    std::optional<Vec3> translate;
-    std::optional<glm::vec4> rotate;  ///< axis xyz, angle in degrees
-    std::optional<float> scale;
-    std::optional<Mat4> matrix;
+    CameraKeys camera;
+    LightKeys light;
+    MaterialKeys material;
+    TransformKeys transform;
     KnobValues settings;  ///< settings: the live knobs this edit sets
 
     std::optional<double> knob(Knob k) const { return settings[size_t(k)]; }

@@ -123,35 +123,35 @@ ViewerCommand parseObject(const json& j) {
     if (type == "camera") {
         onlyKeys(j, {"eye", "target", "yfov"});
         e.kind = K::Camera;
-        optionalField(j, "eye", e.eye, v3(-kMaxCoord, kMaxCoord));
-        optionalField(j, "target", e.target, v3(-kMaxCoord, kMaxCoord));
+        optionalField(j, "eye", e.camera.eye, v3(-kMaxCoord, kMaxCoord));
+        optionalField(j, "target", e.camera.target, v3(-kMaxCoord, kMaxCoord));
         if (j.contains("yfov")) {
-            e.yfov = float(number(j, "yfov", 1e-3, kPi - 1e-3));
+            e.camera.yfov = float(number(j, "yfov", 1e-3, kPi - 1e-3));
         }
-        if (!e.eye && !e.target && !e.yfov) throw Refused{"a camera control needs eye, target or yfov"};
+        if (!e.camera.eye && !e.camera.target && !e.camera.yfov) throw Refused{"a camera control needs eye, target or yfov"};
     } else if (type == "light") {
         onlyKeys(j, {"index", "position", "intensity"});
         e.kind = K::Light;
         index();
-        optionalField(j, "position", e.position, v3(-kMaxCoord, kMaxCoord));
-        optionalField(j, "intensity", e.intensity, v3(0, 1e9));
-        if (!e.position && !e.intensity) throw Refused{"a light control needs position or intensity"};
+        optionalField(j, "position", e.light.position, v3(-kMaxCoord, kMaxCoord));
+        optionalField(j, "intensity", e.light.intensity, v3(0, 1e9));
+        if (!e.light.position && !e.light.intensity) throw Refused{"a light control needs position or intensity"};
     } else if (type == "material") {
         onlyKeys(j, {"index", "color", "ior", "absorption", "emission"});
         e.kind = K::Material;
         index();
-        optionalField(j, "color", e.color, v3(0, 1));
-        if (j.contains("ior")) e.ior = float(number(j, "ior", 1.0, 4.0));
-        optionalField(j, "absorption", e.absorption, v3(0, 1e6));
-        optionalField(j, "emission", e.emission, v3(0, 1e9));
-        if (!e.color && !e.ior && !e.absorption && !e.emission)
+        optionalField(j, "color", e.material.color, v3(0, 1));
+        if (j.contains("ior")) e.material.ior = float(number(j, "ior", 1.0, 4.0));
+        optionalField(j, "absorption", e.material.absorption, v3(0, 1e6));
+        optionalField(j, "emission", e.material.emission, v3(0, 1e9));
+        if (!e.material.color && !e.material.ior && !e.material.absorption && !e.material.emission)
             throw Refused{"a material control needs color, ior, absorption or emission"};
     } else if (type == "transform") {
         onlyKeys(j, {"index", "translate"});
         e.kind = K::Transform;
         index();
         if (!j.contains("translate")) throw Refused{"a transform control needs translate"};
-        e.translate = vec3(j, "translate", -kMaxCoord, kMaxCoord);
+        e.transform.translate = vec3(j, "translate", -kMaxCoord, kMaxCoord);
     } else if (type == "settings") {
         // One key per live knob (common/core/knobs.h): its viewer key, its limits, its choices.
         e.kind = K::Settings;

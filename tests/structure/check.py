@@ -46,8 +46,6 @@ ALLOWED = {
         "the viewer server is being split (connections, frame feed, HTTP)",
     ("members", "server/viewer/viewer_server.cpp", "ViewerServer::Impl"):
         "the viewer server is being split (connections, frame feed, HTTP)",
-    ("members", "server/script/script_edit.h", "ScriptEdit"):
-        "one optional per edit-script keyword; the edit-script split is under way",
     ("members", "proto/net/connection.h", "Connection"):
         "the connection's read and write state (proto/net), outside the loaders and settings reshaped so far",
     ("lines", "common/trace/eye_pass.cpp", ""):

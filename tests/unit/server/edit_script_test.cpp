@@ -34,14 +34,14 @@ TEST(EditScript, ParsesEveryKindAndSortsByFrame) {
     EXPECT_EQ(edits[0].frame, 2u);
     EXPECT_EQ(edits[0].kind, ScriptEdit::Kind::Camera);
     EXPECT_EQ(edits[0].line, 4);
-    EXPECT_FLOAT_EQ(*edits[0].yfov, 0.5f);
+    EXPECT_FLOAT_EQ(*edits[0].camera.yfov, 0.5f);
     EXPECT_EQ(edits[1].kind, ScriptEdit::Kind::Light);
-    EXPECT_EQ(*edits[1].position, Vec3(1, 2, 3));
-    EXPECT_FALSE(edits[1].direction.has_value());
+    EXPECT_EQ(*edits[1].light.position, Vec3(1, 2, 3));
+    EXPECT_FALSE(edits[1].light.direction.has_value());
     EXPECT_EQ(edits[2].kind, ScriptEdit::Kind::Material);
-    EXPECT_EQ(*edits[2].type, MaterialType::Mirror);
+    EXPECT_EQ(*edits[2].material.type, MaterialType::Mirror);
     EXPECT_EQ(edits[3].kind, ScriptEdit::Kind::Transform);
-    EXPECT_FLOAT_EQ(edits[3].rotate->w, 90.0f);
+    EXPECT_FLOAT_EQ(edits[3].transform.rotate->w, 90.0f);
 }
 
 TEST(EditScript, SettingsLinesParseAndValidate) {
@@ -110,10 +110,10 @@ TEST(EditScript, FormattedEditsParseBackToTheSameEdit) {
     ASSERT_EQ(again.size(), edits.size());
     for (size_t i = 0; i < edits.size(); ++i) {
         EXPECT_EQ(formatScriptEdit(again[i]), formatScriptEdit(edits[i]));
-        EXPECT_EQ(again[i].eye, edits[i].eye);
-        EXPECT_EQ(again[i].position, edits[i].position);
-        EXPECT_EQ(again[i].ior, edits[i].ior);
-        EXPECT_EQ(again[i].rotate, edits[i].rotate);
+        EXPECT_EQ(again[i].camera.eye, edits[i].camera.eye);
+        EXPECT_EQ(again[i].light.position, edits[i].light.position);
+        EXPECT_EQ(again[i].material.ior, edits[i].material.ior);
+        EXPECT_EQ(again[i].transform.rotate, edits[i].transform.rotate);
         EXPECT_EQ(again[i].settings, edits[i].settings);
     }
 }

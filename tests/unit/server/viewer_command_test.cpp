@@ -12,13 +12,13 @@ TEST(ViewerCommand, AcceptsEveryControl) {
     ViewerParse cam = parseViewerCommand(R"({"type":"camera","eye":[1,2,3],"target":[0,0,0]})");
     ASSERT_TRUE(cam.ok()) << cam.error();
     EXPECT_EQ(edit(cam).kind, ScriptEdit::Kind::Camera);
-    EXPECT_EQ(*edit(cam).eye, Vec3(1, 2, 3));
+    EXPECT_EQ(*edit(cam).camera.eye, Vec3(1, 2, 3));
     ViewerParse light = parseViewerCommand(R"({"type":"light","index":0,"position":[0.5,1,-2]})");
     ASSERT_TRUE(light.ok()) << light.error();
     EXPECT_EQ(edit(light).kind, ScriptEdit::Kind::Light);
     ViewerParse mat = parseViewerCommand(R"({"type":"material","index":1,"ior":1.5,"color":[1,0.5,0]})");
     ASSERT_TRUE(mat.ok()) << mat.error();
-    EXPECT_EQ(*edit(mat).ior, 1.5f);
+    EXPECT_EQ(*edit(mat).material.ior, 1.5f);
     ViewerParse tr = parseViewerCommand(R"({"type":"transform","index":2,"translate":[0.1,0,0]})");
     ASSERT_TRUE(tr.ok()) << tr.error();
     ViewerParse set = parseViewerCommand(R"({"type":"settings","M":4,"k":32,"tree":"grid"})");
