@@ -27,14 +27,17 @@ FrameLoop::FrameLoop(asio::io_context& io, const MasterOptions& options, Peers& 
       control_(control),
       output_(output),
       listener_(listener),
-      pattern_{options.settings.width, options.settings.height, options.settings.interleave},
       policy_(setCount(), options.walkthrough, kPipeline, static_cast<uint32_t>(std::max(1, options.evictAfter)),
               options.settings.photons.estimator == CausticEstimatorKind::Progressive,
               BalanceOptions{.enabled = !options.staticSets}),
-      deadlines_(options.deadline),
-      assembler_(setCount(), deadlines_.forFrame(true)),
-      passBudget_(options.frameBudgetMs * 1e-3),
-      deadlineTimer_(io) {}
+      clock_(io, options.deadline),
+      assembler_(setCount(), clock_.forFrame(true)),
+      convergence_(options.frameBudgetMs, options.targetError) {}
+
+Interleave FrameLoop::pattern() const {
+    const RenderSettings& s = control_.settings();
+    return Interleave{s.width, s.height, s.interleave};
+}
 
 std::vector<uint32_t> FrameLoop::clientJoined(ClientId id) {
     policy_.clientJoined(id);
@@ -72,7 +75,7 @@ void FrameLoop::onFrameData(ClientInfo& client, proto::FrameData&& fd, size_t wi
     // Late data may belong to a frame rendered before a change of M: only data of a frame in
     // flight is checked against the current pattern.
     if (v == Verdict::Late) return;
-    const int setPixels = pattern_.pixelCount(static_cast<int>(fd.set));
+    const int setPixels = pattern().pixelCount(static_cast<int>(fd.set));
     if (fd.pixelCount != static_cast<uint32_t>(setPixels)) {
         peers_.protocolError(c, "frame " + std::to_string(fd.frame) + " set " + std::to_string(fd.set) + ": " +
                                     std::to_string(fd.pixelCount) + " pixels, the set has " +
@@ -140,7 +143,7 @@ void FrameLoop::abort() { end(130, proto::ByeReason::Shutdown, "server interrupt
 void FrameLoop::end(int exitCode, proto::ByeReason reason, const std::string& text) {
     if (state_ == State::Ending) return;
     state_ = State::Ending;
-    deadlineTimer_.cancel();
+    clock_.cancel();
     listener_.ending();
     listener_.finished(exitCode, reason, text);
 }
@@ -150,7 +153,7 @@ void FrameLoop::end(int exitCode, proto::ByeReason reason, const std::string& te
 void FrameLoop::finishStopped() {
     const bool unlimited = opt_.frames == 0;
     if (opt_.out.empty() || ledger_.counts().framesShown == 0) {
-        end(unlimited || targetReached_ ? 0 : 130, proto::ByeReason::Shutdown, "server stopped");
+        end(unlimited || convergence_.reached() ? 0 : 130, proto::ByeReason::Shutdown, "server stopped");
         return;
     }
     state_ = State::Ending;
@@ -158,11 +161,11 @@ void FrameLoop::finishStopped() {
     output_.write(opt_.out, [this, unlimited](std::string error) {
         const bool failed = !error.empty();
         if (failed) std::fprintf(stderr, "rtpm-server: cannot write %s: %s\n", opt_.out.c_str(), error.c_str());
-        asio::post(deadlineTimer_.get_executor(), [this, unlimited, failed] {
+        asio::post(clock_.executor(), [this, unlimited, failed] {
             FrameCounts& counts = ledger_.counts();
             counts.imageWriteFailed |= failed;
-            deadlineTimer_.cancel();
-            listener_.finished(counts.imageWriteFailed ? kExitImageNotWritten : unlimited || targetReached_ ? 0 : 130,
+            clock_.cancel();
+            listener_.finished(counts.imageWriteFailed ? kExitImageNotWritten : unlimited || convergence_.reached() ? 0 : 130,
                                proto::ByeReason::Shutdown, "server stopped");
         });
     });
@@ -172,7 +175,6 @@ void FrameLoop::finishStopped() {
 // clients get the new Settings with the next frame, which starts an epoch.
 void FrameLoop::resize() {
     const RenderSettings& s = control_.applyResize();
-    pattern_ = Interleave{s.width, s.height, s.interleave};
     policy_.resize(setCount());
     assembler_.resize(setCount());
     output_.reconfigure(s.interleave, s.filterSize());
@@ -180,15 +182,7 @@ void FrameLoop::resize() {
 }
 
 void FrameLoop::armDeadline() {
-    auto d = assembler_.nextDeadline();
-    if (!d) {
-        deadlineTimer_.cancel();
-        return;
-    }
-    deadlineTimer_.expires_at(*d);
-    deadlineTimer_.async_wait([this](const asio::error_code& ec) {
-        if (!ec) pump();
-    });
+    clock_.arm(assembler_.nextDeadline(), [this] { pump(); });
 }
 
 void FrameLoop::evictSlowClients() {
@@ -197,7 +191,7 @@ void FrameLoop::evictSlowClients() {
         policy_.evictions(registry.joinOrder(), [this](ClientId id) { return assembler_.consecutiveMisses(id); });
     for (ClientId id : evict) {
         const std::string why = "evicted: late or skipped " + std::to_string(opt_.evictAfter) +
-                                " frames in a row (frame deadline " + std::to_string(lastDeadline_.count()) +
+                                " frames in a row (frame deadline " + std::to_string(clock_.last().count()) +
                                 " ms); its sets go to others, it may rejoin";
         std::fprintf(stderr, "rtpm-server: client %u (%s) %s (before frame %llu)\n", id,
                      registry.find(id)->name.c_str(), why.c_str(), (unsigned long long)nextFrame_);
@@ -206,7 +200,7 @@ void FrameLoop::evictSlowClients() {
     }
     // A joiner that does not answer a frame without sets within the deadline's ceiling (what a
     // frame would have waited for it) holds a client slot for nothing.
-    const auto ceiling = deadlines_.forFrame(true);
+    const auto ceiling = clock_.forFrame(true);
     const TimePoint now = Clock::now();
     std::vector<ClientId> silent;
     for (const auto& [id, sent] : probes_)
@@ -246,9 +240,8 @@ void FrameLoop::beginFrame(TimePoint now) {
                      (unsigned long long)f, share.c_str());
     }
     // A still view's passes grow to the frame-time budget; any other frame shoots one batch.
-    const bool converging = plan.mode == proto::FrameMode::Converging;
-    const uint32_t passBatches = converging ? passBudget_.batches() : 1u;
-    const uint32_t passPeriod = converging ? passBudget_.period() : 1u;
+    const uint32_t passBatches = convergence_.batchesFor(plan.mode);
+    const uint32_t passPeriod = convergence_.periodFor(plan.mode);
     // Every set's shot of two frames ago, for this frame's passes (photon_relay.h).
     relay_.began(f, plan.epoch, start->sceneVersion, setCount());
     const std::vector<proto::SetShot> shared = relay_.forwardFor(f, plan.mode == proto::FrameMode::Converging);
@@ -264,12 +257,12 @@ void FrameLoop::beginFrame(TimePoint now) {
     // A frame whose cost the last ones do not predict waits the ceiling, and so does the last
     // frame of a finite run (it is the image written: nothing rendered may be cut short).
     const bool last = opt_.frames > 0 && f + 1 == static_cast<uint64_t>(opt_.frames);
-    lastDeadline_ = deadlines_.forFrame(plan.mode == proto::FrameMode::Interaction || plan.reassigned || last,
-                                        frameCost(plan.mode));
+    const auto deadline =
+        clock_.begin(plan.mode == proto::FrameMode::Interaction || plan.reassigned || last, frameCost(plan.mode));
     // A message that stops halfway is no client building maps: it gets the measured deadline
     // even when this frame waits the ceiling.
-    peers_.boundReadStall(deadlines_.forFrame(false, frameCost(plan.mode)));
-    assembler_.beginFrame(f, plan.owners, now, lastDeadline_);
+    peers_.boundReadStall(clock_.forFrame(false, frameCost(plan.mode)));
+    assembler_.beginFrame(f, plan.owners, now, deadline);
     for (ClientId id : plan.probes) {
         assembler_.probe(id, f);
         probes_.try_emplace(id, now);
@@ -284,17 +277,15 @@ void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
     job.settings = control_.settings();
     if (!opt_.out.empty() && opt_.saveEvery > 0 && r.frame > 0 && r.frame % uint64_t(opt_.saveEvery) == 0)
         job.saveAs = numberedPath(opt_.out, r.frame, ".exr");
-    if (!r.deadlineHit && !r.arrived.empty()) deadlines_.completed(r.waited, frameCost(shown.mode));
+    if (!r.deadlineHit && !r.arrived.empty()) clock_.completed(r.waited, frameCost(shown.mode));
     // The budget bounds a client's work on a frame (shooting, eye pass, encoding), not the time
     // from FrameBegin to its last FrameData: with frames in flight that also holds the wait behind
     // the frame before, about twice the work, and the passes never grew.
     const double workMs = double(job.slowestPhotonMs) + double(job.slowestEyeMs) + double(job.slowestEncodeMs);
-    passBudget_.record(shown.mode == proto::FrameMode::Converging, workMs * 1e-3);
-    if (opt_.targetError > 0.0 && shown.mode == proto::FrameMode::Converging && job.errorEstimate > 0.0 &&
-        job.errorEstimate <= opt_.targetError && !targetReached_ && state_ == State::Running) {
+    convergence_.recordWork(shown.mode, workMs);
+    if (state_ == State::Running && convergence_.reachesTarget(shown.mode, job.errorEstimate)) {
         // No new frame begins; the frames in flight finish and the last one shown is written
         // (finishStopped), as after a signal, but the run counts as complete.
-        targetReached_ = true;
         state_ = State::Stopping;
         std::fprintf(stderr, "rtpm-server: frame %llu reached the target error (estimated %.4f <= %g)\n",
                      (unsigned long long)r.frame, job.errorEstimate, opt_.targetError);
@@ -309,7 +300,7 @@ void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
     }
     ++outputsQueued_;
     output_.post(std::move(job), [this, shown = std::move(shown)](OutputResult result) {
-        asio::post(deadlineTimer_.get_executor(), [this, shown, result = std::move(result)] {
+        asio::post(clock_.executor(), [this, shown, result = std::move(result)] {
             --outputsQueued_;
             ledger_.counts().imageWriteFailed |= result.writeFailed;
             listener_.frameShown(shown, result.masterMs);

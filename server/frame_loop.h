@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "common/core/interleave.h"
-#include "common/render/pass_budget.h"
 #include "proto/messages.h"
 #include "server/client_registry.h"
-#include "server/deadline.h"
+#include "server/convergence.h"
+#include "server/deadline_clock.h"
 #include "server/frame_assembler.h"
 #include "server/frame_ledger.h"
 #include "server/frame_policy.h"
@@ -72,7 +72,7 @@ public:
     ViewerStatus status(const ViewerFrame& frame, double masterMs);
 
     uint64_t nextFrame() const { return nextFrame_; }
-    bool deadlineAdaptive() const { return deadlines_.adaptive(); }
+    bool deadlineAdaptive() const { return clock_.adaptive(); }
     const FrameCounts& counts() const { return ledger_.counts(); }
 
 private:
@@ -87,24 +87,22 @@ private:
     void onStats(ClientInfo& client, const proto::Stats& st);
     void finishStopped();
     void end(int exitCode, proto::ByeReason reason, const std::string& text);
-    uint32_t setCount() const { return static_cast<uint32_t>(pattern_.setCount()); }
+    /// The interleaving of the settings in force (LiveControl: M changes only in resize()).
+    Interleave pattern() const;
+    uint32_t setCount() const { return static_cast<uint32_t>(pattern().setCount()); }
 
     const MasterOptions& opt_;
     Peers& peers_;
     LiveControl& control_;
     ImageOutput& output_;
     FrameLoopListener& listener_;
-    Interleave pattern_;
     FramePolicy policy_;
-    FrameDeadline deadlines_;
+    DeadlineClock clock_;
     FrameAssembler assembler_;
     FrameLedger ledger_;
-    PassBudget passBudget_;
+    Convergence convergence_;
     PhotonRelay relay_;
-    bool targetReached_ = false;  // the estimated caustic error reached --target-error
-    asio::steady_timer deadlineTimer_;
     std::map<ClientId, TimePoint> probes_;  // joiners sent a frame without sets, since when
-    std::chrono::milliseconds lastDeadline_{0};  // of the newest frame begun (told to evicted clients)
     uint64_t nextFrame_ = 0;
     size_t outputsQueued_ = 0;
     State state_ = State::Running;

@@ -40,8 +40,6 @@ CXX_EXTENSIONS = (".h", ".hpp", ".cpp", ".cc", ".c")
 ALLOWED = {
     ("members", "server/peers.h", "Peers"):
         "the server's rooms (peers, frame loop, viewer) are being split into smaller ones",
-    ("members", "server/frame_loop.h", "FrameLoop"):
-        "the server's rooms are being split into smaller ones",
     ("lines", "server/viewer/viewer_server.cpp", ""):
         "the viewer server is being split (connections, frame feed, HTTP)",
     ("members", "server/viewer/viewer_server.cpp", "ViewerServer::Impl"):
