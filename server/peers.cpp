@@ -54,14 +54,12 @@ void Peers::admit(asio::ip::tcp::socket sock) {
     const auto ep = sock.remote_endpoint(ec);
     if (ec) return;  // already gone
     const std::string source = Admission::sourceKey(ep.address().to_string());
-    const uint64_t id = nextPendingId_++;
+    const uint64_t id = connections_.nextId();
     // A slot given to the newcomer is taken from a connection that sent nothing before one whose
     // first bytes (a real client's Hello, perhaps) wait unread behind the accepts.
     const Admission::Verdict v = admission_.onConnect(id, source, Admission::Clock::now(), [this](uint64_t pending) {
-        for (const auto& [conn, p] : pending_)
-            if (p.session.id() == pending)
-                if (auto owned = ownerOf(*conn)) return owned->peerSentBytes();
-        return false;
+        const auto owned = connections_.withSession(pending);
+        return owned && owned->peerSentBytes();
     });
     armAdmissionLog();
     if (v.decision != AdmissionDecision::Admit) {
@@ -75,20 +73,15 @@ void Peers::admit(asio::ip::tcp::socket sock) {
         return;
     }
     if (v.evict)
-        for (auto& [conn, p] : pending_)
-            if (p.session.id() == *v.evict) {
-                if (auto owned = ownerOf(*conn)) {
-                    owned->send(proto::Reject{proto::RejectReason::Capacity,
-                                              "handshake slot given to a newer connection (this one had "
-                                              "sent nothing yet); retry later"});
-                    owned->closeAfterFlush(std::chrono::milliseconds(200));
-                }
-                break;
-            }
+        if (auto owned = connections_.withSession(*v.evict)) {
+            owned->send(proto::Reject{proto::RejectReason::Capacity,
+                                      "handshake slot given to a newer connection (this one had "
+                                      "sent nothing yet); retry later"});
+            owned->closeAfterFlush(std::chrono::milliseconds(200));
+        }
     auto c = std::make_shared<net::Connection>(std::move(sock), *this, opt_.maxQueuedBytes);
     if (acceptor_.tls()) c->useTls(*acceptor_.tls(), true);
-    connections_.insert(c);
-    pending_.emplace(c.get(), Pending{HandshakeSession(id, source), nullptr});
+    connections_.add(c, HandshakeSession(id, source));
     c->expectOnly(proto::MessageType::Hello, proto::payloadLimit(proto::MessageType::Hello));
     c->start(opt_.handshakeTimeout);
 }
@@ -159,30 +152,21 @@ void Peers::onBadBytes(net::Connection& c, const proto::Error& e) {
 }
 
 void Peers::endPending(const net::Connection& c, Admission::End how) {
-    auto it = pending_.find(&c);
-    if (it == pending_.end()) return;
-    admission_.onPendingEnded(it->second.session.id(), how);
-    if (it->second.delay) it->second.delay->cancel();
-    pending_.erase(it);
+    if (const auto id = connections_.endPending(c)) admission_.onPendingEnded(*id, how);
 }
 
 void Peers::onClosed(net::Connection& c, const std::string& why) {
     endPending(c, c.handshakeTimedOut() ? Admission::End::TimedOut : Admission::End::Closed);
     dropClientOf(c, why);
-    for (auto it = connections_.begin(); it != connections_.end(); ++it)
-        if (it->get() == &c) {
-            connections_.erase(it);
-            break;
-        }
-    if (closing_ && connections_.empty()) events_.allClosed();
+    const bool none = connections_.remove(c);
+    if (closing_ && none) events_.allClosed();
 }
 
 void Peers::onMessage(net::Connection& c, proto::Message&& m, size_t wireBytes) {
     if (closing_) return;
     ClientInfo* client = registry_.find(c);
     if (!client) {
-        auto it = pending_.find(&c);
-        if (it != pending_.end()) handshake(c, it->second, m);  // else: closing
+        if (PeerConnections::Pending* p = connections_.pending(c)) handshake(c, *p, m);  // else: closing
         return;
     }
     if (std::holds_alternative<proto::FrameData>(m) || std::holds_alternative<proto::Stats>(m)) {
@@ -197,7 +181,7 @@ void Peers::onMessage(net::Connection& c, proto::Message&& m, size_t wireBytes) 
 }
 
 // Hello → Challenge{nonce} → Auth{HMAC} → Welcome (PROTOCOL.md §7). The token never travels.
-void Peers::handshake(net::Connection& c, Pending& p, const proto::Message& m) {
+void Peers::handshake(net::Connection& c, PeerConnections::Pending& p, const proto::Message& m) {
     HandshakeSession& s = p.session;
     HandshakeStep step;
     if (s.awaitingAuth() && !opt_.insecureNoToken)
@@ -225,7 +209,7 @@ void Peers::handshake(net::Connection& c, Pending& p, const proto::Message& m) {
             // refused at connect (server/admission.h) instead of answered in a fraction of a millisecond.
             p.delay = std::make_shared<asio::steady_timer>(io_, admission_.onAuthFailure(s.source(), Admission::Clock::now()));
             armAdmissionLog();
-            std::shared_ptr<net::Connection> owned = ownerOf(c);
+            std::shared_ptr<net::Connection> owned = connections_.ownerOf(c);
             p.delay->async_wait([this, owned, text = step.text](const asio::error_code& ec) {
                 if (ec || !owned) return;
                 endPending(*owned, Admission::End::FailedAuth);
@@ -251,7 +235,7 @@ void Peers::join(net::Connection& c, const HandshakeSession& session) {
     c.markAuthenticated();
     c.setReadDeadline(readStall_, kMinReadBytesPerSecond);
     c.capPayload(clientPayloadCap_);
-    const ClientId id = registry_.add(ownerOf(c), name, cores);
+    const ClientId id = registry_.add(connections_.ownerOf(c), name, cores);
     ++counts_.joined;
     std::fprintf(stderr, "rtpm-server: client %u (%s, %s, %u cores) joined\n", id, name.c_str(), c.peer().c_str(),
                  cores);
@@ -283,12 +267,6 @@ void Peers::boundReadStall(std::chrono::milliseconds frameDeadline) {
     for (const auto& [id, info] : registry_.clients()) info.connection->setReadDeadline(readStall_, kMinReadBytesPerSecond);
 }
 
-std::shared_ptr<net::Connection> Peers::ownerOf(const net::Connection& c) const {
-    for (const auto& p : connections_)
-        if (p.get() == &c) return p;
-    return nullptr;
-}
-
 void Peers::quiesce() {
     closing_ = true;
     acceptor_.stopAccepting();
@@ -299,8 +277,7 @@ bool Peers::closeAll(proto::ByeReason reason, const std::string& text) {
     acceptor_.close();
     heartbeatTimer_.cancel();
     admissionLogTimer_.cancel();
-    for (auto& [conn, p] : pending_)
-        if (p.delay) p.delay->cancel();
+    connections_.cancelDelays();
     if (admission_.totals().any()) {
         const AdmissionCounts& t = admission_.totals();
         std::fprintf(stderr,
@@ -312,7 +289,7 @@ bool Peers::closeAll(proto::ByeReason reason, const std::string& text) {
                      (unsigned long long)t.evicted, (unsigned long long)t.timedOut,
                      (unsigned long long)t.protocolErrors, (unsigned long long)t.failedAuth);
     }
-    for (const auto& c : connections_) {
+    for (const auto& c : connections_.all()) {
         if (registry_.find(*c)) c->send(proto::Bye{reason, text});
         c->closeAfterFlush();
     }

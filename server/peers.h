@@ -14,6 +14,7 @@
 #include "server/admission.h"
 #include "server/client_registry.h"
 #include "server/handshake.h"
+#include "server/peer_connections.h"
 #include "server/master.h"
 
 namespace rtpm::server {
@@ -86,35 +87,26 @@ public:
     void onClosed(net::Connection& c, const std::string& why) override;
 
 private:
-    /// A connection in its handshake (server/admission.h holds its budgets).
-    struct Pending {
-        HandshakeSession session;
-        std::shared_ptr<asio::steady_timer> delay;  ///< a wrong token's answer waits on this
-    };
-
     void admit(asio::ip::tcp::socket sock);
-    void handshake(net::Connection& c, Pending& p, const proto::Message& m);
+    void handshake(net::Connection& c, PeerConnections::Pending& p, const proto::Message& m);
     void join(net::Connection& c, const HandshakeSession& session);
     void reject(net::Connection& c, proto::RejectReason reason, const std::string& text);
     void endPending(const net::Connection& c, Admission::End how);
     void dropClientOf(net::Connection& c, const std::string& why);
     void armAdmissionLog();
     void heartbeat();
-    std::shared_ptr<net::Connection> ownerOf(const net::Connection& c) const;
 
     asio::io_context& io_;
     const MasterOptions& opt_;
     PeerEvents& events_;
     Acceptor acceptor_;
-    std::set<std::shared_ptr<net::Connection>> connections_;  // every peer, authenticated or not
+    PeerConnections connections_;  // every peer, authenticated or not, with its handshake
     ClientRegistry registry_;
-    std::map<const net::Connection*, Pending> pending_;
     Admission admission_;
     asio::steady_timer admissionLogTimer_;
     asio::steady_timer heartbeatTimer_;
     uint32_t clientPayloadCap_ = 0;  // largest message a client may announce (raisePayloadCap)
     std::chrono::milliseconds readStall_;  // a client's mid-message stall bound (boundReadStall)
-    uint64_t nextPendingId_ = 1;
     bool admissionLogArmed_ = false;
     bool closing_ = false;
     PeerCounts counts_;
