@@ -15,8 +15,8 @@ Connection::Connection(asio::ip::tcp::socket socket, ConnectionHandler& handler,
     : socket_(std::move(socket)),
       handler_(handler),
       timer_(socket_.get_executor()),
-      readTimer_(socket_.get_executor()),
-      maxQueuedBytes_(maxQueuedBytes) {
+      readDeadline_(socket_.get_executor()),
+      writes_(maxQueuedBytes) {
     asio::error_code ec;
     auto ep = socket_.remote_endpoint(ec);
     peer_ = ec ? std::string("?") : ep.address().to_string() + ":" + std::to_string(ep.port());
@@ -27,7 +27,7 @@ Connection::Connection(asio::ip::tcp::socket socket, ConnectionHandler& handler,
 void Connection::useTls(asio::ssl::context& context, bool server, const std::string& verifyHost) {
     tls_ = std::make_unique<asio::ssl::stream<asio::ip::tcp::socket>>(std::move(socket_), context);
     tlsServer_ = server;
-    ready_ = false;
+    writes_.hold();  // until the TLS handshake is done
     if (!server && !verifyHost.empty()) {
         tls_->set_verify_mode(asio::ssl::verify_peer);
         tls_->set_verify_callback(asio::ssl::host_name_verification(verifyHost));
@@ -63,8 +63,8 @@ void Connection::startReading() {
                                   self->close("TLS handshake failed: " + ec.message());
                                   return;
                               }
-                              self->ready_ = true;
-                              if (!self->writing_) self->writeNext();
+                              self->writes_.release();
+                              if (!self->writes_.writing()) self->writeNext();
                               self->readMore();
                           });
 }
@@ -76,34 +76,18 @@ void Connection::markAuthenticated() {
 }
 
 void Connection::setReadDeadline(std::chrono::milliseconds stall, uint64_t minBytesPerSecond) {
-    readStall_ = stall;
-    minBytesPerSecond_ = minBytesPerSecond;
+    readDeadline_.set(stall, minBytesPerSecond);
 }
 
 void Connection::updateReadDeadline() {
-    if (readStall_.count() <= 0 || finished_ || closing_) return;
+    if (!readDeadline_.enabled() || finished_ || closing_) return;
     if (splitter_.buffered() == 0) {  // between messages: no deadline
-        if (partialSince_) {
-            partialSince_.reset();
-            ++readDeadlineGeneration_;
-            readTimer_.cancel();
-        }
+        readDeadline_.idle();
         return;
     }
-    const auto now = std::chrono::steady_clock::now();
-    if (!partialSince_) partialSince_ = now;
-    // Progress re-arms the stall deadline; the whole message is bounded by its size at the minimum rate.
-    auto messageEnd = std::chrono::steady_clock::time_point::max();
-    if (minBytesPerSecond_ > 0) {
-        const uint64_t bytes = kHeaderBytesForDeadline + splitter_.pendingPayloadBytes();
-        const auto allowance = std::chrono::milliseconds(bytes * 1000 / minBytesPerSecond_);
-        messageEnd = *partialSince_ + readStall_ + allowance;
-    }
-    const uint64_t generation = ++readDeadlineGeneration_;
-    readTimer_.expires_at(std::min(now + readStall_, messageEnd));
     auto self = shared_from_this();
-    readTimer_.async_wait([self, generation, messageEnd](const asio::error_code& ec) {
-        if (ec || self->finished_ || generation != self->readDeadlineGeneration_) return;
+    readDeadline_.arm(kHeaderBytesForDeadline + splitter_.pendingPayloadBytes(), [self](ReadDeadline::TimePoint messageEnd) {
+        if (self->finished_) return;
         // Bytes that arrived while this thread was busy are progress whose read has not run yet:
         // they re-arm the stall deadline, never the message's own bound.
         asio::error_code availableError;
@@ -113,7 +97,7 @@ void Connection::updateReadDeadline() {
             return;
         }
         const auto waited = std::chrono::duration_cast<std::chrono::milliseconds>(
-            std::chrono::steady_clock::now() - *self->partialSince_);
+            std::chrono::steady_clock::now() - self->readDeadline_.partialSince());
         self->close("stalled mid-message: " + std::to_string(self->splitter_.buffered()) + " of " +
                     std::to_string(kHeaderBytesForDeadline + self->splitter_.pendingPayloadBytes()) +
                     " bytes arrived in " + std::to_string(waited.count()) + " ms");
@@ -155,48 +139,40 @@ void Connection::readMore() {
 
 void Connection::send(Buffer bytes) {
     if (finished_) return;
-    queuedBytes_ += bytes->size();
-    queue_.push_back(std::move(bytes));
-    if (queuedBytes_ > maxQueuedBytes_) {
-        close("peer is not reading (" + std::to_string(queuedBytes_ >> 20) + " MiB queued)");
+    if (!writes_.push(std::move(bytes))) {
+        close("peer is not reading (" + std::to_string(writes_.bytes() >> 20) + " MiB queued)");
         return;
     }
-    if (!writing_ && ready_) writeNext();
+    if (!writes_.writing() && !writes_.held()) writeNext();
 }
 
 void Connection::writeNext() {
     if (finished_) return;
-    if (queue_.empty()) {
-        writing_ = false;
-        if (flushing_) finish("closed by this side");
+    if (writes_.empty()) {
+        writes_.setWriting(false);
+        if (writes_.closeWhenEmpty()) finish("closed by this side");
         return;
     }
-    writing_ = true;
+    writes_.setWriting(true);
     auto self = shared_from_this();
-    withStream([&](auto& stream) { asio::async_write(stream, asio::buffer(*queue_.front()), [self](const asio::error_code& ec, size_t) {
+    withStream([&](auto& stream) { asio::async_write(stream, asio::buffer(*writes_.front()), [self](const asio::error_code& ec, size_t) {
         if (self->finished_) return;
         if (ec) {
             self->finish("write error: " + ec.message());
             return;
         }
-        self->queuedBytes_ -= self->queue_.front()->size();
-        self->queue_.pop_front();
+        self->writes_.popFront();
         self->writeNext();
     }); });
 }
 
-void Connection::dropUnsent() {
-    while (queue_.size() > (writing_ ? 1u : 0u)) {
-        queuedBytes_ -= queue_.back()->size();
-        queue_.pop_back();
-    }
-}
+void Connection::dropUnsent() { writes_.dropUnsent(); }
 
 void Connection::closeAfterFlush(std::chrono::milliseconds grace) {
     if (finished_) return;
     closing_ = true;
-    flushing_ = true;
-    if (!writing_ && queue_.empty()) {
+    writes_.setCloseWhenEmpty();
+    if (!writes_.writing() && writes_.empty()) {
         finish("closed by this side");
         return;
     }
@@ -219,12 +195,11 @@ void Connection::finish(const std::string& why) {
     closing_ = true;
     asio::error_code ec;
     timer_.cancel();
-    readTimer_.cancel();
+    readDeadline_.cancel();
     // A TLS session ends without close_notify: the protocol's own Bye says the end was orderly.
     lowest().shutdown(asio::ip::tcp::socket::shutdown_both, ec);
     lowest().close(ec);
-    queue_.clear();
-    queuedBytes_ = 0;
+    writes_.clear();
     // Deliver onClosed from a fresh handler so callers of close() never see re-entrancy.
     auto self = shared_from_this();
     asio::post(timer_.get_executor(), [self, why] { self->handler_.onClosed(*self, why); });

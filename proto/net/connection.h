@@ -13,6 +13,8 @@
 #include <vector>
 
 #include "proto/messages.h"
+#include "proto/net/read_deadline.h"
+#include "proto/net/write_queue.h"
 
 namespace rtpm::net {
 
@@ -38,7 +40,7 @@ public:
 /// pending handlers keep it alive.
 class Connection : public std::enable_shared_from_this<Connection> {
 public:
-    using Buffer = std::shared_ptr<const std::vector<uint8_t>>;
+    using Buffer = WriteQueue::Buffer;
 
     /// `maxQueuedBytes`: a peer that lets more than this pile up unread is closed (it is not
     /// reading; memory must not grow without bound).
@@ -86,7 +88,7 @@ public:
     bool closing() const { return closing_; }
     /// The handshake timeout closed it (start()'s timeout passed before markAuthenticated()).
     bool handshakeTimedOut() const { return handshakeTimedOut_; }
-    size_t queuedBytes() const { return queuedBytes_; }
+    size_t queuedBytes() const { return writes_.bytes(); }
     uint64_t bytesReceived() const { return bytesReceived_; }
     /// The peer has sent at least one byte: read already, or waiting in the socket unread.
     bool peerSentBytes();
@@ -108,27 +110,18 @@ private:
     asio::ip::tcp::socket socket_;
     std::unique_ptr<asio::ssl::stream<asio::ip::tcp::socket>> tls_;  // owns the socket when set
     bool tlsServer_ = true;
-    bool ready_ = true;  // false while the TLS handshake runs: writes wait
     ConnectionHandler& handler_;
-    asio::steady_timer timer_;
-    asio::steady_timer readTimer_;  // read deadline of a partial message
+    asio::steady_timer timer_;   // the handshake timeout, then closeAfterFlush's grace
+    ReadDeadline readDeadline_;  // of a partial message
     std::string peer_;
     proto::FrameSplitter splitter_;
     std::vector<uint8_t> readBuf_;
-    std::deque<Buffer> queue_;
-    size_t queuedBytes_ = 0;
-    size_t maxQueuedBytes_;
+    WriteQueue writes_;
     uint64_t bytesReceived_ = 0;
-    bool writing_ = false;
     bool closing_ = false;   // no more messages are delivered
-    bool flushing_ = false;  // close once the queue is empty
     bool finished_ = false;  // onClosed delivered
     bool authenticated_ = false;
     bool handshakeTimedOut_ = false;
-    std::chrono::milliseconds readStall_{0};
-    uint64_t minBytesPerSecond_ = 0;
-    std::optional<std::chrono::steady_clock::time_point> partialSince_;  // a message began, not yet complete
-    uint64_t readDeadlineGeneration_ = 0;
 };
 
 }  // namespace rtpm::net

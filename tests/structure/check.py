@@ -42,8 +42,6 @@ ALLOWED = {
         "the viewer server is being split (connections, frame feed, HTTP)",
     ("members", "server/viewer/viewer_server.cpp", "ViewerServer::Impl"):
         "the viewer server is being split (connections, frame feed, HTTP)",
-    ("members", "proto/net/connection.h", "Connection"):
-        "the connection's read and write state (proto/net), outside the loaders and settings reshaped so far",
     ("lines", "common/trace/eye_pass.cpp", ""):
         "the eye pass, with the glossy (GGX) shading just added to it (trace stage)",
     ("function", "common/trace/eye_pass.cpp", "glossyTree"):
