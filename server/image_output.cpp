@@ -170,15 +170,13 @@ OutputResult ImageOutput::process(OutputJob& job) {
 void ImageOutput::writeImages(const std::string& exrPath) {
     const std::filesystem::path dir = std::filesystem::path(exrPath).parent_path();
     if (!dir.empty()) std::filesystem::create_directories(dir);
-    writeExr(exrPath, image_, false, metadata());
-    const std::string png = std::filesystem::path(exrPath).replace_extension(".png").string();
-    writePng(png, image_.width(), image_.height(), image_.final(), ToneMap{.stopsAboveAuto = settings_.exposure});
+    const std::string png = writeImageFiles(exrPath, image_, provenance());
     progress_.clear();
     std::fprintf(stderr, "rtpm-server: wrote %s and %s\n", exrPath.c_str(), png.c_str());
 }
 
-ExrAttributes ImageOutput::metadata() const {
-    return imageMetadata({"rtpm-server", opt_.sceneName, settings_, shown_, photonsStored_});
+ImageProvenance ImageOutput::provenance() const {
+    return {"rtpm-server", opt_.sceneName, settings_, shown_, photonsStored_};
 }
 
 }  // namespace rtpm::server

@@ -16,6 +16,7 @@
 #include "common/core/progress.h"
 #include "common/core/render_settings.h"
 #include "common/image/image_io.h"
+#include "common/render/image_metadata.h"
 #include "common/image/frame_image.h"
 #include "proto/messages.h"
 #include "server/assignment.h"
@@ -101,8 +102,8 @@ public:
 
 private:
     void writeImages(const std::string& exrPath);
-    /// Metadata of the image as of the last processed job (image_metadata.h).
-    ExrAttributes metadata() const;
+    /// What made the image, as of the last processed job (image_metadata.h).
+    ImageProvenance provenance() const;
 
     ImageOutputOptions opt_;
     Interleave pattern_;

@@ -238,8 +238,8 @@ int run(int argc, char** argv) {
     const auto renderStart = Clock::now();
     int framesDone = 0;
     FrameStats last;
-    auto metadata = [&] {
-        return imageMetadata({"rtpm-render", o.scene, rs, uint64_t(framesDone), last.photonsStored});
+    auto provenance = [&] {
+        return ImageProvenance{"rtpm-render", o.scene, rs, uint64_t(framesDone), last.photonsStored};
     };
     for (int f = 0; f < o.frames && gStopSignal == 0; ++f) {
         auto tf = Clock::now();
@@ -263,9 +263,7 @@ int run(int argc, char** argv) {
         progress.clear();
         printFrameLine(csv, f, st, {filterMs, totalMs, yield, estimate}, passBatches, passPeriod);
         if (o.saveEvery > 0 && f > 0 && f % o.saveEvery == 0) {
-            writeExr(numberedPath(outPaths.exr, uint64_t(f), ".exr"), image, false, metadata());
-            writePng(numberedPath(outPaths.exr, uint64_t(f), ".png"), rs.width, rs.height, image.final(),
-                     ToneMap{.stopsAboveAuto = rs.exposure});
+            writeImageFiles(numberedPath(outPaths.exr, uint64_t(f), ".exr"), image, provenance());
         }
         if (st.eye.nonFinite) std::fprintf(stderr, "warning: %llu non-finite pixel values replaced by 0\n",
                                            (unsigned long long)st.eye.nonFinite);
@@ -288,8 +286,7 @@ int run(int argc, char** argv) {
                      stopSignal == SIGINT ? "SIGINT" : "SIGTERM", framesDone, o.frames);
 
     if (framesDone > 0) {
-        writeExr(outPaths.exr, image, false, metadata());
-        writePng(outPaths.png, rs.width, rs.height, image.final(), ToneMap{.stopsAboveAuto = rs.exposure});
+        writeImageFiles(outPaths.exr, image, provenance());
         std::printf("wrote %s and %s\n", outPaths.exr.c_str(), outPaths.png.c_str());
     }
     std::printf("summary: %d of %d frames in %s = %.2f fps, %llu photons stored, %llu photon paths traced%s\n",

@@ -4,7 +4,8 @@
 // command-line flags and their --help group, validateSettings, the image metadata, the wire limits
 // (static_assert in proto/bridge), and for live knobs the edit-script grammar, the viewer's
 // controls and form, and what a change resets. A new setting is a row here, its RenderSettings
-// field, and the code that uses it.
+// field, and the code that uses it: for a knob of the output stage, writeImageFiles
+// (common/render/image_metadata.h), which both programs write their images through.
 #pragma once
 
 #include <array>

@@ -1,7 +1,10 @@
 // The EXR header attributes that say what made an image (image_metadata.h).
 #include "common/render/image_metadata.h"
 
+#include <filesystem>
+
 #include "common/core/version.h"
+#include "common/image/frame_image.h"
 
 namespace rtpm {
 
@@ -17,6 +20,13 @@ ExrAttributes imageMetadata(const ImageProvenance& p) {
         {"rtpm:version", rtpmVersion()},
         {"rtpm:commit", rtpmCommit()},
     };
+}
+
+std::string writeImageFiles(const std::string& exrPath, const FrameImage& image, const ImageProvenance& p) {
+    writeExr(exrPath, image, false, imageMetadata(p));
+    const std::string png = std::filesystem::path(exrPath).replace_extension(".png").string();
+    writePng(png, image.width(), image.height(), image.final(), ToneMap{.stopsAboveAuto = p.settings.exposure});
+    return png;
 }
 
 }  // namespace rtpm

@@ -1,5 +1,6 @@
 // What made an image, written into its EXR header so a file says which scene, settings, frame
-// count, estimator and version produced it (rtpm-render and rtpm-server write the same keys).
+// count, estimator and version produced it (rtpm-render and rtpm-server write the same keys), and
+// the one output path both programs write an image through.
 #pragma once
 
 #include <cstdint>
@@ -23,5 +24,12 @@ struct ImageProvenance {
 /// rtpm:settings (describeSettings), rtpm:estimator, rtpm:frames, rtpm:photons, rtpm:version,
 /// rtpm:commit.
 ExrAttributes imageMetadata(const ImageProvenance& p);
+
+/// Writes an image output: the EXR at `exrPath` (every layer of `image`, imageMetadata(p) in its
+/// header) and the PNG beside it (the same path ending in .png), tone-mapped as `p.settings` say.
+/// The one place the settings of the output stage (today the exposure knob) reach the files of
+/// rtpm-render and rtpm-server: such a knob is its row (common/core/knobs.h), its RenderSettings
+/// field and its use here. Returns the PNG's path; throws as writeExr and writePng do.
+std::string writeImageFiles(const std::string& exrPath, const FrameImage& image, const ImageProvenance& p);
 
 }  // namespace rtpm

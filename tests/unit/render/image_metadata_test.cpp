@@ -10,6 +10,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <vector>
 #include <sstream>
 
 #include "common/core/version.h"
@@ -78,6 +80,33 @@ TEST(ImageMetadata, RoundTripsThroughTheExrHeader) {
             << ss.str();
     }
     std::filesystem::remove(path);
+}
+
+std::vector<uint8_t> fileBytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// Both programs write an image through writeImageFiles: the EXR with its header, and the PNG
+// beside it tone-mapped by the settings' exposure knob (the same bytes writePng gives for it).
+TEST(ImageMetadata, ImageFilesAreTheExrWithItsHeaderAndThePngAtTheSettingsExposure) {
+    const Interleave pattern{8, 6, 1};
+    std::vector<PixelRadiance> pixels(size_t(pattern.pixelCount(0)));
+    for (size_t i = 0; i < pixels.size(); ++i) pixels[i].direct = Vec3(0.01f * float(i), 0.02f, 0.5f);
+    FrameImage frame(8, 6);
+    frame.scatter(pattern, 0, pixels);
+    frame.filterAndCompose(1);
+    ImageProvenance run = glassRun();
+    run.settings.exposure = 1.5f;
+    const std::string exr = tempPath("pair.exr");
+    EXPECT_EQ(writeImageFiles(exr, frame, run), tempPath("pair.png"));
+    EXPECT_EQ(readExr(exr).attributes.at("rtpm:frames"), "17");
+    const std::string reference = tempPath("reference.png");
+    writePng(reference, 8, 6, frame.final(), ToneMap{.stopsAboveAuto = 1.5f});
+    EXPECT_EQ(fileBytes(tempPath("pair.png")), fileBytes(reference));
+    writePng(reference, 8, 6, frame.final());
+    EXPECT_NE(fileBytes(tempPath("pair.png")), fileBytes(reference)) << "the exposure knob changed nothing";
+    for (const char* name : {"pair.exr", "pair.png", "reference.png"}) std::filesystem::remove(tempPath(name));
 }
 
 TEST(ImageMetadata, ANameOpenExrReservesIsRefused) {
