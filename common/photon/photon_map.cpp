@@ -603,6 +603,9 @@ SetPhotons PhotonMaps::takeShot(uint32_t set) {
     RTPM_CHECK(st != nullptr);
     SetPhotons shot = std::move(st->shot);
     st->shot = SetPhotons{set, 0, {}};
+    // Batches that stored no photon share nothing: the others' passes skip such a shot (as
+    // SharedPhotons::build does), and the wire carries a shot's batches only with its photons.
+    if (shot.photons.empty()) shot.batches = 0;
     return shot;
 }
 

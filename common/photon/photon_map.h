@@ -152,7 +152,8 @@ public:
                                  std::vector<FoundPhoton>& out) const;
     /// What `set` traced in its last shootBatch or shootPass since the previous takeShot, for
     /// the other sets (SharedPhotons): the leading whole batches holding at most setShareCap
-    /// photons (batches 0 and no photon when nothing, or when one batch holds more).
+    /// photons (batches 0 and no photon when nothing, when they stored no photon, or when one
+    /// batch holds more).
     SetPhotons takeShot(uint32_t set);
     /// Photons per set and frame takeShot hands over at most (default: no limit).
     void setShareCap(size_t photons) { shareCap_ = photons; }

@@ -344,6 +344,26 @@ TEST(ClusterImageSettings, NonDefaultSettingsStillGiveTheSingleProcessImage) {
     for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
 }
 
+// Batches that store no caustic photon (one path per set and frame: most sets find none) have
+// nothing to share: the clients send no shot for them and the cluster still gives rtpm-render's
+// image. (A shot of batches without photons used to be refused by the master as a protocol
+// error, evicting every client: HEADLIGHT's light edits turn its light away from the lamp's
+// reflector until no batch stores a photon.)
+TEST(ClusterImageSettings, BatchesWithoutPhotonsShareNothingAndTheImageHolds) {
+    RunSettings rs;
+    rs.frames = 5;
+    rs.photons = 1;
+    const ExrImage& ref = reference(rs);
+    Cluster c;
+    c.startServer(rs, 2, "float32");
+    c.startClient();
+    c.startClient();
+    c.expectServerFinishes();
+    for (auto& cl : c.clients) c.expectClientExits(*cl, client::kExitOk);
+    const ExrImage got = readExr(c.outPath());
+    for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
+}
+
 // A scene as Blender exports it, using every glTF feature the loader maps (README's table):
 // EXT_mesh_gpu_instancing, partly transmissive glass with KHR_materials_volume, a floor textured
 // through KHR_texture_transform, an unlit quad, and either no light at all (the master adds the
