@@ -92,6 +92,24 @@ inline int threadCount(int requested) {
 /// order of its chunk (which is what makes camera-order rays coherent). `hitIds[i]` receives ray
 /// i's primID (RTC_INVALID_GEOMETRY_ID on a miss) so the work cannot be optimised away.
 /// Precondition: hitIds.size() == rays.size(). Thread-safe for concurrent calls on one scene.
+/// `ray` as Embree's ray-hit record, with no hit yet.
+inline RTCRayHit toRtcRayHit(const Ray& ray) {
+    RTCRayHit rh{};
+    rh.ray.org_x = ray.origin.x;
+    rh.ray.org_y = ray.origin.y;
+    rh.ray.org_z = ray.origin.z;
+    rh.ray.dir_x = ray.dir.x;
+    rh.ray.dir_y = ray.dir.y;
+    rh.ray.dir_z = ray.dir.z;
+    rh.ray.tnear = ray.tMin;
+    rh.ray.tfar = ray.tMax;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    return rh;
+}
+
 inline void rawIntersect(RTCScene scene, std::span<const Ray> rays, std::span<unsigned> hitIds,
                          bool coherent, size_t chunk = 1024) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), chunk),
@@ -100,19 +118,7 @@ inline void rawIntersect(RTCScene scene, std::span<const Ray> rays, std::span<un
         rtcInitIntersectContext(&ctx);
         if (coherent) ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
         for (size_t i = r.begin(); i < r.end(); ++i) {
-            RTCRayHit rh{};
-            rh.ray.org_x = rays[i].origin.x;
-            rh.ray.org_y = rays[i].origin.y;
-            rh.ray.org_z = rays[i].origin.z;
-            rh.ray.dir_x = rays[i].dir.x;
-            rh.ray.dir_y = rays[i].dir.y;
-            rh.ray.dir_z = rays[i].dir.z;
-            rh.ray.tnear = rays[i].tMin;
-            rh.ray.tfar = rays[i].tMax;
-            rh.ray.mask = 0xFFFFFFFFu;
-            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-            rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
-            rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            RTCRayHit rh = toRtcRayHit(rays[i]);
             rtcIntersect1(scene, &ctx, &rh);
             hitIds[i] = rh.hit.primID;
         }

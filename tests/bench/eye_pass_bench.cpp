@@ -111,22 +111,7 @@ void streamEmbree(benchmark::State& state, const std::string& name, int threads)
     for (auto _ : state) {
         tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
             std::vector<RTCRayHit> stream(r.size());
-            for (size_t i = r.begin(); i < r.end(); ++i) {
-                RTCRayHit& rh = stream[i - r.begin()];
-                rh = RTCRayHit{};
-                rh.ray.org_x = rays[i].origin.x;
-                rh.ray.org_y = rays[i].origin.y;
-                rh.ray.org_z = rays[i].origin.z;
-                rh.ray.dir_x = rays[i].dir.x;
-                rh.ray.dir_y = rays[i].dir.y;
-                rh.ray.dir_z = rays[i].dir.z;
-                rh.ray.tnear = rays[i].tMin;
-                rh.ray.tfar = rays[i].tMax;
-                rh.ray.mask = 0xFFFFFFFFu;
-                rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-                rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
-                rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-            }
+            for (size_t i = r.begin(); i < r.end(); ++i) stream[i - r.begin()] = bench::toRtcRayHit(rays[i]);
             RTCIntersectContext ctx;
             rtcInitIntersectContext(&ctx);
             ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;

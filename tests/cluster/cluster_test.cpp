@@ -161,6 +161,18 @@ void expectNonTrivial(const ExrImage& img) {
     }
 }
 
+// Runs the cluster of `rs` with `clients` clients (float32 pixels) to its end: every client exits
+// cleanly and every layer of its image equals `ref` bit for bit.
+void expectClusterGives(const RunSettings& rs, int clients, const ExrImage& ref) {
+    Cluster c;
+    c.startServer(rs, clients, "float32");
+    for (int i = 0; i < clients; ++i) c.startClient();
+    c.expectServerFinishes();
+    for (auto& cl : c.clients) c.expectClientExits(*cl, client::kExitOk);
+    const ExrImage got = readExr(c.outPath());
+    for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
+}
+
 class ClusterImage : public ::testing::TestWithParam<int> {};
 
 TEST_P(ClusterImage, EqualsSingleProcessBitForBitWithFloat32Pixels) {
@@ -168,13 +180,7 @@ TEST_P(ClusterImage, EqualsSingleProcessBitForBitWithFloat32Pixels) {
     RunSettings rs;
     const ExrImage& ref = reference(rs);
     expectNonTrivial(ref);
-    Cluster c;
-    c.startServer(rs, n, "float32");
-    for (int i = 0; i < n; ++i) c.startClient();
-    c.expectServerFinishes();
-    for (auto& cl : c.clients) c.expectClientExits(*cl, client::kExitOk);
-    const ExrImage got = readExr(c.outPath());
-    for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
+    expectClusterGives(rs, n, ref);
 }
 
 INSTANTIATE_TEST_SUITE_P(Clients, ClusterImage, ::testing::Values(1, 2, 3),
@@ -337,14 +343,7 @@ TEST(ClusterImageSettings, NonDefaultSettingsStillGiveTheSingleProcessImage) {
                 "--k", "24", "--rmax", "0.3", "-F", "3", "--diffuse-bounces", "0", "--no-spt"};
     const ExrImage& ref = reference(rs);
     expectNonTrivial(ref);
-    Cluster c;
-    c.startServer(rs, 2, "float32");
-    c.startClient();
-    c.startClient();
-    c.expectServerFinishes();
-    for (auto& cl : c.clients) c.expectClientExits(*cl, client::kExitOk);
-    const ExrImage got = readExr(c.outPath());
-    for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
+    expectClusterGives(rs, 2, ref);
 }
 
 // Batches that store no caustic photon (one path per set and frame: most sets find none) have
@@ -357,14 +356,7 @@ TEST(ClusterImageSettings, BatchesWithoutPhotonsShareNothingAndTheImageHolds) {
     rs.frames = 5;
     rs.photons = 1;
     const ExrImage& ref = reference(rs);
-    Cluster c;
-    c.startServer(rs, 2, "float32");
-    c.startClient();
-    c.startClient();
-    c.expectServerFinishes();
-    for (auto& cl : c.clients) c.expectClientExits(*cl, client::kExitOk);
-    const ExrImage got = readExr(c.outPath());
-    for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
+    expectClusterGives(rs, 2, ref);
 }
 
 // A scene as Blender exports it, using every glTF feature the loader maps (README's table):
@@ -424,14 +416,7 @@ TEST_P(ClusterImageGltf, FeatureSceneEqualsSingleProcessBitForBit) {
     rs.scene = writeFeatureScene(sceneDir, emitter);
     const ExrImage& ref = reference(rs);
     if (!emitter) expectNonTrivial(ref);  // the small emitter's caustics are too sparse to ask
-    Cluster c;
-    c.startServer(rs, 2, "float32");
-    c.startClient();
-    c.startClient();
-    c.expectServerFinishes();
-    for (auto& cl : c.clients) c.expectClientExits(*cl, client::kExitOk);
-    const ExrImage got = readExr(c.outPath());
-    for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
+    expectClusterGives(rs, 2, ref);
 }
 
 INSTANTIATE_TEST_SUITE_P(Lights, ClusterImageGltf, ::testing::Values(false, true),
@@ -460,14 +445,7 @@ TEST_P(ClusterImageGlossy, RoughSceneEqualsSingleProcessBitForBit) {
     rs.extra = {"--estimator", GetParam().estimator};
     const ExrImage& ref = reference(rs);
     expectNonTrivial(ref);
-    Cluster c;
-    c.startServer(rs, 2, "float32");
-    c.startClient();
-    c.startClient();
-    c.expectServerFinishes();
-    for (auto& cl : c.clients) c.expectClientExits(*cl, client::kExitOk);
-    const ExrImage got = readExr(c.outPath());
-    for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
+    expectClusterGives(rs, 2, ref);
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, ClusterImageGlossy,
