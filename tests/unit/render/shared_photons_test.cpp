@@ -4,6 +4,7 @@
 // do not, and sets that bin the others' photons hold more of them.
 #include <cstring>
 #include <numeric>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -24,9 +25,14 @@ RenderSettings smallRing() {
     return rs;
 }
 
+// Byte equality of two arrays; an empty one has no data pointer to hand to memcmp.
+template <class T>
+bool sameBytes(const std::vector<T>& a, const std::vector<T>& b) {
+    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+
 bool sameShot(const SetPhotons& a, const SetPhotons& b) {
-    return a.set == b.set && a.batches == b.batches && a.photons.size() == b.photons.size() &&
-           std::memcmp(a.photons.data(), b.photons.data(), a.photons.size() * sizeof(Photon)) == 0;
+    return a.set == b.set && a.batches == b.batches && sameBytes(a.photons, b.photons);
 }
 
 // The mode a master sends for frame f of a still view: decideFrameMode's, as a job without a
@@ -40,8 +46,7 @@ FrameMode stillViewMode(int f) {
 }
 
 bool samePixels(const SetPixels& a, const SetPixels& b) {
-    return a.set == b.set && a.pixels.size() == b.pixels.size() &&
-           std::memcmp(a.pixels.data(), b.pixels.data(), a.pixels.size() * sizeof(PixelRadiance)) == 0;
+    return a.set == b.set && sameBytes(a.pixels, b.pixels);
 }
 
 TEST(SharedPhotons, TwoJobsHandedEveryShotComputeWhatOneJobComputes) {
