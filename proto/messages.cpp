@@ -569,6 +569,7 @@ const char* frameModeName(FrameMode mode) {
         case FrameMode::Accumulate: return "accumulate";
         case FrameMode::Walkthrough: return "walkthrough";
         case FrameMode::Converging: return "converging";
+        case FrameMode::Edit: return "edit";
     }
     return "unknown";
 }

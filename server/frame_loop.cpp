@@ -257,8 +257,8 @@ void FrameLoop::beginFrame(TimePoint now) {
     // A frame whose cost the last ones do not predict waits the ceiling, and so does the last
     // frame of a finite run (it is the image written: nothing rendered may be cut short).
     const bool last = opt_.frames > 0 && f + 1 == static_cast<uint64_t>(opt_.frames);
-    const auto deadline =
-        clock_.begin(plan.mode == proto::FrameMode::Interaction || plan.reassigned || last, frameCost(plan.mode));
+    const bool epochStart = plan.mode == proto::FrameMode::Interaction || plan.mode == proto::FrameMode::Edit;
+    const auto deadline = clock_.begin(epochStart || plan.reassigned || last, frameCost(plan.mode));
     // A message that stops halfway is no client building maps: it gets the measured deadline
     // even when this frame waits the ceiling.
     peers_.boundReadStall(clock_.forFrame(false, frameCost(plan.mode)));

@@ -82,6 +82,7 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
     p.balanced = balanced;
     FrameFacts facts;
     facts.epochStart = frame == epochStart_;
+    facts.edited = edited;
     facts.cameraMoved = cameraMoved;
     facts.cameraStill = cameraStill;
     facts.progressive = progressive_;

@@ -13,11 +13,17 @@ enum class FrameMode : uint8_t {
     Accumulate = 1,   ///< one more photon batch per set, a full eye pass
     Walkthrough = 2,  ///< no shooting (the view moves, or every map is capped), a full eye pass
     Converging = 3,   ///< progressive estimator, still view: a pass at the kept eye records
+    /// First frame of an epoch that an edit of the scene or the settings began: as Interaction,
+    /// except that with the progressive estimator no progression starts — the caustics are the
+    /// map's k-NN estimate, and the next still frame restarts. A light or material being dragged
+    /// makes every frame an epoch start: each then costs a knn frame, not a restart's gathers.
+    Edit = 4,
 };
 
 /// What the frame-mode decision looks at.
 struct FrameFacts {
     bool epochStart = false;   ///< first frame of an epoch (frame 0, or edits/settings come with it)
+    bool edited = false;       ///< the epoch starts because of an edit of the scene or the settings
     bool cameraMoved = false;  ///< the camera was moved for this frame (the maps are kept)
     bool cameraStill = false;  ///< this frame's camera equals the previous frame's, bit for bit
     bool progressive = false;  ///< the progressive estimator is in use
@@ -25,12 +31,13 @@ struct FrameFacts {
     bool allCapped = false;    ///< every set reached its photon cap (the last batch shot nothing)
 };
 
-/// The frame's mode. The first frame of an epoch is Interaction; a moved camera is Walkthrough;
+/// The frame's mode. The first frame of an epoch is Interaction, or Edit when an edit began the
+/// epoch; a moved camera is Walkthrough;
 /// with the progressive estimator a still camera is Converging (unless walkthrough was asked
 /// for); otherwise Walkthrough when asked for or when every map is capped, else Accumulate.
 /// Pure; the single place this is decided.
 constexpr FrameMode decideFrameMode(const FrameFacts& f) {
-    if (f.epochStart) return FrameMode::Interaction;
+    if (f.epochStart) return f.edited ? FrameMode::Edit : FrameMode::Interaction;
     if (f.cameraMoved) return FrameMode::Walkthrough;
     if (f.progressive && f.cameraStill && !f.walkthrough) return FrameMode::Converging;
     if (f.walkthrough || f.allCapped) return FrameMode::Walkthrough;

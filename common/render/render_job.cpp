@@ -69,6 +69,7 @@ FrameStats RenderJob::renderFrame(const Camera& camera, std::vector<SetPixels>& 
                                   uint32_t passPeriod) {
     FrameFacts facts;
     facts.epochStart = epochStart_;
+    facts.edited = edited_;
     facts.cameraStill = lastCamera_ && sameCamera(*lastCamera_, camera);
     facts.progressive = settings_.photons.estimator == CausticEstimatorKind::Progressive;
     return renderFrame(camera, decideFrameMode(facts), out, passBatches, nullptr, passPeriod);
@@ -88,8 +89,12 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     // frames take their caustics from the irradiance points, and the first frame of a camera
     // that stopped restarts (docs/ARCHITECTURE.md §6.2).
     const bool moving = progressive && lastCamera_ && !sameCamera(*lastCamera_, camera);
+    // An Edit frame shows the map's k-NN estimate and starts no progression (the next still
+    // frame restarts): an edit being dragged costs a knn frame per frame, not a restart's gathers.
+    const bool edit = progressive && mode == FrameMode::Edit;
     lastCamera_ = camera;
     epochStart_ = false;
+    edited_ = false;
     // A pass gathers at the progression's eye records: they must be of this very camera.
     // A pass shoots only on its set's turn (passShoots over the progression's pass count, which
     // every process rendering the set counts alike).
@@ -139,7 +144,7 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
             irradiance_->update(embree, *photons_, sets_[i]);
             renderSet(embree, camera, settings_.eye, pattern_, set, irradiance_.get(), out[i].pixels,
                       &stats.eye, nullptr, sampleSeedOf(camera));
-        } else if (progressive) {
+        } else if (progressive && !edit) {
             EyeRecords records;
             renderSet(embree, camera, settings_.eye, pattern_, set, nullptr, out[i].pixels,
                       &stats.eye, &records);
@@ -152,10 +157,11 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
             renderSet(embree, camera, settings_.eye, pattern_, set, photons_.get(), out[i].pixels,
                       &stats.eye);
         }
-        out[i].passes = progressive && !moving ? progressive_[i].passes() : 0;
+        const bool progression = progressive && !moving && !edit;
+        out[i].passes = progression ? progressive_[i].passes() : 0;
         out[i].ownWeights.clear();
         out[i].error = CausticErrorSums{};
-        if (progressive && !moving) {
+        if (progression) {
             out[i].ownWeights = progressive_[i].ownWeights();
             out[i].error = progressive_[i].errorSums();
         }
@@ -190,6 +196,7 @@ void scatterSet(FrameImage& image, const Interleave& pattern, const SetPixels& p
 void RenderJob::applyEdit(const SceneEdit& edit) {
     scene_->applyEdit(edit);
     resetPhotons();
+    edited_ = true;
 }
 
 void RenderJob::resetPhotons() {

@@ -78,9 +78,11 @@ public:
     /// camera) the sets end their progressions, their caustics come from the maps' irradiance
     /// points (irradiance_points.h: a cost bounded whatever the map holds) and their eye paths
     /// sample dielectric splits (renderSet's sampleSeed, hashed from the camera). Any other set
-    /// that cannot pass (the first frame, the first frame of a camera that stopped, a frame after
-    /// an edit, a set that moved here), and every set in the other modes, restarts its progression
-    /// from a record-mode eye pass and the accumulated map. The knn estimator has no passes:
+    /// that cannot pass (the first frame, the first frame of a camera that stopped, the first
+    /// still frame after an edit, a set that moved here), and every set in the other modes but
+    /// Edit, restarts its progression from a record-mode eye pass and the accumulated map. An
+    /// Edit frame starts none: it shows the map's k-NN estimate, as the knn estimator does, so
+    /// that an edit per frame (a dragged light) costs a knn frame. The knn estimator has no passes:
     /// Converging shoots a batch as Accumulate does.
     /// `passBatches` (≥ 1): batches a progressive pass shoots (PassBudget); other frames shoot one.
     /// `passPeriod` (≥ 1): the sets take turns, a pass shooting only every passPeriod-th pass of
@@ -95,7 +97,7 @@ public:
                            uint32_t passPeriod = 1);
     /// The next frame without a master (rtpm-render, tests): the mode is decideFrameMode's over
     /// this job's own frames — the first one, and the first after applyEdit or resetPhotons, start
-    /// an epoch; a camera equal to the previous frame's is still; walkthrough is never asked. Its
+    /// an epoch (an Edit frame after applyEdit); a camera equal to the previous frame's is still; walkthrough is never asked. Its
     /// passes bin the job's own record of its sets' shots.
     FrameStats renderFrame(const Camera& camera, std::vector<SetPixels>& out, uint32_t passBatches = 1,
                            uint32_t passPeriod = 1);
@@ -130,6 +132,8 @@ private:
     std::optional<Camera> lastCamera_;              ///< the previous frame's camera
     /// No frame since the job began or since applyEdit/resetPhotons (renderFrame without a mode).
     bool epochStart_ = true;
+    /// applyEdit began the epoch (renderFrame without a mode: its first frame is an Edit frame).
+    bool edited_ = false;
 };
 
 }  // namespace rtpm

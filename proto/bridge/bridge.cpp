@@ -111,7 +111,8 @@ static_assert(uint8_t(FrameMode::Interaction) == uint8_t(proto::FrameMode::Inter
               uint8_t(FrameMode::Accumulate) == uint8_t(proto::FrameMode::Accumulate) &&
               uint8_t(FrameMode::Walkthrough) == uint8_t(proto::FrameMode::Walkthrough) &&
               uint8_t(FrameMode::Converging) == uint8_t(proto::FrameMode::Converging) &&
-              proto::kMaxFrameMode == uint8_t(FrameMode::Converging));
+              uint8_t(FrameMode::Edit) == uint8_t(proto::FrameMode::Edit) &&
+              proto::kMaxFrameMode == uint8_t(FrameMode::Edit));
 
 proto::FrameMode toWire(FrameMode mode) { return proto::FrameMode(uint8_t(mode)); }
 FrameMode fromWire(proto::FrameMode mode) { return FrameMode(uint8_t(mode)); }

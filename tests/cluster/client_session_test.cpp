@@ -208,7 +208,7 @@ TEST(ClientSession, EditBeforeNewEpochIsAppliedAndResetsPhotons) {
     ASSERT_TRUE(fs.peer.send(frameBegin(0, 0, 1, {1, 2}, proto::FrameMode::Interaction)));
     ASSERT_TRUE(fs.peer.send(frameBegin(1, 0, 1, {1, 2}, proto::FrameMode::Converging)));
     ASSERT_TRUE(fs.peer.send(proto::Edit{2, te}));
-    ASSERT_TRUE(fs.peer.send(frameBegin(2, 1, 2, {1, 2}, proto::FrameMode::Interaction)));
+    ASSERT_TRUE(fs.peer.send(frameBegin(2, 1, 2, {1, 2}, proto::FrameMode::Edit)));
 
     RenderJob ref(std::move(scene), client::toRenderSettings(settings), {1, 2});
     std::vector<SetPixels> refPixels;

@@ -70,10 +70,11 @@ TEST(Bridge, SettingsWithoutWireFormOrRefusedAreErrors) {
 
 TEST(Bridge, FrameModesRoundTripWithTheWiresIds) {
     const FrameMode modes[] = {FrameMode::Interaction, FrameMode::Accumulate, FrameMode::Walkthrough,
-                               FrameMode::Converging};
+                               FrameMode::Converging, FrameMode::Edit};
     const proto::FrameMode wire[] = {proto::FrameMode::Interaction, proto::FrameMode::Accumulate,
-                                     proto::FrameMode::Walkthrough, proto::FrameMode::Converging};
-    for (size_t i = 0; i < 4; ++i) {
+                                     proto::FrameMode::Walkthrough, proto::FrameMode::Converging,
+                                     proto::FrameMode::Edit};
+    for (size_t i = 0; i < 5; ++i) {
         EXPECT_EQ(bridge::toWire(modes[i]), wire[i]);
         EXPECT_EQ(bridge::fromWire(wire[i]), modes[i]);
     }

@@ -23,6 +23,22 @@ TEST(FrameMode, TheFirstFrameOfAnEpochIsInteractionWhateverElseHolds) {
         EXPECT_EQ(decide(true, bits & 1, bits & 2, bits & 4, bits & 8, bits & 16), FrameMode::Interaction);
 }
 
+TEST(FrameMode, AnEpochAnEditBeganStartsWithAnEditFrameWhateverElseHolds) {
+    for (int bits = 0; bits < 32; ++bits) {
+        FrameFacts f;
+        f.epochStart = true;
+        f.edited = true;
+        f.cameraMoved = bits & 1;
+        f.cameraStill = bits & 2;
+        f.progressive = bits & 4;
+        f.walkthrough = bits & 8;
+        f.allCapped = bits & 16;
+        EXPECT_EQ(decideFrameMode(f), FrameMode::Edit) << "facts " << bits;
+        f.epochStart = false;  // only the epoch's first frame: the rest decide as usual
+        EXPECT_NE(decideFrameMode(f), FrameMode::Edit) << "facts " << bits;
+    }
+}
+
 TEST(FrameMode, AMovedCameraIsAWalkthrough) {
     EXPECT_EQ(decide(false, true, false, true, false, false), FrameMode::Walkthrough);
     EXPECT_EQ(decide(false, true, true, true, false, false), FrameMode::Walkthrough);

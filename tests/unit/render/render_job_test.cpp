@@ -1,7 +1,9 @@
 // RenderJob's choice of estimator per frame: a moving camera's frames take the irradiance points,
-// the first frame of a camera that stopped restarts the progression, later ones are passes.
+// the first frame of a camera that stopped restarts the progression, later ones are passes; an
+// edit's first frame shows the map's k-NN estimate and the next still frame restarts.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <numeric>
 #include <vector>
 
@@ -85,6 +87,63 @@ TEST(RenderJob, TheKnnEstimatorIgnoresMotion) {
     const FrameStats st = job.renderFrame(b, out);
     EXPECT_FALSE(st.moving);
     EXPECT_EQ(job.irradiance().counts().lookups, 0u);
+}
+
+// An edit per frame (a dragged light) must cost a knn frame, not a restart: the progressive job's
+// first frame after an edit is the knn estimator's frame over the same map, bit for bit, with no
+// progression; the next still frame restarts and the one after is a pass.
+TEST(RenderJob, AnEditFrameShowsTheKnnEstimateAndTheNextStillFrameRestarts) {
+    testscenes::RingMirror rm;
+    Scene scene = rm.scene();
+    ASSERT_FALSE(scene.lights.empty());
+    const Camera camera = *scene.camera;
+    RenderSettings rs;
+    rs.width = 64;
+    rs.height = 48;
+    rs.interleave = 2;
+    rs.photons.photonsPerBatch = 5000;
+    RenderSettings knn = rs;
+    knn.photons.estimator = CausticEstimatorKind::Knn;
+    std::vector<uint32_t> sets(4);
+    std::iota(sets.begin(), sets.end(), 0u);
+    RenderJob job(scene, rs, sets), reference(scene, knn, sets);
+    SceneEdit edit;
+    edit.kind = SceneEdit::Kind::Light;
+    edit.index = 0;
+    edit.light = scene.lights[0];
+    edit.light.position.x += 0.02f;
+
+    std::vector<SetPixels> out, ref;
+    job.renderFrame(camera, out);
+    EXPECT_TRUE(job.renderFrame(camera, out).converging);
+    for (int drag = 0; drag < 2; ++drag) {  // two edits in a row: each first frame alike
+        edit.light.position.x += 0.02f;
+        job.applyEdit(edit);
+        reference.applyEdit(edit);
+        const FrameStats st = job.renderFrame(camera, out);
+        reference.renderFrame(camera, ref);
+        EXPECT_FALSE(st.converging);
+        EXPECT_EQ(st.passes, 0u);
+        ASSERT_EQ(out.size(), ref.size());
+        double caustic = 0.0;
+        for (size_t i = 0; i < out.size(); ++i) {
+            EXPECT_TRUE(out[i].ownWeights.empty()) << "no progression: the box filter alone";
+            ASSERT_EQ(out[i].pixels.size(), ref[i].pixels.size());
+            EXPECT_EQ(std::memcmp(out[i].pixels.data(), ref[i].pixels.data(),
+                                  out[i].pixels.size() * sizeof(PixelRadiance)),
+                      0)
+                << "set " << out[i].set << ": not the knn estimate";
+            for (const PixelRadiance& px : out[i].pixels) caustic += px.caustic.x;
+        }
+        EXPECT_GT(caustic, 0.0);
+    }
+    // The light stops: a restart (its own weights, no pass yet), then passes.
+    FrameStats st = job.renderFrame(camera, out);
+    EXPECT_FALSE(st.converging);
+    EXPECT_FALSE(out[0].ownWeights.empty());
+    st = job.renderFrame(camera, out);
+    EXPECT_TRUE(st.converging);
+    EXPECT_EQ(st.passes, 1u);
 }
 
 }  // namespace
