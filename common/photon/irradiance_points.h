@@ -2,9 +2,9 @@
 // moving camera's frames instead of a k-NN gather per pixel (Christensen 1999, "Faster photon map
 // global illumination").
 //
-// Once per map change (a batch, a flush of passes, a reset), every n-th photon of a set's map in
-// the index's leaf order (a spatially stratified subset: leaf order follows the tree's cells)
-// becomes a point, with n = max(kPointStride, ⌈N / kMaxPoints⌉): every 4th photon of a small map,
+// Once per map change (a reset, a replacement, a doubling of its batches: needsRebuild), every
+// n-th photon of a set's map in the index's leaf order (a spatially stratified subset: leaf order
+// follows the tree's cells) becomes a point, with n = max(kPointStride, ⌈N / kMaxPoints⌉): every 4th photon of a small map,
 // kMaxPoints points of a large one. Each point gets the k-NN irradiance of the map at its photon
 // (PhotonMaps::gatherMap, the estimate the knn estimator makes at an eye hit there) and the shading
 // normal of the surface the photon lies on (one short ray). A caustic query at an eye hit then
@@ -36,6 +36,22 @@ inline constexpr uint32_t kPointStride = 4;
 inline constexpr uint32_t kMaxPoints = 8192;
 /// Points averaged per lookup.
 inline constexpr uint32_t kLookupPoints = 4;
+/// A growing map's points are rebuilt once its batch count reached this many times the count
+/// they were built from (batches 1, 2, 4, 8, …), not at every batch: a camera orbiting while the
+/// photons accumulate would otherwise pay up to kMaxPoints k-NN gathers per set in every frame
+/// (HEADLIGHT, whose dense map made each frame's eye pass 0.8–1 s). Points are per-batch
+/// irradiance, so a lagging rebuild shows fewer photons' estimate (at worst half the map's: √2 ×
+/// its noise), never a wrong level.
+inline constexpr uint32_t kRebuildGrowth = 2;
+
+/// Whether points built from a map of `builtBatches` batches and `builtPhotons` photons are
+/// rebuilt for the map as it is now: when it was reset or replaced (fewer batches, or the same
+/// batches with other photons) or grew to kRebuildGrowth × the batches.
+constexpr bool needsRebuild(uint32_t builtBatches, uint64_t builtPhotons, uint32_t batches, uint64_t photons) {
+    if (batches < builtBatches || builtBatches == 0) return batches != builtBatches || photons != builtPhotons;
+    if (batches == builtBatches) return photons != builtPhotons;
+    return uint64_t(batches) >= uint64_t(kRebuildGrowth) * builtBatches;
+}
 
 /// Counters of the work done (added to, never reset but by resetCounters; thread-safe).
 struct IrradiancePointCounts {
@@ -51,8 +67,8 @@ public:
     explicit IrradiancePoints(std::vector<uint32_t> sets);
     ~IrradiancePoints() override;
 
-    /// Rebuilds `set`'s points when its map changed since they were built (its batch count or
-    /// photon count differs, or invalidate() was called). `scene` is the one the photons were
+    /// Rebuilds `set`'s points when its map changed since they were built (needsRebuild: reset,
+    /// replaced, or grown to kRebuildGrowth × its batches; or invalidate() was called). `scene` is the one the photons were
     /// shot in. Cost: up to kMaxPoints k-NN gathers and short rays, O(points log points) to
     /// build their tree; nothing when the map did not change. Parallel (TBB); the points do not
     /// depend on the thread count.

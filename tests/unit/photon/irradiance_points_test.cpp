@@ -92,6 +92,36 @@ TEST(IrradiancePoints, WorkPerFrameDoesNotGrowWithTheMap) {
     EXPECT_EQ(points.counts().gathers, points.pointCount(0));
 }
 
+// A camera orbiting over a growing map rebuilds the points when the map's batches doubled, not at
+// every batch: over 16 batches, 5 rebuilds (batches 1, 2, 4, 8, 16), each from the map as it is.
+TEST(IrradiancePoints, AGrowingMapIsRebuiltWhenItsBatchesDoubled) {
+    testscenes::RingMirror rm;
+    const Scene scene = rm.scene();
+    const EmbreeScene es(scene);
+    PhotonMaps maps(mirrorSettings(), {0});
+    IrradiancePoints points({0});
+    std::vector<uint32_t> rebuiltAt;
+    for (uint32_t b = 1; b <= 16; ++b) {
+        maps.shootBatch(es, 0);
+        points.resetCounters();
+        points.update(es, maps, 0);
+        if (points.counts().gathers > 0) {
+            rebuiltAt.push_back(b);
+            EXPECT_EQ(points.counts().gathers, points.pointCount(0));
+        }
+    }
+    EXPECT_EQ(rebuiltAt, (std::vector<uint32_t>{1, 2, 4, 8, 16}));
+
+    // The rule itself: a reset or replaced map is rebuilt whatever its size.
+    EXPECT_FALSE(needsRebuild(4, 1000, 7, 1900));
+    EXPECT_TRUE(needsRebuild(4, 1000, 8, 2000));
+    EXPECT_TRUE(needsRebuild(4, 1000, 3, 700)) << "reset and regrown";
+    EXPECT_TRUE(needsRebuild(4, 1000, 4, 990)) << "same batches, other photons";
+    EXPECT_FALSE(needsRebuild(4, 1000, 4, 1000));
+    EXPECT_TRUE(needsRebuild(0, 0, 1, 200));
+    EXPECT_FALSE(needsRebuild(0, 0, 0, 0));
+}
+
 // Inside the caustic's smooth part the lookup equals the k-NN estimate at the same point within
 // the two estimates' noise (k = 64: about 1/√64 = 12 % each): the mean over a patch of the
 // floor far from the fold lines agrees within 5 %, and no point of it is off by more than 40 %.
