@@ -215,7 +215,7 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
         const bool empty = g.job->photons().stats(g.sets.front()).batches == 0;
         const FrameMode mode = fb.mode == proto::FrameMode::Walkthrough && empty ? FrameMode::Accumulate : frameMode;
         FrameStats st = groups_[gi]->job->renderFrame(camera, mode, results[gi], fb.passBatches, &shared,
-                                                      fb.passPeriod);
+                                                      fb.passPeriod, fb.frame);
         photonMs += st.shootSeconds * 1e3;
         renderMs += st.eyeSeconds * 1e3;
         shot += st.pathsThisFrame;

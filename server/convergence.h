@@ -1,5 +1,7 @@
 // A still view's convergence on the master: how many batches a progressive pass shoots (the
-// frame-time budget) and whether the estimated caustic error reached --target-error.
+// frame-time budget) and whether the estimated caustic error reached --target-error; and the
+// same frame-time budget for Accumulate frames, whose sets take turns shooting their batch when
+// one batch per set costs more than the budget (a camera orbiting over costly photon paths).
 #pragma once
 
 #include <cstdint>
@@ -15,21 +17,27 @@ public:
     /// `frameBudgetMs`: the frame time passes grow to (0 = one batch per pass); `targetError`:
     /// the estimated error that ends the run (0 = never).
     Convergence(double frameBudgetMs, double targetError)
-        : budget_(frameBudgetMs * 1e-3), targetError_(targetError) {}
+        : budget_(frameBudgetMs * 1e-3), accumulate_(frameBudgetMs * 1e-3, /*growBatches=*/false),
+          targetError_(targetError) {}
 
     /// Batches each set shoots in a frame of `mode`: the budget's for a Converging frame, else one.
     uint32_t batchesFor(proto::FrameMode mode) const {
         return mode == proto::FrameMode::Converging ? budget_.batches() : 1u;
     }
     /// Frames between two shooting passes of a set in a frame of `mode` (PassBudget::period): the
-    /// budget's for a Converging frame, else one.
+    /// pass budget's for a Converging frame, the accumulation budget's for an Accumulate frame
+    /// (a set then shoots its batch in the frames passShoots(frame, set, …) names), else one.
     uint32_t periodFor(proto::FrameMode mode) const {
-        return mode == proto::FrameMode::Converging ? budget_.period() : 1u;
+        if (mode == proto::FrameMode::Converging) return budget_.period();
+        return mode == proto::FrameMode::Accumulate ? accumulate_.period() : 1u;
     }
-    /// A shown frame of `mode` whose slowest client worked `workMs` (shooting, eye pass, encoding;
-    /// not the wait behind the frame before) adapts the budget.
-    void recordWork(proto::FrameMode mode, double workMs) {
-        budget_.record(mode == proto::FrameMode::Converging, workMs * 1e-3);
+    /// A shown frame of `mode`, planned with `batches` and `period` (FrameBegin's passBatches and
+    /// passPeriod), whose slowest client worked `workMs` (shooting, eye pass, encoding; not the
+    /// wait behind the frame before) adapts the budget (PassBudget::recordFrame: frames planned
+    /// before its last change are not counted).
+    void recordWork(proto::FrameMode mode, double workMs, uint32_t batches, uint32_t period) {
+        budget_.recordFrame(mode == proto::FrameMode::Converging, workMs * 1e-3, batches, period);
+        accumulate_.recordFrame(mode == proto::FrameMode::Accumulate, workMs * 1e-3, batches, period);
     }
     /// True once, for the first Converging frame whose estimated error (> 0) is at most the target.
     bool reachesTarget(proto::FrameMode mode, double errorEstimate) {
@@ -45,6 +53,7 @@ public:
 
 private:
     PassBudget budget_;
+    PassBudget accumulate_;  ///< Accumulate frames: one batch per set at most, the period only
     double targetError_;
     bool reached_ = false;
 };

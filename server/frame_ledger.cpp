@@ -45,7 +45,7 @@ FrameLedger::StatsOf FrameLedger::addStats(ClientId client, const std::string& n
         info.slowestStats = st;
         info.slowest = std::to_string(client) + ":" + name;
     }
-    return {info.mode, sets};
+    return {info.mode, sets, info.passPeriod};
 }
 
 const proto::Stats* FrameLedger::lastStats(ClientId client) const {

@@ -45,6 +45,7 @@ public:
     struct StatsOf {
         proto::FrameMode mode = proto::FrameMode::Accumulate;
         uint32_t sets = 0;
+        uint32_t passPeriod = 1;  ///< the frame's FrameBegin.passPeriod
     };
     /// Accepted Stats of `client` (named `name` in logs).
     StatsOf addStats(ClientId client, const std::string& name, const proto::Stats& stats);

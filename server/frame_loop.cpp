@@ -99,7 +99,7 @@ void FrameLoop::onStats(ClientInfo& client, const proto::Stats& st) {
     }
     if (v == Verdict::Accept) {
         const FrameLedger::StatsOf of = ledger_.addStats(client.id, client.name, st);
-        policy_.stats(client.id, of.mode, st.photonsShot);
+        policy_.stats(client.id, of.mode, st.photonsShot, of.passPeriod);
         policy_.balance().measured(client.id, of.sets, double(st.photonMs) + double(st.renderMs) + double(st.encodeMs));
     }
     pump();
@@ -282,7 +282,7 @@ void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
     // from FrameBegin to its last FrameData: with frames in flight that also holds the wait behind
     // the frame before, about twice the work, and the passes never grew.
     const double workMs = double(job.slowestPhotonMs) + double(job.slowestEyeMs) + double(job.slowestEncodeMs);
-    convergence_.recordWork(shown.mode, workMs);
+    convergence_.recordWork(shown.mode, workMs, job.passBatches, job.passPeriod);
     if (state_ == State::Running && convergence_.reachesTarget(shown.mode, job.errorEstimate)) {
         // No new frame begins; the frames in flight finish and the last one shown is written
         // (finishStopped), as after a signal, but the run counts as complete.

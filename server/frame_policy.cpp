@@ -125,11 +125,12 @@ void FramePolicy::clientLeft(ClientId id) {
     clientsChanged_ = true;
 }
 
-void FramePolicy::stats(ClientId id, proto::FrameMode mode, uint64_t photonsShot) {
+void FramePolicy::stats(ClientId id, proto::FrameMode mode, uint64_t photonsShot, uint32_t passPeriod) {
     ClientState& s = state_[id];
-    // Only an Accumulate frame asks for photons: Walkthrough frames (camera moving) shoot none by
-    // design and say nothing about the cap.
-    if (mode == proto::FrameMode::Accumulate) s.capped = photonsShot == 0;
+    // Only an Accumulate frame in which every set shoots asks for photons: Walkthrough frames
+    // (camera moving) shoot none by design, and while the sets take turns a client may hold no
+    // set whose turn it is; neither says anything about the cap.
+    if (mode == proto::FrameMode::Accumulate && passPeriod <= 1) s.capped = photonsShot == 0;
     s.skips = 0;
 }
 

@@ -91,8 +91,8 @@ public:
     /// it with no set: it takes sets from the next plan on.
     bool answered(ClientId id);
     /// A client's Stats for a frame of mode `mode` arrived in time: it finished a frame, and in an
-    /// Accumulate frame `photonsShot == 0` means its sets are capped.
-    void stats(ClientId id, proto::FrameMode mode, uint64_t photonsShot);
+    /// Accumulate frame of every set (`passPeriod` 1) `photonsShot == 0` means its sets are capped.
+    void stats(ClientId id, proto::FrameMode mode, uint64_t photonsShot, uint32_t passPeriod = 1);
     /// Sets `id` would hold if a frame began now (for Welcome; FrameBegin is binding).
     std::vector<uint32_t> tentativeSets(ClientId id, const std::vector<ClientId>& joinOrder) const;
 

@@ -39,17 +39,33 @@ inline bool passShoots(uint64_t pass, uint32_t set, uint32_t sets, uint32_t peri
 /// depend on the machine's speed). Pure: the caller measures time.
 class PassBudget {
 public:
-    explicit PassBudget(double budgetSeconds = 0.0) : budget_(budgetSeconds) {}
+    /// `growBatches` false: the work never grows above one batch per set (only the period
+    /// changes), as for Accumulate frames, whose batch is the map's growth step.
+    explicit PassBudget(double budgetSeconds = 0.0, bool growBatches = true)
+        : budget_(budgetSeconds), growBatches_(growBatches) {}
 
     /// Batches the next frame's passes shoot, in [1, kMaxPassBatches].
     uint32_t batches() const { return batches_; }
     /// Frames between two shooting passes of a set, in [1, kMaxPassPeriod] (passShoots); > 1
     /// only while batches() is 1.
     uint32_t period() const { return period_; }
-    /// After a frame: whether it was a progressive pass (converging) and how long it took.
+    /// After a frame of a pipelined loop (the master: frames are planned before the ones in
+    /// flight are measured): `batches` and `period` are what the frame was planned with. A frame
+    /// of the budget's kind planned with other work than the budget's present one is stale — it
+    /// ran before the last change took effect — and says nothing about the change: it is not
+    /// counted. Without this a doubled period's trial took in the frame still planned at the old
+    /// period (HEADLIGHT: 645 ms beside the turn's 285 ms), missed the 1 − kTurnGain gain and was
+    /// undone for good, leaving the still view at 1.8 fps where turns gave 8.
+    void recordFrame(bool converging, double frameSeconds, uint32_t batches, uint32_t period) {
+        if (converging && budget_ > 0.0 && (batches != batches_ || period != period_)) return;
+        record(converging, frameSeconds);
+    }
+    /// After a frame: whether it was a frame of the kind this budget sizes (a progressive pass, or
+    /// for an accumulation budget an Accumulate frame) and how long it took; any other frame
+    /// starts the budget afresh. For a loop that plans each frame after measuring the last one.
     void record(bool converging, double frameSeconds) {
         if (!converging || !(budget_ > 0.0)) {
-            *this = PassBudget(budget_);
+            *this = PassBudget(budget_, growBatches_);
             return;
         }
         // While the sets take turns a frame's cost depends on whose turn it is: decide on the
@@ -70,7 +86,7 @@ public:
         }
         if (mean < 0.5 * budget_) {
             if (period_ > 1) period_ /= 2;
-            else batches_ = std::min(kMaxPassBatches, batches_ * 2);
+            else if (growBatches_) batches_ = std::min(kMaxPassBatches, batches_ * 2);
         } else if (mean > budget_) {
             if (batches_ > 1) {
                 batches_ = std::max(1u, batches_ / 2);
@@ -87,6 +103,7 @@ public:
 
 private:
     double budget_;
+    bool growBatches_ = true;
     uint32_t batches_ = 1;
     uint32_t period_ = 1;
     double turnSeconds_ = 0.0;   ///< Σ frame seconds of the current turn

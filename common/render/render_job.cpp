@@ -72,11 +72,12 @@ FrameStats RenderJob::renderFrame(const Camera& camera, std::vector<SetPixels>& 
     facts.edited = edited_;
     facts.cameraStill = lastCamera_ && sameCamera(*lastCamera_, camera);
     facts.progressive = settings_.photons.estimator == CausticEstimatorKind::Progressive;
-    return renderFrame(camera, decideFrameMode(facts), out, passBatches, nullptr, passPeriod);
+    return renderFrame(camera, decideFrameMode(facts), out, passBatches, nullptr, passPeriod, framesRendered_);
 }
 
 FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vector<SetPixels>& out,
-                                  uint32_t passBatches, const std::vector<SetPhotons>* shared, uint32_t passPeriod) {
+                                  uint32_t passBatches, const std::vector<SetPhotons>* shared, uint32_t passPeriod,
+                                  uint64_t frame) {
     RTPM_CHECK(passBatches >= 1 && passPeriod >= 1);
     const EmbreeScene& embree = scene_->embree();
     FrameStats stats;
@@ -95,16 +96,22 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     lastCamera_ = camera;
     epochStart_ = false;
     edited_ = false;
+    ++framesRendered_;
     // A pass gathers at the progression's eye records: they must be of this very camera.
     // A pass shoots only on its set's turn (passShoots over the progression's pass count, which
     // every process rendering the set counts alike).
-    std::vector<uint8_t> converge(sets_.size(), 0), passShot(sets_.size(), 0);
+    // In an Accumulate frame the sets take turns by the frame number (a set whose map holds no
+    // batch yet shoots whatever its turn, so that it shows caustics from its first frame).
+    const uint32_t setCount = uint32_t(pattern_.setCount());
+    std::vector<uint8_t> converge(sets_.size(), 0), passShot(sets_.size(), 0), batchShot(sets_.size(), 0);
     for (size_t i = 0; i < sets_.size(); ++i) {
         if (moving) progressive_[i].invalidate();
         converge[i] = progressive && mode == FrameMode::Converging && progressive_[i].valid() &&
                       sameCamera(progressive_[i].camera(), camera);
-        passShot[i] = converge[i] && passShoots(progressive_[i].passes() + 1, sets_[i], uint32_t(pattern_.setCount()),
-                                                passPeriod);
+        passShot[i] = converge[i] && passShoots(progressive_[i].passes() + 1, sets_[i], setCount, passPeriod);
+        batchShot[i] = shoot && !converge[i] &&
+                       (mode != FrameMode::Accumulate || photons_->stats(sets_[i]).batches == 0 ||
+                        passShoots(frame, sets_[i], setCount, passPeriod));
     }
     // Sets shoot and insert concurrently (a batch's tracing is parallel inside, its kd-tree
     // insertion is not: with several sets per process both cores stay busy through insertion).
@@ -113,7 +120,7 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     tbb::parallel_for(size_t(0), sets_.size(), [&](size_t i) {
         if (converge[i]) {
             if (passShot[i]) photons_->shootPass(embree, sets_[i], passBatches);
-        } else if (shoot)
+        } else if (batchShot[i])
             photons_->shootBatch(embree, sets_[i]);  // flushes the ended progression's passes
         else
             photons_->flushPasses(sets_[i]);

@@ -87,14 +87,16 @@ public:
     /// `passBatches` (≥ 1): batches a progressive pass shoots (PassBudget); other frames shoot one.
     /// `passPeriod` (≥ 1): the sets take turns, a pass shooting only every passPeriod-th pass of
     /// its progression (passShoots; PassBudget::period); a pass whose set does not shoot bins
-    /// only the other sets' shared photons.
+    /// only the other sets' shared photons. In an Accumulate frame a set shoots its batch only
+    /// when passShoots(`frame`, set, M², passPeriod) (`frame`: the master's frame number) or its
+    /// map holds no batch yet.
     /// A pass also bins every other set's shot of kSharedPhotonLag frames ago: `shared` when
     /// given (a cluster client: what the master forwarded, any sets), else the job's own record
     /// of its sets' shots (every set, in rtpm-render). Either must hold only photons shot since
     /// the last edit or reset.
     FrameStats renderFrame(const Camera& camera, FrameMode mode, std::vector<SetPixels>& out,
                            uint32_t passBatches = 1, const std::vector<SetPhotons>* shared = nullptr,
-                           uint32_t passPeriod = 1);
+                           uint32_t passPeriod = 1, uint64_t frame = 0);
     /// The next frame without a master (rtpm-render, tests): the mode is decideFrameMode's over
     /// this job's own frames — the first one, and the first after applyEdit or resetPhotons, start
     /// an epoch (an Edit frame after applyEdit); a camera equal to the previous frame's is still; walkthrough is never asked. Its
@@ -134,6 +136,8 @@ private:
     bool epochStart_ = true;
     /// applyEdit began the epoch (renderFrame without a mode: its first frame is an Edit frame).
     bool edited_ = false;
+    /// Frames this job rendered (renderFrame without a mode numbers its frames by it).
+    uint64_t framesRendered_ = 0;
 };
 
 }  // namespace rtpm

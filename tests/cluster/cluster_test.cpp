@@ -280,7 +280,9 @@ std::vector<uint32_t> stillPassWork(const FrameCsv& csv, size_t column) {
         EXPECT_EQ(cols.size(), 17u) << csv.header;
         if (cols.size() != 17u) break;
         work.push_back(uint32_t(std::stoul(cols[column])));
-        if (cols[3] == "converging") EXPECT_GT(std::stod(cols[kEstError]), 0.0) << "no error estimate, frame " << cols[0];
+        if (cols[3] == "converging") {
+            EXPECT_GT(std::stod(cols[kEstError]), 0.0) << "no error estimate, frame " << cols[0];
+        }
     }
     return work;
 }
@@ -332,6 +334,37 @@ TEST(ClusterStillPasses, SetsTakeTurnsWhenOneBatchExceedsTheBudget) {
     EXPECT_EQ(periods.front(), 1u) << "the first frame is a restart";
     EXPECT_GE(*std::max_element(periods.begin(), periods.end()), 2u) << c.logs();
     for (const auto& cols : csv.rows) EXPECT_EQ(cols[kPassBatches], "1") << "turns only below one batch";
+}
+
+// Accumulate frames (the knn estimator's still view; an orbit over a growing map) whose batch per
+// set costs more than the budget take turns as passes do: the CSV shows a pass_period above 1 in
+// accumulate frames, the frames stay Accumulate (no client is taken for capped: the rule is
+// unit-tested in FramePolicy.NoPhotonsInATurnOfAccumulateFramesIsNotACap), and every set
+// arrives in each.
+TEST(ClusterAccumulate, SetsTakeTurnsWhenOneBatchExceedsTheBudgetAndNoneIsTakenForCapped) {
+    RunSettings rs;
+    rs.frames = 14;
+    rs.photons = 100000;
+    rs.width = 48;
+    rs.height = 36;
+    rs.budgetMs = 0.001;
+    rs.extra = {"--estimator", "knn"};
+    Cluster c;
+    c.startServer(rs, 2, "float32", {"--csv", c.dir.file("frames.csv")});
+    c.startClient();
+    c.startClient();
+    c.expectServerFinishes();
+    const FrameCsv csv = readFrameCsv(c.dir.file("frames.csv"));
+    ASSERT_EQ(csv.rows.size(), size_t(rs.frames)) << csv.header;
+    uint32_t widest = 1;
+    for (const auto& cols : csv.rows) {
+        ASSERT_EQ(cols.size(), 17u) << csv.header;
+        EXPECT_NE(cols[3], "walkthrough") << "frame " << cols[0] << " took a client for capped\n" << c.logs();
+        EXPECT_EQ(cols[7], cols[8]) << "frame " << cols[0] << ": sets missing";
+        EXPECT_EQ(cols[kPassBatches], "1");
+        if (cols[3] == "accumulate") widest = std::max(widest, uint32_t(std::stoul(cols[kPassPeriod])));
+    }
+    EXPECT_GE(widest, 2u) << c.logs();
 }
 
 // Every setting that reaches the clients through Settings, away from its default, must reach

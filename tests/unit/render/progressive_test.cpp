@@ -186,6 +186,24 @@ TEST(PassBudget, ZeroBudgetKeepsOneBatch) {
     EXPECT_EQ(b.period(), 1u);
 }
 
+TEST(PassBudget, WithoutGrowingBatchesOnlyThePeriodChanges) {
+    PassBudget b(0.2, /*growBatches=*/false);
+    for (int i = 0; i < 10; ++i) b.record(true, 0.001);
+    EXPECT_EQ(b.batches(), 1u);
+    EXPECT_EQ(b.period(), 1u);
+    b.record(true, 1.0);
+    EXPECT_EQ(b.period(), 2u);
+    for (int i = 0; i < 4; ++i) b.record(true, 0.001);  // fast turns shorten the turns, then stop
+    EXPECT_EQ(b.period(), 1u);
+    EXPECT_EQ(b.batches(), 1u);
+    b.record(false, 1.0);
+    EXPECT_EQ(b.period(), 1u);
+    b.record(true, 1.0);
+    EXPECT_EQ(b.period(), 2u) << "a reset budget keeps its kind";
+    for (int i = 0; i < 8; ++i) b.record(true, 0.001);
+    EXPECT_EQ(b.batches(), 1u);
+}
+
 TEST(PassBudget, SetsTakeTurnsWhenOneBatchPerSetExceedsTheBudget) {
     // One batch per set costs 1 s against a 0.2 s budget: the sets take turns, every 2nd, 4th,
     // then 8th frame, until a turn fits; each decision takes the mean frame time of one whole

@@ -7,6 +7,7 @@
 #include <numeric>
 #include <vector>
 
+#include "common/render/pass_budget.h"
 #include "common/render/render_job.h"
 #include "tests/support/ring_mirror.h"
 
@@ -144,6 +145,39 @@ TEST(RenderJob, AnEditFrameShowsTheKnnEstimateAndTheNextStillFrameRestarts) {
     st = job.renderFrame(camera, out);
     EXPECT_TRUE(st.converging);
     EXPECT_EQ(st.passes, 1u);
+}
+
+// Accumulate frames with a period: a set shoots its batch in the frames passShoots names by the
+// frame number, except that a set whose map holds no batch shoots at once; a Walkthrough frame
+// shoots nothing whatever the period.
+TEST(RenderJob, AccumulateFramesTakeTurnsByTheFrameNumber) {
+    testscenes::RingMirror rm;
+    Scene scene = rm.scene();
+    const Camera camera = *scene.camera;
+    RenderSettings rs;
+    rs.width = 32;
+    rs.height = 24;
+    rs.interleave = 2;
+    rs.photons.photonsPerBatch = 2000;
+    rs.photons.estimator = CausticEstimatorKind::Knn;
+    const std::vector<uint32_t> sets{0, 1, 2, 3};
+    RenderJob job(std::move(scene), rs, sets);
+    std::vector<SetPixels> out;
+    constexpr uint32_t kPeriod = 2;
+    // Frame 3 names group 1 (sets 2, 3), but every map is empty: all shoot.
+    job.renderFrame(camera, FrameMode::Accumulate, out, 1, nullptr, kPeriod, 3);
+    for (uint32_t s : sets) EXPECT_EQ(job.photons().stats(s).batches, 1u) << "set " << s;
+    for (uint64_t frame = 4; frame < 10; ++frame) {
+        std::vector<uint32_t> before;
+        for (uint32_t s : sets) before.push_back(job.photons().stats(s).batches);
+        job.renderFrame(camera, FrameMode::Accumulate, out, 1, nullptr, kPeriod, frame);
+        for (uint32_t s : sets)
+            EXPECT_EQ(job.photons().stats(s).batches, before[s] + (passShoots(frame, s, 4, kPeriod) ? 1u : 0u))
+                << "set " << s << ", frame " << frame;
+    }
+    for (uint32_t s : sets) EXPECT_EQ(job.photons().stats(s).batches, 4u) << "once per period";
+    job.renderFrame(camera, FrameMode::Walkthrough, out, 1, nullptr, kPeriod, 10);
+    for (uint32_t s : sets) EXPECT_EQ(job.photons().stats(s).batches, 4u);
 }
 
 }  // namespace

@@ -11,19 +11,63 @@ namespace {
 
 using proto::FrameMode;
 
-TEST(Convergence, OnlyConvergingFramesShootTheBudgetsBatchesAndTakeTurns) {
+/// A frame of `mode` planned with what `c` says now (no other frame in flight) took `ms`.
+void record(Convergence& c, FrameMode mode, double ms) {
+    c.recordWork(mode, ms, c.batchesFor(mode), c.periodFor(mode));
+}
+
+TEST(Convergence, OnlyConvergingFramesShootTheBudgetsBatches) {
     Convergence c(200.0, 0.0);
     EXPECT_EQ(c.batchesFor(FrameMode::Converging), 1u);
-    c.recordWork(FrameMode::Converging, 10.0);  // far under half the budget: the passes grow
+    record(c, FrameMode::Converging, 10.0);  // far under half the budget: the passes grow
     EXPECT_EQ(c.batchesFor(FrameMode::Converging), 2u);
     EXPECT_EQ(c.batchesFor(FrameMode::Accumulate), 1u);
     EXPECT_EQ(c.batchesFor(FrameMode::Walkthrough), 1u);
-    c.recordWork(FrameMode::Interaction, 10.0);  // any other frame starts the passes again
+    record(c, FrameMode::Interaction, 10.0);  // any other frame starts the passes again
     EXPECT_EQ(c.batchesFor(FrameMode::Converging), 1u);
     // One batch per set costs more than the budget: the sets take turns (a trial period).
-    c.recordWork(FrameMode::Converging, 500.0);
+    record(c, FrameMode::Converging, 500.0);
     EXPECT_EQ(c.periodFor(FrameMode::Converging), 2u);
     EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 1u);
+}
+
+// Accumulate frames have a budget of their own: over it the sets take turns shooting their one
+// batch (never more than one), and any other frame starts it afresh; Walkthrough, Interaction and
+// Edit frames never take turns.
+TEST(Convergence, AccumulateFramesTakeTurnsOverTheBudgetWithOneBatch) {
+    Convergence c(200.0, 0.0);
+    for (int i = 0; i < 4; ++i) record(c, FrameMode::Accumulate, 10.0);  // fast: no growth
+    EXPECT_EQ(c.batchesFor(FrameMode::Accumulate), 1u);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 1u);
+    record(c, FrameMode::Accumulate, 900.0);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 2u);
+    EXPECT_EQ(c.periodFor(FrameMode::Converging), 1u) << "the passes' budget is another";
+    for (FrameMode m : {FrameMode::Walkthrough, FrameMode::Interaction, FrameMode::Edit})
+        EXPECT_EQ(c.periodFor(m), 1u);
+    record(c, FrameMode::Accumulate, 400.0);
+    record(c, FrameMode::Accumulate, 400.0);  // a turn of 2 paid (0.4 s ≤ 0.8 × 0.9 s): over, doubled
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 4u);
+    EXPECT_EQ(c.batchesFor(FrameMode::Accumulate), 1u);
+    record(c, FrameMode::Walkthrough, 10.0);  // the camera moved without shooting
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 1u);
+}
+
+// Frames are planned before the ones in flight are measured: a frame planned before the budget's
+// last change (another period or batch count than the budget's now) is not counted.
+TEST(Convergence, FramesPlannedBeforeAChangeAreNotCounted) {
+    Convergence c(200.0, 0.0);
+    c.recordWork(FrameMode::Converging, 600.0, 1, 1);
+    ASSERT_EQ(c.periodFor(FrameMode::Converging), 2u) << "a trial of turns";
+    c.recordWork(FrameMode::Converging, 650.0, 1, 1);  // planned before: would fail the trial
+    c.recordWork(FrameMode::Converging, 300.0, 1, 2);
+    c.recordWork(FrameMode::Converging, 380.0, 1, 2);  // the turn: 340 ms ≤ 0.8 × 600 ms, paid
+    EXPECT_EQ(c.periodFor(FrameMode::Converging), 4u) << "over the budget still: doubled again";
+    c.recordWork(FrameMode::Accumulate, 900.0, 1, 1);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 2u);
+    c.recordWork(FrameMode::Accumulate, 950.0, 1, 1);
+    c.recordWork(FrameMode::Accumulate, 400.0, 1, 2);
+    c.recordWork(FrameMode::Accumulate, 400.0, 1, 2);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 4u);
 }
 
 TEST(Convergence, TheTargetIsReachedOnceByAConvergingFrameAtOrBelowIt) {

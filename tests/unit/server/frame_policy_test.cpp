@@ -65,6 +65,18 @@ TEST(FramePolicy, StillFramesConvergeOnlyWithTheProgressiveEstimator) {
     EXPECT_EQ(p.plan(5, false, clients, none, false, true).mode, proto::FrameMode::Converging);
 }
 
+// While the sets take turns in Accumulate frames a client may own no set whose turn it is and
+// shoot nothing: that says nothing about its cap (the frames would turn into Walkthrough).
+TEST(FramePolicy, NoPhotonsInATurnOfAccumulateFramesIsNotACap) {
+    FramePolicy p(4, false, 2, 3);
+    std::vector<ClientId> clients{1};
+    p.plan(0, false, clients, none);
+    p.stats(1, proto::FrameMode::Accumulate, 0, /*passPeriod=*/4);
+    EXPECT_EQ(p.plan(1, false, clients, none).mode, proto::FrameMode::Accumulate);
+    p.stats(1, proto::FrameMode::Accumulate, 0, 1);  // every set's turn, nothing shot: capped
+    EXPECT_EQ(p.plan(2, false, clients, none).mode, proto::FrameMode::Walkthrough);
+}
+
 TEST(FramePolicy, ResizeDealsTheNewSetsAfresh) {
     FramePolicy p(9, false, 2, 3);
     std::vector<ClientId> clients{1, 2};
