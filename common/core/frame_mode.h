@@ -15,8 +15,10 @@ enum class FrameMode : uint8_t {
     Converging = 3,   ///< progressive estimator, still view: a pass at the kept eye records
     /// First frame of an epoch that an edit of the scene or the settings began: as Interaction,
     /// except that with the progressive estimator no progression starts — the caustics are the
-    /// map's k-NN estimate, and the next still frame restarts. A light or material being dragged
-    /// makes every frame an epoch start: each then costs a knn frame, not a restart's gathers.
+    /// map's k-NN estimate, and the next still frame restarts — and that the eye paths sample the
+    /// dielectric splits as a moving camera's do. A light or material being dragged makes every
+    /// frame an epoch start: each then costs a knn frame of sampled glass, not a restart's
+    /// gathers over the full split trees.
     Edit = 4,
 };
 

@@ -161,8 +161,10 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
             progressive_[i].restart(embree, *photons_, sets_[i], camera, std::move(records),
                                     out[i].pixels);
         } else {
+            // An Edit frame's eye paths sample the dielectric splits, as a moving camera's do: a
+            // light dragged over GLASS paid the full split trees in every frame (480 of 500 ms).
             renderSet(embree, camera, settings_.eye, pattern_, set, photons_.get(), out[i].pixels,
-                      &stats.eye);
+                      &stats.eye, nullptr, mode == FrameMode::Edit ? sampleSeedOf(camera) : 0);
         }
         const bool progression = progressive && !moving && !edit;
         out[i].passes = progression ? progressive_[i].passes() : 0;

@@ -9,6 +9,7 @@
 
 #include "common/render/pass_budget.h"
 #include "common/render/render_job.h"
+#include "common/scene/builtin_scenes.h"
 #include "tests/support/ring_mirror.h"
 
 namespace rtpm {
@@ -145,6 +146,34 @@ TEST(RenderJob, AnEditFrameShowsTheKnnEstimateAndTheNextStillFrameRestarts) {
     st = job.renderFrame(camera, out);
     EXPECT_TRUE(st.converging);
     EXPECT_EQ(st.passes, 1u);
+}
+
+// An Edit frame samples the dielectric splits (one branch each) where the epoch's first frame of
+// a still view traces both: GLASS's edit frames trace far fewer secondary rays.
+TEST(RenderJob, AnEditFrameSamplesTheDielectricSplits) {
+    Scene scene = buildGlassScene();
+    const Camera camera = *scene.camera;
+    ASSERT_FALSE(scene.lights.empty());
+    RenderSettings rs;
+    rs.width = 48;
+    rs.height = 36;
+    rs.interleave = 2;
+    rs.photons.photonsPerBatch = 2000;
+    const std::vector<uint32_t> sets{0, 1, 2, 3};
+    RenderJob job(scene, rs, sets);
+    std::vector<SetPixels> out;
+    const FrameStats first = job.renderFrame(camera, out);
+    EXPECT_EQ(first.eye.sampledSplits, 0u);
+    SceneEdit edit;
+    edit.kind = SceneEdit::Kind::Light;
+    edit.index = 0;
+    edit.light = scene.lights[0];
+    edit.light.position.x += 0.05f;
+    job.applyEdit(edit);
+    const FrameStats edited = job.renderFrame(camera, out);
+    EXPECT_GT(edited.eye.sampledSplits, 0u);
+    EXPECT_LT(edited.eye.secondaryRays, first.eye.secondaryRays / 2) << first.eye.secondaryRays;
+    EXPECT_EQ(edited.eye.nonFinite, 0u);
 }
 
 // Accumulate frames with a period: a set shoots its batch in the frames passShoots names by the
