@@ -199,7 +199,7 @@ struct Settings {
 /// Frame mode (docs/ARCHITECTURE.md §2.1). Append-only ids.
 /// Converging (version 2): camera and scene unchanged since the previous frame with the
 /// progressive estimator; clients run a progressive pass (shooting even when capped).
-/// Edit (version 7): the first frame of an epoch an edit began; as Interaction, but clients with the
+/// Edit (version 7): the first frame of an epoch a scene edit began; as Interaction, but clients with the
 /// progressive estimator show the map's k-NN estimate and start no progression.
 enum class FrameMode : uint8_t { Interaction = 0, Accumulate = 1, Walkthrough = 2, Converging = 3, Edit = 4 };
 inline constexpr uint8_t kMaxFrameMode = 4;

@@ -226,7 +226,7 @@ void FrameLoop::beginFrame(TimePoint now) {
     policy_.setProgressive(control_.settings().photons.estimator == CausticEstimatorKind::Progressive);
     FramePlan plan = policy_.plan(f, start->sceneChanged, registry.joinOrder(),
                                   [this](ClientId id) { return assembler_.outstanding(id); }, start->cameraMoved,
-                                  start->still);
+                                  start->still, start->sceneEdited);
     if (plan.balanced) {
         std::string share;
         for (ClientId id : registry.joinOrder()) {

@@ -67,10 +67,12 @@ public:
     /// photons) are sent with it. `cameraMoved`: the camera changed for it — photons are kept and
     /// the frame is a Walkthrough (no shooting while the view moves) unless it starts an epoch.
     /// `cameraStill`: the frame's camera equals the previous frame's (progressive: Converging).
+    /// `sceneEdited`: among the edits a scene edit (light, material, transform), not only
+    /// settings: the epoch starts with an Edit frame (frame_mode.h).
     /// `outstanding(id)`: frames sent to client id that it has not finished.
     FramePlan plan(uint64_t frame, bool edited, const std::vector<ClientId>& joinOrder,
                    const std::function<size_t(ClientId)>& outstanding, bool cameraMoved = false,
-                   bool cameraStill = false);
+                   bool cameraStill = false, bool sceneEdited = false);
 
     /// The caustic estimator changed (a settings edit, which also starts an epoch): with the
     /// progressive one, still frames are Converging.

@@ -124,6 +124,7 @@ std::optional<FrameStart> LiveControl::startFrame(uint64_t f) {
     previousCamera_ = start.camera;
     start.sceneVersion = live_.version();
     start.sceneChanged = !edits.empty() || settingsChanged_;
+    start.sceneEdited = !edits.empty();
     start.cameraMoved = cameraMoved_;
     start.still = still && !cameraMoved_;
     settingsChanged_ = false;

@@ -13,7 +13,8 @@ enum class FrameMode : uint8_t {
     Accumulate = 1,   ///< one more photon batch per set, a full eye pass
     Walkthrough = 2,  ///< no shooting (the view moves, or every map is capped), a full eye pass
     Converging = 3,   ///< progressive estimator, still view: a pass at the kept eye records
-    /// First frame of an epoch that an edit of the scene or the settings began: as Interaction,
+    /// First frame of an epoch that a scene edit (light, material, transform) began — a settings
+    /// change alone starts an Interaction frame: it is made once, not dragged: as Interaction,
     /// except that with the progressive estimator no progression starts — the caustics are the
     /// map's k-NN estimate, and the next still frame restarts — and that the eye paths sample the
     /// dielectric splits as a moving camera's do. A light or material being dragged makes every
@@ -25,7 +26,7 @@ enum class FrameMode : uint8_t {
 /// What the frame-mode decision looks at.
 struct FrameFacts {
     bool epochStart = false;   ///< first frame of an epoch (frame 0, or edits/settings come with it)
-    bool edited = false;       ///< the epoch starts because of an edit of the scene or the settings
+    bool edited = false;       ///< the epoch starts because of a scene edit (not settings alone)
     bool cameraMoved = false;  ///< the camera was moved for this frame (the maps are kept)
     bool cameraStill = false;  ///< this frame's camera equals the previous frame's, bit for bit
     bool progressive = false;  ///< the progressive estimator is in use

@@ -82,8 +82,7 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     const EmbreeScene& embree = scene_->embree();
     FrameStats stats;
     const auto t0 = std::chrono::steady_clock::now();
-    uint64_t pathsBefore = 0;
-    for (uint32_t s : sets_) pathsBefore += photons_->stats(s).pathsTraced;
+    const uint64_t pathsBefore = pathsTraced();
     const bool progressive = settings_.photons.estimator == CausticEstimatorKind::Progressive;
     const bool shoot = mode != FrameMode::Walkthrough;
     // A moving camera (another camera than the previous frame's) ends every progression: its
@@ -97,11 +96,10 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     epochStart_ = false;
     edited_ = false;
     ++framesRendered_;
-    // A pass gathers at the progression's eye records: they must be of this very camera.
-    // A pass shoots only on its set's turn (passShoots over the progression's pass count, which
-    // every process rendering the set counts alike).
-    // In an Accumulate frame the sets take turns by the frame number (a set whose map holds no
-    // batch yet shoots whatever its turn, so that it shows caustics from its first frame).
+    // A pass gathers at the progression's eye records: they must be of this very camera. It shoots
+    // only on its set's turn (passShoots over the progression's pass count, which every process
+    // rendering the set counts alike). In an Accumulate frame the sets take turns by the frame
+    // number (a set whose map holds no batch yet shoots at once, to show caustics from its first).
     const uint32_t setCount = uint32_t(pattern_.setCount());
     std::vector<uint8_t> converge(sets_.size(), 0), passShot(sets_.size(), 0), batchShot(sets_.size(), 0);
     for (size_t i = 0; i < sets_.size(); ++i) {
@@ -195,6 +193,12 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     }
     stats.walkthrough = !shoot || photons_->walkthrough();
     return stats;
+}
+
+uint64_t RenderJob::pathsTraced() const {
+    uint64_t paths = 0;
+    for (uint32_t s : sets_) paths += photons_->stats(s).pathsTraced;
+    return paths;
 }
 
 void scatterSet(FrameImage& image, const Interleave& pattern, const SetPixels& pixels) {

@@ -120,6 +120,9 @@ public:
     const IrradiancePoints& irradiance() const { return *irradiance_; }
 
 private:
+    /// Paths traced into the owned sets' maps so far.
+    uint64_t pathsTraced() const;
+
     std::shared_ptr<RenderScene> scene_;
     RenderSettings settings_;
     Interleave pattern_;

@@ -659,7 +659,7 @@ TEST(FrameRenderer, SetGroupsShareOneSceneThatAnEditChangesOnce) {
     te.instance = 0;
     std::memcpy(te.matrix.data(), &moved[0][0], sizeof(float) * 16);
     r.queueEdit(proto::Edit{2, te});
-    client::RenderedFrame f = r.render(frameBegin(2, 1, 2, {0, 1, 2, 3}, proto::FrameMode::Interaction), now);
+    client::RenderedFrame f = r.render(frameBegin(2, 1, 2, {0, 1, 2, 3}, proto::FrameMode::Edit), now);
     EXPECT_EQ(r.groupCount(), 2u) << "the groups survive the edit";
 
     RenderJob ref(std::move(scene), client::toRenderSettings(s), {0, 1, 2, 3});

@@ -93,7 +93,7 @@ TEST(FramePolicy, SetsMoveByMeasuredCostOnlyWhereAnEpochBegins) {
     EXPECT_EQ(f1.sets.at(2).size(), 4u);
     FramePlan f2 = p.plan(2, true, {1, 2}, none);  // an edit: a new epoch
     EXPECT_TRUE(f2.balanced);
-    EXPECT_EQ(f2.mode, proto::FrameMode::Edit);
+    EXPECT_EQ(f2.mode, proto::FrameMode::Interaction);
     EXPECT_EQ(f2.sets.at(1).size(), 6u);
     EXPECT_EQ(f2.sets.at(2).size(), 3u);
     // The next epoch keeps the measured share rather than dealing round-robin again.

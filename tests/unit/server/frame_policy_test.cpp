@@ -32,7 +32,7 @@ TEST(FramePolicy, EditsStartANewEpochWithAnEditFrameAndResetCapped) {
     p.plan(0, false, clients, none);
     p.stats(1, proto::FrameMode::Accumulate, 0);
     EXPECT_EQ(p.plan(1, false, clients, none).mode, proto::FrameMode::Walkthrough);
-    FramePlan e = p.plan(2, true, clients, none);
+    FramePlan e = p.plan(2, true, clients, none, false, false, /*sceneEdited=*/true);
     EXPECT_EQ(e.mode, proto::FrameMode::Edit);
     EXPECT_EQ(e.epoch, 1u);
     EXPECT_EQ(p.plan(3, false, clients, none).mode, proto::FrameMode::Accumulate);
@@ -47,8 +47,10 @@ TEST(FramePolicy, CameraMovesAreWalkthroughFramesAndDoNotMarkClientsCapped) {
     EXPECT_EQ(moved.epoch, 0u);  // photons kept
     p.stats(1, proto::FrameMode::Walkthrough, 0);  // walkthrough frames shoot nothing by design
     EXPECT_EQ(p.plan(2, false, clients, none).mode, proto::FrameMode::Accumulate);
-    // A camera move in the frame an edit starts an epoch with stays an Edit frame.
-    EXPECT_EQ(p.plan(3, true, clients, none, true).mode, proto::FrameMode::Edit);
+    // A camera move in the frame a scene edit starts an epoch with stays an Edit frame; settings
+    // alone start an Interaction frame.
+    EXPECT_EQ(p.plan(3, true, clients, none, true, false, true).mode, proto::FrameMode::Edit);
+    EXPECT_EQ(p.plan(4, true, clients, none, true).mode, proto::FrameMode::Interaction);
 }
 
 TEST(FramePolicy, StillFramesConvergeOnlyWithTheProgressiveEstimator) {
@@ -58,10 +60,10 @@ TEST(FramePolicy, StillFramesConvergeOnlyWithTheProgressiveEstimator) {
     EXPECT_EQ(p.plan(1, false, clients, none, false, /*cameraStill=*/true).mode, proto::FrameMode::Converging);
     // A settings edit switches to knn (and starts an epoch): still frames accumulate again.
     p.setProgressive(false);
-    EXPECT_EQ(p.plan(2, true, clients, none, false, true).mode, proto::FrameMode::Edit);
+    EXPECT_EQ(p.plan(2, true, clients, none, false, true).mode, proto::FrameMode::Interaction);
     EXPECT_EQ(p.plan(3, false, clients, none, false, true).mode, proto::FrameMode::Accumulate);
     p.setProgressive(true);
-    EXPECT_EQ(p.plan(4, true, clients, none, false, true).mode, proto::FrameMode::Edit);
+    EXPECT_EQ(p.plan(4, true, clients, none, false, true).mode, proto::FrameMode::Interaction);
     EXPECT_EQ(p.plan(5, false, clients, none, false, true).mode, proto::FrameMode::Converging);
 }
 
