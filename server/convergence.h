@@ -31,13 +31,13 @@ public:
         if (mode == proto::FrameMode::Converging) return budget_.period();
         return mode == proto::FrameMode::Accumulate ? accumulate_.period() : 1u;
     }
-    /// A shown frame of `mode`, planned with `batches` and `period` (FrameBegin's passBatches and
-    /// passPeriod), whose slowest client worked `workMs` (shooting, eye pass, encoding; not the
-    /// wait behind the frame before) adapts the budget (PassBudget::recordFrame: frames planned
-    /// before its last change are not counted).
-    void recordWork(proto::FrameMode mode, double workMs, uint32_t batches, uint32_t period) {
-        budget_.recordFrame(mode == proto::FrameMode::Converging, workMs * 1e-3, batches, period);
-        accumulate_.recordFrame(mode == proto::FrameMode::Accumulate, workMs * 1e-3, batches, period);
+    /// A shown frame of `mode`, planned with `period` (FrameBegin's passPeriod), whose slowest
+    /// client worked `workMs` (shooting, eye pass, encoding; not the wait behind the frame before)
+    /// adapts the budget (PassBudget::recordFrame: frames planned before its last change of turns
+    /// are not counted).
+    void recordWork(proto::FrameMode mode, double workMs, uint32_t period) {
+        budget_.recordFrame(mode == proto::FrameMode::Converging, workMs * 1e-3, period);
+        accumulate_.recordFrame(mode == proto::FrameMode::Accumulate, workMs * 1e-3, period);
     }
     /// True once, for the first Converging frame whose estimated error (> 0) is at most the target.
     bool reachesTarget(proto::FrameMode mode, double errorEstimate) {

@@ -282,7 +282,7 @@ void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
     // from FrameBegin to its last FrameData: with frames in flight that also holds the wait behind
     // the frame before, about twice the work, and the passes never grew.
     const double workMs = double(job.slowestPhotonMs) + double(job.slowestEyeMs) + double(job.slowestEncodeMs);
-    convergence_.recordWork(shown.mode, workMs, job.passBatches, job.passPeriod);
+    convergence_.recordWork(shown.mode, workMs, job.passPeriod);
     if (state_ == State::Running && convergence_.reachesTarget(shown.mode, job.errorEstimate)) {
         // No new frame begins; the frames in flight finish and the last one shown is written
         // (finishStopped), as after a signal, but the run counts as complete.

@@ -13,7 +13,7 @@ using proto::FrameMode;
 
 /// A frame of `mode` planned with what `c` says now (no other frame in flight) took `ms`.
 void record(Convergence& c, FrameMode mode, double ms) {
-    c.recordWork(mode, ms, c.batchesFor(mode), c.periodFor(mode));
+    c.recordWork(mode, ms, c.periodFor(mode));
 }
 
 TEST(Convergence, OnlyConvergingFramesShootTheBudgetsBatches) {
@@ -53,20 +53,20 @@ TEST(Convergence, AccumulateFramesTakeTurnsOverTheBudgetWithOneBatch) {
 }
 
 // Frames are planned before the ones in flight are measured: a frame planned before the budget's
-// last change (another period or batch count than the budget's now) is not counted.
+// last change of turns (another period than the budget's now) is not counted.
 TEST(Convergence, FramesPlannedBeforeAChangeAreNotCounted) {
     Convergence c(200.0, 0.0);
-    c.recordWork(FrameMode::Converging, 600.0, 1, 1);
+    c.recordWork(FrameMode::Converging, 600.0, 1);
     ASSERT_EQ(c.periodFor(FrameMode::Converging), 2u) << "a trial of turns";
-    c.recordWork(FrameMode::Converging, 650.0, 1, 1);  // planned before: would fail the trial
-    c.recordWork(FrameMode::Converging, 300.0, 1, 2);
-    c.recordWork(FrameMode::Converging, 380.0, 1, 2);  // the turn: 340 ms ≤ 0.8 × 600 ms, paid
+    c.recordWork(FrameMode::Converging, 650.0, 1);  // planned before: would fail the trial
+    c.recordWork(FrameMode::Converging, 300.0, 2);
+    c.recordWork(FrameMode::Converging, 380.0, 2);  // the turn: 340 ms ≤ 0.8 × 600 ms, paid
     EXPECT_EQ(c.periodFor(FrameMode::Converging), 4u) << "over the budget still: doubled again";
-    c.recordWork(FrameMode::Accumulate, 900.0, 1, 1);
+    c.recordWork(FrameMode::Accumulate, 900.0, 1);
     EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 2u);
-    c.recordWork(FrameMode::Accumulate, 950.0, 1, 1);
-    c.recordWork(FrameMode::Accumulate, 400.0, 1, 2);
-    c.recordWork(FrameMode::Accumulate, 400.0, 1, 2);
+    c.recordWork(FrameMode::Accumulate, 950.0, 1);
+    c.recordWork(FrameMode::Accumulate, 400.0, 2);
+    c.recordWork(FrameMode::Accumulate, 400.0, 2);
     EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 4u);
 }
 
