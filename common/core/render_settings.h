@@ -12,7 +12,7 @@ namespace rtpm {
 struct EyeSettings {
     int maxDepth = 16;          ///< specular bounces before a path is ended
     int areaLightSamples = 4;   ///< shadow rays per emissive triangle (stratified) for a light
-                                ///< of large solid angle; fewer for small or far ones (eye_pass.cpp)
+                                ///< of large solid angle; fewer for small or far ones (eye_light.cpp)
 };
 
 /// Spatial index of a photon map (paper §5.2/§5.3, Table 5). Every variant answers the same

@@ -38,12 +38,6 @@ CXX_EXTENSIONS = (".h", ".hpp", ".cpp", ".cc", ".c")
 # Known violations: (rule, file, what) → why it is allowed for now. Only for files being reshaped
 # elsewhere; remove the entry with the fix.
 ALLOWED = {
-    ("lines", "common/trace/eye_pass.cpp", ""):
-        "the eye pass, with the glossy (GGX) shading just added to it (trace stage)",
-    ("function", "common/trace/eye_pass.cpp", "glossyTree"):
-        "the glossy shading just added to the eye pass (trace stage)",
-    ("function", "common/trace/eye_pass.cpp", "shadePixel"):
-        "the eye pass's shading (trace stage), outside the loaders and settings reshaped so far",
     ("members", "common/render/progressive.h", "ProgressiveSet"):
         "the progressive estimator is being changed",
     ("members", "common/photon/photon_map.h", "PhotonSetStats"):
