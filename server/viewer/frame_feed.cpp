@@ -41,10 +41,11 @@ void FrameFeed::publish(uint64_t frame, const FrameImage& image) {
     }
     const double cpu0 = threadCpuSeconds();
     for (const DisplayKey& k : wantedCopy_) {
-        const std::vector<float>& buf = k.layer == ViewerLayer::Direct              ? image.direct()
-                                        : k.layer == ViewerLayer::Caustic           ? image.causticFiltered()
-                                        : k.layer == ViewerLayer::CausticUnfiltered ? image.caustic()
-                                                                                    : image.final();
+        const std::vector<float>& buf = k.layer == ViewerLayer::Direct    ? image.direct()
+                                        : k.layer == ViewerLayer::Caustic ? image.causticFiltered()
+                                        : k.layer == ViewerLayer::CausticUnfiltered
+                                            ? image.caustic()
+                                            : image.final();
         ToneMapped p;
         p.frame = frame;
         p.width = image.width();
@@ -69,12 +70,15 @@ void FrameFeed::publish(uint64_t frame, const FrameImage& image) {
         toneMapSrgb8(buf, e.scale, p.rgb);
         std::lock_guard lock(mu_);
         auto [it, fresh] = pending_.try_emplace(k);
-        if (!fresh) pool_.push_back(std::move(it->second.rgb));  // latest wins: the untaken older frame is dropped
+        if (!fresh)
+            pool_.push_back(
+                std::move(it->second.rgb));  // latest wins: the untaken older frame is dropped
         it->second = std::move(p);
     }
     for (auto it = exposures_.begin(); it != exposures_.end();)  // bounded by the settings in use
-        it = std::find(wantedCopy_.begin(), wantedCopy_.end(), it->first) == wantedCopy_.end() ? exposures_.erase(it)
-                                                                                               : std::next(it);
+        it = std::find(wantedCopy_.begin(), wantedCopy_.end(), it->first) == wantedCopy_.end()
+                 ? exposures_.erase(it)
+                 : std::next(it);
     stats_.published(threadCpuSeconds() - cpu0);
     bool wake = false;
     {

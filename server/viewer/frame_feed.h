@@ -77,11 +77,11 @@ private:
 
     // Under mu_.
     std::mutex mu_;
-    std::vector<DisplayKey> wanted_;              // display settings some viewer uses
-    std::map<DisplayKey, ToneMapped> pending_;    // tone-mapped, not yet taken (latest wins)
-    std::vector<std::vector<uint8_t>> pool_;      // 8-bit frame buffers for reuse
-    bool woken_ = false;                          // a wake is on its way, not yet answered by take()
-    double capTokens_;                            // frame-rate cap
+    std::vector<DisplayKey> wanted_;            // display settings some viewer uses
+    std::map<DisplayKey, ToneMapped> pending_;  // tone-mapped, not yet taken (latest wins)
+    std::vector<std::vector<uint8_t>> pool_;    // 8-bit frame buffers for reuse
+    bool woken_ = false;                        // a wake is on its way, not yet answered by take()
+    double capTokens_;                          // frame-rate cap
     Clock::time_point lastPublish_{};
 };
 

@@ -15,7 +15,8 @@ constexpr size_t kMaxBufferedBytes = 1u << 20;
 
 }  // namespace
 
-ViewerConnections::ViewerConnections(WsEndpoint& ws, const ViewerFrames& frames) : ws_(ws), frames_(frames) {}
+ViewerConnections::ViewerConnections(WsEndpoint& ws, const ViewerFrames& frames)
+    : ws_(ws), frames_(frames) {}
 
 void ViewerConnections::open(ConnId id) { viewers_.emplace(id, Viewer{}); }
 
@@ -53,7 +54,8 @@ bool ViewerConnections::acknowledge(ConnId id, uint64_t frame) {
 std::vector<DisplayKey> ViewerConnections::displays() const {
     std::vector<DisplayKey> keys;
     for (const auto& [id, v] : viewers_)
-        if (v.helloed && std::find(keys.begin(), keys.end(), v.key) == keys.end()) keys.push_back(v.key);
+        if (v.helloed && std::find(keys.begin(), keys.end(), v.key) == keys.end())
+            keys.push_back(v.key);
     return keys;
 }
 

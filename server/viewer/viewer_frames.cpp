@@ -6,7 +6,8 @@
 
 namespace rtpm::server {
 
-ViewerFrames::ViewerFrames(int jpegQuality, std::function<void(const std::string&)> log, ViewerStats& stats)
+ViewerFrames::ViewerFrames(int jpegQuality, std::function<void(const std::string&)> log,
+                           ViewerStats& stats)
     : jpeg_(jpegQuality), log_(std::move(log)), stats_(stats) {}
 
 bool ViewerFrames::encode(FrameFeed& feed, const FrameFeed::Waiting& waiting) {
@@ -37,7 +38,8 @@ const EncodedFrame* ViewerFrames::latest(const DisplayKey& key) const {
 
 void ViewerFrames::retain(const std::vector<DisplayKey>& inUse) {
     for (auto it = latest_.begin(); it != latest_.end();)
-        it = std::find(inUse.begin(), inUse.end(), it->first) != inUse.end() ? std::next(it) : latest_.erase(it);
+        it = std::find(inUse.begin(), inUse.end(), it->first) != inUse.end() ? std::next(it)
+                                                                             : latest_.erase(it);
 }
 
 }  // namespace rtpm::server

@@ -15,7 +15,8 @@ namespace {
 bool sameToken(const std::string& a, const std::string& b) {
     // Constant time in the common length: no early exit on the first differing byte.
     unsigned diff = a.size() == b.size() ? 0u : 1u;
-    for (size_t i = 0; i < a.size(); ++i) diff |= unsigned(uint8_t(a[i]) ^ uint8_t(i < b.size() ? b[i] : 0));
+    for (size_t i = 0; i < a.size(); ++i)
+        diff |= unsigned(uint8_t(a[i]) ^ uint8_t(i < b.size() ? b[i] : 0));
     return diff == 0;
 }
 
@@ -32,8 +33,9 @@ std::vector<std::string> normalizedOrigins(const std::vector<std::string>& origi
         origin = lowered(origin);
         while (!origin.empty() && origin.back() == '/') origin.pop_back();
         if (origin.rfind("http://", 0) != 0 && origin.rfind("https://", 0) != 0)
-            throw std::invalid_argument("--viewer-origin must be http://HOST[:PORT] or https://HOST[:PORT], got '" +
-                                        printableText(origin) + "'");
+            throw std::invalid_argument(
+                "--viewer-origin must be http://HOST[:PORT] or https://HOST[:PORT], got '" +
+                printableText(origin) + "'");
         out.push_back(origin);
     }
     return out;
@@ -42,16 +44,22 @@ std::vector<std::string> normalizedOrigins(const std::vector<std::string>& origi
 std::string ViewerGate::UpgradeRefusals::text(int maxViewers) const {
     std::string t;
     if (origin)
-        t += std::to_string(origin) + " WebSocket upgrades refused for their Origin (last \"" + lastOrigin +
-             "\"; allow one with --viewer-origin)";
+        t += std::to_string(origin) + " WebSocket upgrades refused for their Origin (last \"" +
+             lastOrigin + "\"; allow one with --viewer-origin)";
     if (full)
-        t += std::string(t.empty() ? "" : ", ") + std::to_string(full) + " viewers refused: " +
-             std::to_string(maxViewers) + " (--max-viewers) already watching";
+        t += std::string(t.empty() ? "" : ", ") + std::to_string(full) +
+             " viewers refused: " + std::to_string(maxViewers) +
+             " (--max-viewers) already watching";
     return t;
 }
 
 ViewerGate::ViewerGate(asio::io_context& io, WsEndpoint& ws, const ViewerOptions& options)
-    : io_(io), ws_(ws), opt_(options), admission_(options.admission), deadlineTimer_(io), logTimer_(io) {}
+    : io_(io),
+      ws_(ws),
+      opt_(options),
+      admission_(options.admission),
+      deadlineTimer_(io),
+      logTimer_(io) {}
 
 bool ViewerGate::accept(ConnId id, const WsEndpoint::Peer& peer) {
     if (stopping_) return false;
@@ -68,7 +76,8 @@ bool ViewerGate::accept(ConnId id, const WsEndpoint::Peer& peer) {
     Conn c;
     c.source = source;
     const bool v6 = peer.local.find(':') != std::string::npos;
-    c.origin = "http://" + (v6 ? "[" + peer.local + "]" : peer.local) + ":" + std::to_string(ws_.port());
+    c.origin =
+        "http://" + (v6 ? "[" + peer.local + "]" : peer.local) + ":" + std::to_string(ws_.port());
     c.deadline = now + opt_.handshakeTimeout;
     conns_[id] = std::move(c);
     armDeadline();
@@ -108,20 +117,24 @@ void ViewerGate::hello(ConnId id, const std::string& token, Admitted admitted) {
     const auto now = Clock::now();
     if (auto limited = admission_.refuseAttempt(c->second.source, now)) {
         armLog();
-        refuse(id, replyErrorJson(*limited), Admission::End::Closed, 1008, "rate limited");  // 1008: policy violation
+        // 1008: policy violation.
+        refuse(id, replyErrorJson(*limited), Admission::End::Closed, 1008, "rate limited");
         return;
     }
     if (sameToken(token, opt_.token)) return admit(id, true, admitted);
     Conn& conn = c->second;
     conn.deciding = true;
-    conn.delay = std::make_shared<asio::steady_timer>(io_, admission_.onAuthFailure(conn.source, now));
+    conn.delay =
+        std::make_shared<asio::steady_timer>(io_, admission_.onAuthFailure(conn.source, now));
     armLog();
     conn.delay->async_wait([this, id, admitted = std::move(admitted)](const asio::error_code& e) {
         auto it = conns_.find(id);
         if (e || it == conns_.end()) return;
         it->second.deciding = false;
         if (opt_.publicView) return admit(id, false, admitted);
-        refuse(id, replyErrorJson("wrong or missing token: start the page with the cluster or viewer token"),
+        refuse(id,
+               replyErrorJson(
+                   "wrong or missing token: start the page with the cluster or viewer token"),
                Admission::End::FailedAuth, 1008, "token");
     });
 }
@@ -188,9 +201,11 @@ bool ViewerGate::full() const { return viewers_ >= size_t(std::max(1, opt_.maxVi
 bool ViewerGate::originAllowed(const std::string& origin, const Conn& c) const {
     const std::string o = lowered(origin);
     if (o == c.origin) return true;
-    const bool loopback = c.origin.rfind("http://127.", 0) == 0 || c.origin.rfind("http://[::1]:", 0) == 0;
+    const bool loopback =
+        c.origin.rfind("http://127.", 0) == 0 || c.origin.rfind("http://[::1]:", 0) == 0;
     if (loopback && o == "http://localhost:" + std::to_string(ws_.port())) return true;
-    return std::find(opt_.allowedOrigins.begin(), opt_.allowedOrigins.end(), o) != opt_.allowedOrigins.end();
+    return std::find(opt_.allowedOrigins.begin(), opt_.allowedOrigins.end(), o) !=
+           opt_.allowedOrigins.end();
 }
 
 void ViewerGate::refuseUpgrade(bool forOrigin, const std::string& origin) {
@@ -251,18 +266,21 @@ void ViewerGate::logSummary(bool final) {
     const auto line = admission_.summaryLine(Clock::now(), final);
     const std::string refusals = refusedInterval_.text(opt_.maxViewers);
     refusedInterval_ = UpgradeRefusals{};
-    if (line) opt_.log("viewer port: " + *line + (refusals.empty() ? "" : "; " + refusals));
-    else if (!refusals.empty()) opt_.log("viewer port: " + refusals);
+    if (line)
+        opt_.log("viewer port: " + *line + (refusals.empty() ? "" : "; " + refusals));
+    else if (!refusals.empty())
+        opt_.log("viewer port: " + refusals);
 }
 
 void ViewerGate::logRunTotals() {
     const AdmissionCounts& t = admission_.totals();
     if (!t.any() && !refusedTotal_.any()) return;
-    std::string line = "viewer port over the run: " + std::to_string(t.connections) + " connections, " +
-                       std::to_string(t.admitted) + " viewers, " + std::to_string(t.refusedCapacity) +
-                       " refused (capacity), " + std::to_string(t.refusedRateLimited) + " refused (rate limit), " +
-                       std::to_string(t.evicted) + " evicted for a newcomer, " + std::to_string(t.timedOut) +
-                       " timed out, " + std::to_string(t.failedAuth) + " failed tokens";
+    std::string line =
+        "viewer port over the run: " + std::to_string(t.connections) + " connections, " +
+        std::to_string(t.admitted) + " viewers, " + std::to_string(t.refusedCapacity) +
+        " refused (capacity), " + std::to_string(t.refusedRateLimited) + " refused (rate limit), " +
+        std::to_string(t.evicted) + " evicted for a newcomer, " + std::to_string(t.timedOut) +
+        " timed out, " + std::to_string(t.failedAuth) + " failed tokens";
     if (refusedTotal_.any()) line += "; " + refusedTotal_.text(opt_.maxViewers);
     opt_.log(line);
 }

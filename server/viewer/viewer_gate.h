@@ -62,8 +62,8 @@ private:
         std::string source;  // Admission::sourceKey of the peer's address
         std::string origin;  // http://<the local address it reached>:<port>
         Clock::time_point deadline;
-        bool pending = true;   // holds an admission slot
-        bool viewer = false;   // admitted: counts against maxViewers
+        bool pending = true;    // holds an admission slot
+        bool viewer = false;    // admitted: counts against maxViewers
         bool deciding = false;  // sent a wrong token: answered after the failure delay
         std::shared_ptr<asio::steady_timer> delay;
     };
@@ -77,7 +77,8 @@ private:
     };
 
     void admit(ConnId id, bool control, const Admitted& admitted);
-    void refuse(ConnId id, const std::string& message, Admission::End how, uint16_t code, const std::string& reason);
+    void refuse(ConnId id, const std::string& message, Admission::End how, uint16_t code,
+                const std::string& reason);
     void endPending(ConnId id, Admission::End how);
     bool full() const;
     bool originAllowed(const std::string& origin, const Conn& c) const;

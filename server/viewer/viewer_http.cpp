@@ -18,9 +18,10 @@ WsEndpoint::HttpReply serveWebAsset(const std::string& method, std::string path)
         if (a.path == path) {
             r.status = 200;
             r.headers.emplace_back("Content-Type", std::string(a.contentType));
-            r.headers.emplace_back("Content-Security-Policy",
-                                   "default-src 'self'; img-src 'self' blob: data:; connect-src 'self'; "
-                                   "style-src 'self'; script-src 'self'; frame-ancestors 'none'");
+            r.headers.emplace_back(
+                "Content-Security-Policy",
+                "default-src 'self'; img-src 'self' blob: data:; connect-src 'self'; "
+                "style-src 'self'; script-src 'self'; frame-ancestors 'none'");
             if (method == "GET") r.body = std::string(a.body);
             return r;
         }

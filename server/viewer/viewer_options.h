@@ -26,11 +26,11 @@ inline AdmissionLimits defaultViewerAdmission() {
 struct ViewerOptions {
     std::string host = "127.0.0.1";  ///< address the HTTP port binds to
     uint16_t port = 0;               ///< 0 = any free port
-    std::string token;               ///< controls need it (the viewer or the cluster token); "" = none needed
-    bool publicView = false;         ///< viewers without the token may watch (no controls)
-    int maxViewers = 8;              ///< viewers that said hello, at once; more are refused
+    std::string token;  ///< controls need it (the viewer or the cluster token); "" = none needed
+    bool publicView = false;  ///< viewers without the token may watch (no controls)
+    int maxViewers = 8;       ///< viewers that said hello, at once; more are refused
     int jpegQuality = 85;
-    double maxFps = 30.0;            ///< frames sent to viewers per second at most (0 = every frame)
+    double maxFps = 30.0;  ///< frames sent to viewers per second at most (0 = every frame)
     /// Budgets of connections that are not (yet) viewers, failed-token allowance, log interval.
     AdmissionLimits admission = defaultViewerAdmission();
     /// A connection must be a viewer (WebSocket open and hello with the token answered) within
@@ -41,7 +41,8 @@ struct ViewerOptions {
     /// besides http://<the address the connection reached>:<port> (and http://localhost:<port>
     /// on loopback). The Host header is never trusted: a rebinding page controls it.
     std::vector<std::string> allowedOrigins;
-    /// Where log lines go ("" prefix-free text, one line each); default: stderr as "rtpm-server: …".
+    /// Where log lines go ("" prefix-free text, one line each); default: stderr as "rtpm-server:
+    /// …".
     std::function<void(const std::string&)> log;
 };
 

@@ -30,7 +30,10 @@ using ConnId = WsEndpoint::ConnId;
 /// is bound) and a log that writes to stderr if none was given.
 ViewerOptions resolved(ViewerOptions o) {
     o.allowedOrigins = normalizedOrigins(o.allowedOrigins);
-    if (!o.log) o.log = [](const std::string& line) { std::fprintf(stderr, "rtpm-server: %s\n", line.c_str()); };
+    if (!o.log)
+        o.log = [](const std::string& line) {
+            std::fprintf(stderr, "rtpm-server: %s\n", line.c_str());
+        };
     return o;
 }
 
@@ -51,7 +54,10 @@ struct ViewerServer::Impl {
     std::thread thread;
 
     Impl(ViewerOptions o, CommandHandler handler)
-        : opt(resolved(std::move(o))), onCommand(std::move(handler)), ws(bind()), gate(io, *ws, opt),
+        : opt(resolved(std::move(o))),
+          onCommand(std::move(handler)),
+          ws(bind()),
+          gate(io, *ws, opt),
           viewers(*ws, frames) {
         thread = std::thread([this] {
             io.run();
@@ -62,7 +68,9 @@ struct ViewerServer::Impl {
     std::unique_ptr<WsEndpoint> bind() {
         // Every handler runs on the viewer thread, which starts once every room is built.
         WsEndpoint::Handlers h;
-        h.accept = [this](ConnId id, const WsEndpoint::Peer& peer) { return gate.accept(id, peer); };
+        h.accept = [this](ConnId id, const WsEndpoint::Peer& peer) {
+            return gate.accept(id, peer);
+        };
         h.http = [this](ConnId id, const std::string& method, const std::string& path) {
             gate.progress(id);
             return serveWebAsset(method, path);
@@ -72,9 +80,12 @@ struct ViewerServer::Impl {
         };
         h.open = [this](ConnId id) { viewers.open(id); };
         h.close = [this](ConnId id) { onGone(id); };
-        h.message = [this](ConnId id, std::string&& payload, bool binary) { onMessage(id, payload, binary); };
+        h.message = [this](ConnId id, std::string&& payload, bool binary) {
+            onMessage(id, payload, binary);
+        };
         try {
-            return std::make_unique<WsEndpoint>(io, opt.host, opt.port, kMaxViewerMessageBytes, 1024, std::move(h));
+            return std::make_unique<WsEndpoint>(io, opt.host, opt.port, kMaxViewerMessageBytes,
+                                                1024, std::move(h));
         } catch (const std::runtime_error& e) {
             throw std::runtime_error(std::string("--http: ") + e.what());
         }
@@ -90,13 +101,15 @@ struct ViewerServer::Impl {
         if (!v || gate.deciding(id)) return;  // deciding: its refusal is on the way
         if (binary) return viewers.sendText(id, replyErrorJson("controls are JSON text messages"));
         ViewerParse parsed = parseViewerCommand(payload);
-        if (!parsed.ok()) return viewers.sendText(id, replyErrorJson("control refused: " + parsed.error()));
+        if (!parsed.ok())
+            return viewers.sendText(id, replyErrorJson("control refused: " + parsed.error()));
         const ViewerCommand& cmd = parsed.command();
         if (auto* hello = std::get_if<ViewerHello>(&cmd)) {
             if (v->helloed) return viewers.sendText(id, replyErrorJson("hello sent twice"));
             return gate.hello(id, hello->token, [this, id](bool control) { welcome(id, control); });
         }
-        if (!v->helloed) return viewers.sendText(id, replyErrorJson("say hello (with the token) first"));
+        if (!v->helloed)
+            return viewers.sendText(id, replyErrorJson("say hello (with the token) first"));
         if (auto* d = std::get_if<ViewerDisplay>(&cmd)) {
             viewers.setDisplay(id, DisplayKey{d->layer, d->exposureStops});
             refreshWanted();
@@ -106,15 +119,18 @@ struct ViewerServer::Impl {
         }
         if (auto* a = std::get_if<ViewerAck>(&cmd)) {
             if (!viewers.acknowledge(id, a->frame))
-                return viewers.sendText(id, replyErrorJson("ack for frame " + std::to_string(a->frame) +
-                                                           ", which was not the frame sent"));
+                return viewers.sendText(id,
+                                        replyErrorJson("ack for frame " + std::to_string(a->frame) +
+                                                       ", which was not the frame sent"));
             stats.shown(a->frame, ViewerStats::Clock::now());
             viewers.sendFrame(id);  // an encoded newer frame, or
             encodePending();        // the newest tone-mapped one, encoded now
             return;
         }
         if (!v->control)
-            return viewers.sendText(id, replyErrorJson("this viewer is read-only: controls need the cluster or viewer token"));
+            return viewers.sendText(
+                id, replyErrorJson(
+                        "this viewer is read-only: controls need the cluster or viewer token"));
         onCommand(cmd, v->control, [this, id](std::string json) {
             asio::post(io, [this, id, json = std::move(json)] {
                 if (viewers.find(id)) viewers.sendText(id, json);
@@ -142,7 +158,9 @@ struct ViewerServer::Impl {
     /// acknowledges. So a frame is tone-mapped at most maxFps times a second while someone
     /// watches, and encoded only for a waiting viewer, once however many viewers share it.
     void encodePending() {
-        const auto waiting = [this](const DisplayKey& key, uint64_t frame) { return viewers.waitingFor(key, frame); };
+        const auto waiting = [this](const DisplayKey& key, uint64_t frame) {
+            return viewers.waitingFor(key, frame);
+        };
         if (frames.encode(feed, waiting)) viewers.sendFrames();
     }
 
@@ -167,16 +185,22 @@ ViewerServer::~ViewerServer() { stop(); }
 
 uint16_t ViewerServer::port() const { return impl_->ws->port(); }
 
-void ViewerServer::publishFrame(uint64_t frame, const FrameImage& image) { impl_->feed.publish(frame, image); }
+void ViewerServer::publishFrame(uint64_t frame, const FrameImage& image) {
+    impl_->feed.publish(frame, image);
+}
 
 void ViewerServer::chargeCpu(double seconds) { impl_->stats.chargeStatus(seconds); }
 
 void ViewerServer::publishStatus(std::string json) {
-    asio::post(impl_->io, [this, json = std::move(json)]() mutable { impl_->viewers.publishStatus(std::move(json)); });
+    asio::post(impl_->io, [this, json = std::move(json)]() mutable {
+        impl_->viewers.publishStatus(std::move(json));
+    });
 }
 
 void ViewerServer::publishScene(std::string json) {
-    asio::post(impl_->io, [this, json = std::move(json)]() mutable { impl_->viewers.publishScene(std::move(json)); });
+    asio::post(impl_->io, [this, json = std::move(json)]() mutable {
+        impl_->viewers.publishScene(std::move(json));
+    });
 }
 
 void ViewerServer::publishEvent(std::string json) {

@@ -1,4 +1,5 @@
-// The browser viewer's HTTP and WebSocket server (websocketpp on standalone Asio), on its own thread.
+// The browser viewer's HTTP and WebSocket server (websocketpp on standalone Asio), on its own
+// thread.
 #pragma once
 
 #include <cstdint>

@@ -16,9 +16,9 @@ struct ViewerReport {
     uint64_t framesShown = 0;      ///< acknowledged by a page (drawn)
     double meanLagFrames = 0.0;    ///< newest composed frame − drawn frame, when the page drew it
     uint64_t maxLagFrames = 0;
-    double meanLatencyMs = 0.0;    ///< composed → drawn (acknowledged)
+    double meanLatencyMs = 0.0;  ///< composed → drawn (acknowledged)
     double maxLatencyMs = 0.0;
-    double cpuSeconds = 0.0;       ///< all of the below
+    double cpuSeconds = 0.0;         ///< all of the below
     double toneMapCpuSeconds = 0.0;  ///< tone mapping (and auto exposure) on the output thread
     double threadCpuSeconds = 0.0;   ///< the viewer thread: JPEG, WebSocket and HTTP I/O, controls
     double statusCpuSeconds = 0.0;   ///< building the status JSON on the frame loop (chargeCpu)
@@ -52,7 +52,8 @@ private:
     ViewerReport r_;  // counts, maxima and CPU; the means are made in report()
     double lagSum_ = 0.0, latencySum_ = 0.0;
     uint64_t newestFrame_ = 0;
-    std::deque<std::pair<uint64_t, Clock::time_point>> composedAt_;  // the last frames' composition times
+    std::deque<std::pair<uint64_t, Clock::time_point>>
+        composedAt_;  // the last frames' composition times
 };
 
 }  // namespace rtpm::server
