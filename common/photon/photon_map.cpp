@@ -36,6 +36,7 @@
 #include "common/core/check.h"
 #include "common/photon/density.h"
 #include "common/photon/group_gather.h"
+#include "common/photon/spt_grid.h"
 
 namespace rtpm {
 

@@ -336,18 +336,29 @@ double seconds(Clock::time_point a, Clock::time_point b) {
     return std::chrono::duration<double>(b - a).count();
 }
 
-}  // namespace
+/// One photon path: what it reads, where its photons go, and what it carries between bounces.
+struct PhotonWalk {
+    const Scene& model;
+    const PhotonSource& src;
+    const TraceSettings& ts;
+    uint64_t index;
+    std::vector<TracedPhoton>& out;
+    Vec3 power;
+    bool specularSinceDiffuse = false;
+    uint32_t diffuseCount = 0;
+    int stored = 0;
+};
 
-int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const TraceSettings& ts,
-                    uint64_t index, std::vector<TracedPhoton>& out, TraceStats& stats, bool timed) {
-    RTPM_DCHECK(src.emitter && src.halton);
+/// The path's hashed number for `purpose` at bounce `bounce`.
+float hashed(const PhotonWalk& w, uint32_t bounce, uint64_t purpose) {
+    return hashToUnit(hashKeys(w.ts.seed, w.src.hashStream, w.index, bounce, purpose));
+}
+
+/// The emitted ray of path `index`, its power in `power`: direction (and point) from the source's
+/// Halton dims.
+Ray emitPhoton(const EmbreeScene& scene, const PhotonSource& src, uint64_t index, Vec3& power) {
     const Emitter& e = *src.emitter;
     const Halton& h = *src.halton;
-    const Scene& model = scene.scene();
-    const size_t outStart = out.size();
-    Clock::time_point tStart, tMark;
-    if (timed) tStart = Clock::now();
-
     const Vec2 uDir(h.sample(src.dims.direction, index), h.sample(src.dims.direction + 1, index));
     Vec2 uPoint(0.0f);
     if (src.dims.point >= 0)
@@ -357,20 +368,129 @@ int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const Tra
     ray.dir = em.dir;
     ray.origin = e.kind == EmitterKind::Area ? scene.offsetOrigin(em.origin, em.normal, em.dir)
                                              : em.origin;
-    Vec3 power = src.powerPerPath;
+    power = src.powerPerPath;
     if (!e.colour.empty() || e.kind == EmitterKind::Environment) power *= em.powerScale;
+    return ray;
+}
+
+/// The mirror lobe at a hit (arriving along `dir`, normals facing it): the next direction, 0
+/// when the photon is absorbed.
+Vec3 scatterMirror(PhotonWalk& w, const Material& mat, Vec3 dir, Vec3 ns, Vec3 ng, uint32_t depth) {
+    if (mat.isGlossy()) {
+        // GGX conductor: a direction from the normals visible to the photon, power ×
+        // F G2/G1 (≤ 1, so no roulette is needed). A direction below the true surface
+        // (a shading normal far from it) absorbs the photon.
+        const ShadingFrame frame(ns);
+        BsdfSample s;
+        if (!roughConductorSample(frame.toLocal(-dir), ggxAlpha(mat.roughness), mat.baseColor,
+                                  Vec2(hashed(w, depth, kGlossyU), hashed(w, depth, kGlossyV)), s))
+            return Vec3(0.0f);
+        Vec3 next = glm::normalize(frame.toWorld(s.wi));
+        if (glm::dot(next, ng) <= 0.0f) next = Vec3(0.0f);
+        w.power *= s.weight;
+        w.specularSinceDiffuse = true;
+        return next;
+    }
+    Vec3 next = reflect(dir, ns);
+    // A shading normal can send the reflection below the surface; use the true one.
+    if (glm::dot(next, ng) <= 0.0f) next = reflect(dir, ng);
+    w.power *= mat.baseColor;
+    w.specularSinceDiffuse = true;
+    return next;
+}
+
+/// The dielectric lobe at `hit` (`attenuated`: the absorption inside was already applied): the
+/// next direction, 0 when the photon is absorbed.
+Vec3 scatterDielectric(PhotonWalk& w, const SurfaceHit& hit, const Material& mat, Vec3 dir, Vec3 ns,
+                       Vec3 ng, uint32_t depth, bool attenuated) {
+    const DielectricInterface side = dielectricInterface(dir, hit.geometricNormal, mat.ior);
+    // A back-face hit ends a segment that ran inside this medium.
+    if (!side.entering && !attenuated) w.power *= beerLambert(mat.absorption, hit.t);
+    Vec3 next;
+    if (mat.isGlossy()) {
+        // GGX rough dielectric in the frame of the outward shading normal: reflection
+        // or refraction about a visible microfacet normal, chosen by its Fresnel
+        // reflectance, power × G2/G1 (the Importance form: flux is not scaled by η²).
+        // A direction on the wrong side of the true surface absorbs the photon.
+        const ShadingFrame frame(hit.shadingNormal);
+        BsdfSample s;
+        if (!roughDielectricSample(frame.toLocal(-dir), ggxAlpha(mat.roughness), mat.ior,
+                                   hashed(w, depth, kFresnelChoice),
+                                   Vec2(hashed(w, depth, kGlossyU), hashed(w, depth, kGlossyV)), s))
+            return Vec3(0.0f);
+        next = glm::normalize(frame.toWorld(s.wi));
+        if ((glm::dot(next, ng) > 0.0f) == s.transmitted) next = Vec3(0.0f);
+        w.power *= s.weight;
+        w.specularSinceDiffuse = true;
+        return next;
+    }
+    const float f = fresnelDielectric(side.cosI, side.etaI, side.etaT);
+    if (hashed(w, depth, kFresnelChoice) < f ||
+        !refract(dir, ns, side.etaI / side.etaT, next)) {
+        next = reflect(dir, ns);
+        if (glm::dot(next, ng) <= 0.0f) next = reflect(dir, ng);
+    } else if (glm::dot(next, ng) >= 0.0f) {
+        // Shading normal bent the refraction back out: refract about the true one.
+        if (!refract(dir, ng, side.etaI / side.etaT, next)) next = reflect(dir, ng);
+    }
+    w.specularSinceDiffuse = true;
+    return next;
+}
+
+/// The diffuse lobe at `hit`: stores a caustic photon (unless `storedHere` on arrival), then ends
+/// the path or bounces (Russian roulette on the albedo, cosine-weighted). Returns false for an
+/// anomaly (a non-finite power to store), else true with `next` 0 when the path ends.
+bool scatterDiffuse(PhotonWalk& w, const SurfaceHit& hit, const Material& mat, Vec3 dir, Vec3 ns, Vec3 ng,
+                    uint32_t depth, bool storedHere, Vec3& next) {
+    if (w.specularSinceDiffuse && !storedHere) {
+        if (!finite(w.power)) return false;
+        w.out.push_back(TracedPhoton{hit.position, w.power, dir});
+        ++w.stored;
+    }
+    if (w.diffuseCount >= w.ts.diffuseBounces) {
+        next = Vec3(0.0f);
+        return true;
+    }
+    const Vec3 albedo = baseColorAt(mat, w.model.textures, hit.uv);
+    const float survive = std::min(1.0f, std::max({albedo.x, albedo.y, albedo.z}));
+    if (!(survive > 0.0f) || hashed(w, depth, kRoulette) >= survive) {
+        next = Vec3(0.0f);
+        return true;
+    }
+    w.power *= albedo / survive;
+    float u0, u1;
+    if (w.diffuseCount == 0 && w.src.dims.bounce >= 0) {
+        u0 = w.src.halton->sample(w.src.dims.bounce, w.index);
+        u1 = w.src.halton->sample(w.src.dims.bounce + 1, w.index);
+    } else {
+        u0 = hashed(w, depth, kBounceU);
+        u1 = hashed(w, depth, kBounceV);
+    }
+    next = cosineDirection(ns, u0, u1);
+    if (glm::dot(next, ng) <= 0.0f) next = cosineDirection(ng, u0, u1);
+    ++w.diffuseCount;
+    w.specularSinceDiffuse = false;
+    return true;
+}
+
+}  // namespace
+
+int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const TraceSettings& ts,
+                    uint64_t index, std::vector<TracedPhoton>& out, TraceStats& stats, bool timed) {
+    RTPM_DCHECK(src.emitter && src.halton);
+    const Scene& model = scene.scene();
+    const size_t outStart = out.size();
+    Clock::time_point tStart, tMark;
+    if (timed) tStart = Clock::now();
+
+    PhotonWalk w{model, src, ts, index, out, Vec3(0.0f)};
+    Ray ray = emitPhoton(scene, src, index, w.power);
     if (timed) {
         tMark = Clock::now();
         stats.samplingSeconds += seconds(tStart, tMark);
     }
-    auto hashed = [&](uint32_t bounce, uint64_t purpose) {
-        return hashToUnit(hashKeys(ts.seed, src.hashStream, index, bounce, purpose));
-    };
 
-    bool specularSinceDiffuse = false;
-    uint32_t diffuseCount = 0;
-    int stored = 0;
-    bool anomaly = !finite(ray.origin) || !finite(ray.dir) || !finite(power);
+    bool anomaly = !finite(ray.origin) || !finite(ray.dir) || !finite(w.power);
     for (uint32_t depth = 0; depth < ts.maxDepth && !anomaly; ++depth) {
         SurfaceHit hit;
         ++stats.rays;
@@ -406,124 +526,39 @@ int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const Tra
         bool storedHere = false, attenuated = false;
         if (mat.isPartlyDiffuse()) {
             if (glm::dot(dir, hit.geometricNormal) > 0.0f) {
-                power *= beerLambert(mat.absorption, hit.t);  // the segment ran inside the medium
+                w.power *= beerLambert(mat.absorption, hit.t);  // the segment ran inside the medium
                 attenuated = true;
             }
-            if (specularSinceDiffuse) {
-                if (!finite(power)) {
+            if (w.specularSinceDiffuse) {
+                if (!finite(w.power)) {
                     anomaly = true;
                     break;
                 }
-                out.push_back(TracedPhoton{hit.position, power, dir});
-                ++stored;
+                out.push_back(TracedPhoton{hit.position, w.power, dir});
+                ++w.stored;
                 storedHere = true;
             }
-            if (hashed(depth, kLobeChoice) >= mat.transmission) lobe = MaterialType::Diffuse;
+            if (hashed(w, depth, kLobeChoice) >= mat.transmission) lobe = MaterialType::Diffuse;
         }
         Vec3 next;
         switch (lobe) {
-            case MaterialType::Mirror: {
-                if (mat.isGlossy()) {
-                    // GGX conductor: a direction from the normals visible to the photon, power ×
-                    // F G2/G1 (≤ 1, so no roulette is needed). A direction below the true surface
-                    // (a shading normal far from it) absorbs the photon.
-                    const ShadingFrame frame(ns);
-                    BsdfSample s;
-                    if (!roughConductorSample(frame.toLocal(-dir), ggxAlpha(mat.roughness), mat.baseColor,
-                                              Vec2(hashed(depth, kGlossyU), hashed(depth, kGlossyV)), s)) {
-                        next = Vec3(0.0f);
-                        break;
-                    }
-                    next = glm::normalize(frame.toWorld(s.wi));
-                    if (glm::dot(next, ng) <= 0.0f) next = Vec3(0.0f);
-                    power *= s.weight;
-                    specularSinceDiffuse = true;
-                    break;
-                }
-                next = reflect(dir, ns);
-                // A shading normal can send the reflection below the surface; use the true one.
-                if (glm::dot(next, ng) <= 0.0f) next = reflect(dir, ng);
-                power *= mat.baseColor;
-                specularSinceDiffuse = true;
+            case MaterialType::Mirror:
+                next = scatterMirror(w, mat, dir, ns, ng, depth);
                 break;
-            }
-            case MaterialType::Dielectric: {
-                const DielectricInterface side = dielectricInterface(dir, hit.geometricNormal, mat.ior);
-                // A back-face hit ends a segment that ran inside this medium.
-                if (!side.entering && !attenuated) power *= beerLambert(mat.absorption, hit.t);
-                if (mat.isGlossy()) {
-                    // GGX rough dielectric in the frame of the outward shading normal: reflection
-                    // or refraction about a visible microfacet normal, chosen by its Fresnel
-                    // reflectance, power × G2/G1 (the Importance form: flux is not scaled by η²).
-                    // A direction on the wrong side of the true surface absorbs the photon.
-                    const ShadingFrame frame(hit.shadingNormal);
-                    BsdfSample s;
-                    if (!roughDielectricSample(frame.toLocal(-dir), ggxAlpha(mat.roughness), mat.ior,
-                                               hashed(depth, kFresnelChoice),
-                                               Vec2(hashed(depth, kGlossyU), hashed(depth, kGlossyV)), s)) {
-                        next = Vec3(0.0f);
-                        break;
-                    }
-                    next = glm::normalize(frame.toWorld(s.wi));
-                    if ((glm::dot(next, ng) > 0.0f) == s.transmitted) next = Vec3(0.0f);
-                    power *= s.weight;
-                    specularSinceDiffuse = true;
-                    break;
-                }
-                const float f = fresnelDielectric(side.cosI, side.etaI, side.etaT);
-                if (hashed(depth, kFresnelChoice) < f ||
-                    !refract(dir, ns, side.etaI / side.etaT, next)) {
-                    next = reflect(dir, ns);
-                    if (glm::dot(next, ng) <= 0.0f) next = reflect(dir, ng);
-                } else if (glm::dot(next, ng) >= 0.0f) {
-                    // Shading normal bent the refraction back out: refract about the true one.
-                    if (!refract(dir, ng, side.etaI / side.etaT, next)) next = reflect(dir, ng);
-                }
-                specularSinceDiffuse = true;
+            case MaterialType::Dielectric:
+                next = scatterDielectric(w, hit, mat, dir, ns, ng, depth, attenuated);
                 break;
-            }
-            case MaterialType::Diffuse: {
-                if (specularSinceDiffuse && !storedHere) {
-                    if (!finite(power)) {
-                        anomaly = true;
-                        break;
-                    }
-                    out.push_back(TracedPhoton{hit.position, power, dir});
-                    ++stored;
-                }
-                if (diffuseCount >= ts.diffuseBounces) {
-                    next = Vec3(0.0f);
-                    break;
-                }
-                const Vec3 albedo = baseColorAt(mat, model.textures, hit.uv);
-                const float survive = std::min(1.0f, std::max({albedo.x, albedo.y, albedo.z}));
-                if (!(survive > 0.0f) || hashed(depth, kRoulette) >= survive) {
-                    next = Vec3(0.0f);
-                    break;
-                }
-                power *= albedo / survive;
-                float u0, u1;
-                if (diffuseCount == 0 && src.dims.bounce >= 0) {
-                    u0 = h.sample(src.dims.bounce, index);
-                    u1 = h.sample(src.dims.bounce + 1, index);
-                } else {
-                    u0 = hashed(depth, kBounceU);
-                    u1 = hashed(depth, kBounceV);
-                }
-                next = cosineDirection(ns, u0, u1);
-                if (glm::dot(next, ng) <= 0.0f) next = cosineDirection(ng, u0, u1);
-                ++diffuseCount;
-                specularSinceDiffuse = false;
+            case MaterialType::Diffuse:
+                anomaly = !scatterDiffuse(w, hit, mat, dir, ns, ng, depth, storedHere, next);
                 break;
-            }
         }
         if (anomaly) break;
         if (next == Vec3(0.0f)) break;
-        if (!finite(power) || !finite(next)) {
+        if (!finite(w.power) || !finite(next)) {
             anomaly = true;
             break;
         }
-        if (!(power.x > 0.0f || power.y > 0.0f || power.z > 0.0f)) break;
+        if (!(w.power.x > 0.0f || w.power.y > 0.0f || w.power.z > 0.0f)) break;
         ray.origin = scene.offsetOrigin(hit.position, hit.geometricNormal, next);
         ray.dir = next;
         ray.tMin = 0.0f;
@@ -535,9 +570,9 @@ int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const Tra
         ++stats.anomalies;
         return -1;
     }
-    if (stored > 0) ++stats.productivePaths;
-    stats.stored += static_cast<uint64_t>(stored);
-    return stored;
+    if (w.stored > 0) ++stats.productivePaths;
+    stats.stored += static_cast<uint64_t>(w.stored);
+    return w.stored;
 }
 
 void tracePhotons(const EmbreeScene& scene, const PhotonSource& source, const TraceSettings& ts,
@@ -610,85 +645,6 @@ void tracePhotons(const EmbreeScene& scene, const PhotonSource& source, const Tr
         total.interactionSeconds = wall;
     }
     out.stats.add(total);
-}
-
-SptGrid makeSptGrid(int steeringDims, uint64_t targetCells) {
-    RTPM_CHECK(steeringDims >= 1 && steeringDims <= kHaltonMaxDims);
-    SptGrid g;
-    g.dims = steeringDims;
-    for (int d = 0; d < steeringDims; ++d) g.cells[static_cast<size_t>(d)] = 1;
-    g.cellCount = 1;
-    for (;;) {
-        // Widest box side that can still take a digit.
-        int best = -1;
-        double bestWidth = 0.0;
-        for (int d = 0; d < steeringDims; ++d) {
-            const uint64_t b = kHaltonPrimes[static_cast<size_t>(d)];
-            if (g.cellCount > targetCells / b) continue;
-            const double width = 1.0 / static_cast<double>(g.cells[static_cast<size_t>(d)]);
-            if (width > bestWidth) {
-                bestWidth = width;
-                best = d;
-            }
-        }
-        if (best < 0) break;
-        const auto bd = static_cast<size_t>(best);
-        g.cells[bd] *= kHaltonPrimes[bd];
-        g.digits[bd] += 1;
-        g.cellCount *= kHaltonPrimes[bd];
-    }
-    return g;
-}
-
-uint64_t sptBoxCoordinate(const SptGrid& g, int dim, uint64_t index) {
-    const auto d = static_cast<size_t>(dim);
-    const uint64_t b = kHaltonPrimes[d];
-    uint64_t r = index % g.cells[d];
-    // Mirror the k lowest digits of r: they are the first k digits of Φ_b(index).
-    uint64_t c = 0;
-    for (uint32_t k = 0; k < g.digits[d]; ++k) {
-        c = c * b + r % b;
-        r /= b;
-    }
-    return c;
-}
-
-std::vector<uint32_t> sptNeighbours(const SptGrid& g) {
-    const uint64_t n = g.cellCount;
-    RTPM_CHECK(n < (uint64_t{1} << 32));
-    const auto dims = static_cast<size_t>(g.dims);
-    // Mixed-radix key of a cell's box coordinates → its pilot index (a bijection by the CRT).
-    std::vector<uint64_t> stride(dims);
-    uint64_t s = 1;
-    for (size_t d = 0; d < dims; ++d) {
-        stride[d] = s;
-        s *= g.cells[d];
-    }
-    std::vector<uint32_t> pilotOfKey(n);
-    std::vector<uint64_t> coords(n * dims);
-    for (uint64_t i = 0; i < n; ++i) {
-        uint64_t key = 0;
-        for (size_t d = 0; d < dims; ++d) {
-            const uint64_t c = sptBoxCoordinate(g, static_cast<int>(d), i);
-            coords[i * dims + d] = c;
-            key += c * stride[d];
-        }
-        pilotOfKey[key] = static_cast<uint32_t>(i);
-    }
-    std::vector<uint32_t> out(n * 2 * dims);
-    for (uint64_t i = 0; i < n; ++i) {
-        uint64_t key = 0;
-        for (size_t d = 0; d < dims; ++d) key += coords[i * dims + d] * stride[d];
-        for (size_t d = 0; d < dims; ++d) {
-            const uint64_t c = coords[i * dims + d];
-            const uint64_t m = g.cells[d];
-            const uint64_t down = (c + m - 1) % m;
-            const uint64_t up = (c + 1) % m;
-            out[(i * dims + d) * 2 + 0] = pilotOfKey[key - c * stride[d] + down * stride[d]];
-            out[(i * dims + d) * 2 + 1] = pilotOfKey[key - c * stride[d] + up * stride[d]];
-        }
-    }
-    return out;
 }
 
 }  // namespace rtpm

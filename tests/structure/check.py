@@ -42,8 +42,6 @@ ALLOWED = {
         "the progressive estimator is being changed",
     ("members", "common/photon/photon_map.h", "PhotonSetStats"):
         "a set's photon statistics (photon stage), outside the loaders and settings reshaped so far",
-    ("function", "common/photon/photon_tracer.cpp", "tracePhotonPath"):
-        "the photon path loop (photon stage), outside the loaders and settings reshaped so far",
 }
 
 OUTSIDE_DESIGN = re.compile(r"DESIGN\s*§|DESIGN\.md|\.\./shared|/work/shared")

@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "common/photon/photon_tracer.h"
+#include "common/photon/spt_grid.h"
 
 namespace rtpm {
 namespace {
