@@ -170,7 +170,7 @@ try {
   const dragDiff = meanAbsDiff(before, afterDrag);
   check(dragDiff > 2, `the picture follows the camera (frames ${frameBeforeDrag} → ${settled}, mean |Δ| ${dragDiff.toFixed(2)} grey levels)`);
 
-  // Light: drag the x slider → an interaction edit → a new epoch at every client.
+  // Light: drag the x slider → a scene edit → a new epoch at every client, begun by an Edit frame.
   const epochBefore = (await viewer()).status.epoch;
   await page.evaluate(() => {
     const r = document.getElementById('light-x');
@@ -181,7 +181,7 @@ try {
     const v = await viewer();
     return v.status.epoch > epochBefore ? v.epochs.find((e) => e.epoch > epochBefore) : null;
   });
-  check(epochAfter.mode === 'interaction', `moving the light resets the epoch (epoch ${epochBefore} → ${epochAfter.epoch}, frame ${epochAfter.frame} is ${epochAfter.mode})`);
+  check(epochAfter.mode === 'edit', `moving the light resets the epoch with an edit frame (epoch ${epochBefore} → ${epochAfter.epoch}, frame ${epochAfter.frame} is ${epochAfter.mode})`);
 
   // Malformed controls: refused with an error in the page, nothing changes.
   const epochNow = (await viewer()).status.epoch;
