@@ -217,7 +217,7 @@ TEST(PassBudget, SetsTakeTurnsWhenOneBatchPerSetExceedsTheBudget) {
     EXPECT_EQ(b.period(), 2u) << "half a turn decides nothing";
     b.record(true, 0.1);  // mean 0.5 s over the turn: paid (at most 0.8 s), still over the budget
     EXPECT_EQ(b.period(), 4u);
-    for (double t : {0.5, 0.0, 0.5, 0.0}) b.record(true, t);  // mean 0.25 s
+    for (double t : {0.6, 0.0, 0.6, 0.0}) b.record(true, t);  // mean 0.3 s
     EXPECT_EQ(b.period(), 8u);
     for (int i = 0; i < 8; ++i) b.record(true, i % 2 ? 0.05 : 0.2);  // mean 0.125 s: within the budget
     EXPECT_EQ(b.period(), 8u);
@@ -234,6 +234,18 @@ TEST(PassBudget, SetsTakeTurnsWhenOneBatchPerSetExceedsTheBudget) {
     EXPECT_EQ(b.period(), kMaxPassPeriod);
     b.record(false, 5.0);  // the view moved
     EXPECT_EQ(b.period(), 1u);
+}
+
+TEST(PassBudget, FramesNearTheBudgetKeepEverySetShooting) {
+    // One batch per set costs a little more than the budget (0.22 s against 0.2 s, under
+    // kTurnStart × the budget): no turns — they would halve the photons for a slightly faster
+    // frame. Clearly over it (0.3 s) the turns begin.
+    PassBudget b(0.2);
+    for (int i = 0; i < 20; ++i) b.record(true, 0.22);
+    EXPECT_EQ(b.period(), 1u);
+    EXPECT_EQ(b.batches(), 1u);
+    b.record(true, 0.3);
+    EXPECT_EQ(b.period(), 2u);
 }
 
 TEST(PassBudget, TurnsThatDoNotShortenTheFramesAreUndone) {
