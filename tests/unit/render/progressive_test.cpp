@@ -246,6 +246,9 @@ TEST(PassBudget, FramesNearTheBudgetKeepEverySetShooting) {
     EXPECT_EQ(b.batches(), 1u);
     b.record(true, 0.3);
     EXPECT_EQ(b.period(), 2u);
+    b.record(true, 0.22);
+    b.record(true, 0.22);  // paid (0.22 ≤ 0.8 × 0.3) and still over: turns once begun follow the budget
+    EXPECT_EQ(b.period(), 4u);
 }
 
 TEST(PassBudget, TurnsThatDoNotShortenTheFramesAreUndone) {
