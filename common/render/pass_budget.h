@@ -26,17 +26,17 @@ inline bool passShoots(uint64_t pass, uint32_t set, uint32_t sets, uint32_t peri
 /// turns every `period` frames (a pass off its set's turn neither shoots nor samples the area
 /// lights: it bins the photons the other sets shared). A frame that moves (camera, edit, restart)
 /// resets both to 1, so motion stays as cheap as the settings make it. While frames converge the
-/// work doubles whenever a frame took less than half the budget (first the period halves, then
-/// the batches double) and halves when one took more than the budget (first the batches, then
-/// the period doubles; the first doubling only beyond kTurnStart × the budget). While the sets take turns, the mean over a whole turn decides. A doubled
-/// period is a trial: unless its first whole turn is at least 1 − kTurnGain faster than the
-/// turn before, it is undone and the period grows no more until the view moves (a pass whose
-/// cost is its binning gains nothing by turns, and would only shoot fewer photons). So a still
-/// view does ever more work per frame while the viewer still gets 1/budget updates a second, and
-/// a scene whose single batch per set costs more than the budget (costly photon paths, many
-/// area-light samples) still updates at about that rate, not slower than a frame that moves.
-/// A budget of 0 keeps one batch per set and pass (deterministic: the frame sequence does not
-/// depend on the machine's speed). Pure: the caller measures time.
+/// work doubles whenever a frame took less than half the budget (first the period halves, then the
+/// batches double) and halves when one took more than the budget (first the batches, then the
+/// period doubles; the first doubling only beyond kTurnStart × the budget). While the sets take
+/// turns, the mean over a whole turn decides. A doubled period is a trial: unless its first whole
+/// turn is at least 1 − kTurnGain faster than the turn before, it is undone and the period grows no
+/// more until the view moves (a pass whose cost is its binning gains nothing by turns, and would
+/// only shoot fewer photons). So a still view does ever more work per frame while the viewer still
+/// gets 1/budget updates a second, and a scene whose single batch per set costs more than the
+/// budget (costly photon paths, many area-light samples) still updates at about that rate, not
+/// slower than a frame that moves. A budget of 0 keeps one batch per set and pass (deterministic:
+/// the frame sequence does not depend on the machine's speed). Pure: the caller measures time.
 class PassBudget {
 public:
     /// `growBatches` false: the work never grows above one batch per set (only the period
@@ -55,9 +55,8 @@ public:
     /// the last change of turns took effect — and is not counted: a doubled period's trial took in
     /// the frame still planned at the old period (HEADLIGHT: 645 ms beside the turn's 285 ms),
     /// missed the 1 − kTurnGain gain and was undone for good, leaving the still view at 1.8 fps
-    /// where turns gave 8. Frames planned with fewer batches are counted: skipping them made the
-    /// passes grow every third frame instead of every frame (curved mirror, 2 clients: rel. MAE
-    /// 0.05 reached at 8 frames, 1.42 s, instead of 6).
+    /// where turns gave 8. Frames planned with other batch counts are counted: skipping them too
+    /// made the passes grow only every third frame, and measured no better on the curved mirror.
     void recordFrame(bool converging, double frameSeconds, uint32_t period) {
         if (converging && budget_ > 0.0 && period != period_) return;
         record(converging, frameSeconds);
@@ -92,7 +91,8 @@ public:
         } else if (mean > budget_) {
             if (batches_ > 1) {
                 batches_ = std::max(1u, batches_ / 2);
-            } else if (!turnsBlocked_ && period_ < kMaxPassPeriod && (period_ > 1 || mean > kTurnStart * budget_)) {
+            } else if (!turnsBlocked_ && period_ < kMaxPassPeriod &&
+                       (period_ > 1 || mean > kTurnStart * budget_)) {
                 trialBefore_ = mean;
                 period_ *= 2;
             }
@@ -106,8 +106,8 @@ public:
     /// doubles whenever a turn exceeds the budget). Turns buy frame rate with photons (a set
     /// shoots once per period while a frame gets only somewhat cheaper), so frames near the budget
     /// keep every set shooting: on the curved mirror, whose one-batch frames straddle 200 ms,
-    /// turns that came and went cost the cluster a quarter of its photons in the first frames
-    /// (rel. MAE 0.0469 against 0.0434 after 8 frames). Applied to every doubling it also held
+    /// turns that came and went cost the cluster photons in its first frames (rel. MAE 0.0469
+    /// against 0.0434 after 8 frames). Applied to every doubling it also held
     /// HEADLIGHT's still view at turns of 4 and 4.8 fps, below its light edits (6.3).
     static constexpr double kTurnStart = 1.25;
 
