@@ -309,6 +309,23 @@ TEST(ClusterStillPasses, GrowToTheFrameBudget) {
     for (const auto& cols : csv.rows) EXPECT_EQ(cols[kPassPeriod], "1") << "fast frames never take turns";
 }
 
+/// A run of `frames` frames whose every frame exceeds its budget (1 µs, batches of 100 000
+/// paths for a tiny image), two clients, with `extra` flags: its CSV.
+FrameCsv overBudgetRun(int frames, std::vector<std::string> extra, Cluster& c) {
+    RunSettings rs;
+    rs.frames = frames;
+    rs.photons = 100000;
+    rs.width = 48;
+    rs.height = 36;
+    rs.budgetMs = 0.001;
+    rs.extra = std::move(extra);
+    c.startServer(rs, 2, "float32", {"--csv", c.dir.file("frames.csv")});
+    c.startClient();
+    c.startClient();
+    c.expectServerFinishes();
+    return readFrameCsv(c.dir.file("frames.csv"));
+}
+
 // A budget every frame exceeds (1 µs) and batches whose shooting is most of a frame (many paths
 // for a tiny image): passes stay at one batch and the sets take turns (PassBudget; the CSV's
 // pass_period), and the frames still converge: every converging frame reports an error
@@ -316,21 +333,11 @@ TEST(ClusterStillPasses, GrowToTheFrameBudget) {
 // unit-tested): on a quiet machine it reaches 8 within 12 frames, on a busy one a trial may not
 // pay and the period fall back; the first doubling follows the first converging frame always.
 TEST(ClusterStillPasses, SetsTakeTurnsWhenOneBatchExceedsTheBudget) {
-    RunSettings rs;
-    rs.frames = 12;
-    rs.photons = 100000;
-    rs.width = 48;
-    rs.height = 36;
-    rs.budgetMs = 0.001;
     Cluster c;
-    c.startServer(rs, 2, "float32", {"--csv", c.dir.file("frames.csv")});
-    c.startClient();
-    c.startClient();
-    c.expectServerFinishes();
-    const FrameCsv csv = readFrameCsv(c.dir.file("frames.csv"));
+    const FrameCsv csv = overBudgetRun(12, {}, c);
     EXPECT_NE(csv.header.find(",pass_batches,pass_period"), std::string::npos) << csv.header;
     const std::vector<uint32_t> periods = stillPassWork(csv, kPassPeriod);
-    ASSERT_EQ(periods.size(), size_t(rs.frames));
+    ASSERT_EQ(periods.size(), size_t(12));
     EXPECT_EQ(periods.front(), 1u) << "the first frame is a restart";
     EXPECT_GE(*std::max_element(periods.begin(), periods.end()), 2u) << c.logs();
     for (const auto& cols : csv.rows) EXPECT_EQ(cols[kPassBatches], "1") << "turns only below one batch";
@@ -342,20 +349,9 @@ TEST(ClusterStillPasses, SetsTakeTurnsWhenOneBatchExceedsTheBudget) {
 // unit-tested in FramePolicy.NoPhotonsInATurnOfAccumulateFramesIsNotACap), and every set
 // arrives in each.
 TEST(ClusterAccumulate, SetsTakeTurnsWhenOneBatchExceedsTheBudgetAndNoneIsTakenForCapped) {
-    RunSettings rs;
-    rs.frames = 14;
-    rs.photons = 100000;
-    rs.width = 48;
-    rs.height = 36;
-    rs.budgetMs = 0.001;
-    rs.extra = {"--estimator", "knn"};
     Cluster c;
-    c.startServer(rs, 2, "float32", {"--csv", c.dir.file("frames.csv")});
-    c.startClient();
-    c.startClient();
-    c.expectServerFinishes();
-    const FrameCsv csv = readFrameCsv(c.dir.file("frames.csv"));
-    ASSERT_EQ(csv.rows.size(), size_t(rs.frames)) << csv.header;
+    const FrameCsv csv = overBudgetRun(14, {"--estimator", "knn"}, c);
+    ASSERT_EQ(csv.rows.size(), size_t(14)) << csv.header;
     uint32_t widest = 1;
     for (const auto& cols : csv.rows) {
         ASSERT_EQ(cols.size(), 17u) << csv.header;
