@@ -213,7 +213,6 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
 
 void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) {
     const double samples = double(areaSets_) + 1.0;  // area-light sample sets per hit
-    const double gamma = gamma_;
     const double filterNoise = std::sqrt(filterShare_);
     std::atomic<uint64_t> bad{0};
     std::vector<float> sigma(out.size(), 0.0f);
@@ -250,7 +249,8 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 const double noiseScale = std::sqrt(share);
                 const double scales[2] = {noiseScale, 1.0};
                 Choice c[2];
-                choose(s.rings, s.active, gamma, scales, maxDiscPhotons(k_, batches * double(pathsPerBatch_)), c);
+                const double paths = batches * double(pathsPerBatch_);
+                choose(s.rings, s.active, earlyGamma(gamma_, paths), scales, maxDiscPhotons(k_, paths), c);
                 const glm::dvec3 weight = throughput * glm::dvec3(e.albedo) / double(kPi);
                 for (int i = 0; i < (f_ > 1 ? 2 : 1); ++i) {
                     const double area = kPi * double(s.outer2) * c[i].scale * batches;
