@@ -139,9 +139,9 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
     passes_ = 0;
     areaSets_ = 0;
     batches_ = double(maps.stats(set).batches);
-    gamma_ = maps.settings().progressiveGamma;
-    k_ = maps.settings().k;
-    pathsPerBatch_ = maps.settings().photonsPerBatch;
+    rule_.gamma = maps.settings().progressiveGamma;
+    rule_.k = maps.settings().k;
+    rule_.pathsPerBatch = maps.settings().photonsPerBatch;
     fixedDirect_.resize(out.size());
     for (size_t p = 0; p < out.size(); ++p) fixedDirect_[p] = out[p].direct;
     state_.assign(records_.hits.size(), HitState{});
@@ -213,11 +213,11 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
 
 void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) {
     const double samples = double(areaSets_) + 1.0;  // area-light sample sets per hit
-    const double filterNoise = std::sqrt(filterShare_);
+    const double filterNoise = std::sqrt(rule_.filterShare);
     std::atomic<uint64_t> bad{0};
     std::vector<float> sigma(out.size(), 0.0f);
     ownWeights_.assign(out.size(), 0);
-    const size_t cols = size_t(std::max(columns_, 1));
+    const size_t cols = size_t(std::max(image_.columns, 1));
     // The world distance between neighbouring pixels of the image (set neighbours are M apart).
     auto footprint = [&](size_t p) {
         double best = std::numeric_limits<double>::infinity();
@@ -228,7 +228,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
             if (records_.firstHit[q] == records_.firstHit[q + 1]) continue;
             best = std::min(best, double(glm::length(records_.hits[records_.firstHit[q]].hit.position - x)));
         }
-        return best / double(m_);
+        return best / double(image_.m);
     };
     tbb::parallel_for(tbb::blocked_range<size_t>(0, out.size()), [&](const auto& range) {
         for (size_t p = range.begin(); p < range.end(); ++p) {
@@ -245,14 +245,14 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 const double batches = batches_ + double(s.shared);
                 if (!(batches > 0.0) || !(s.outer2 > 0.0f)) continue;
                 // Shared photons are common to the sets the filter averages (setFilterShare).
-                const double share = s.shared > 0.0f ? 1.0 - (1.0 - filterShare_) * batches_ / batches : filterShare_;
+                const double share = s.shared > 0.0f ? 1.0 - (1.0 - rule_.filterShare) * batches_ / batches : rule_.filterShare;
                 const double noiseScale = std::sqrt(share);
                 const double scales[2] = {noiseScale, 1.0};
                 Choice c[2];
-                const double paths = batches * double(pathsPerBatch_);
-                choose(s.rings, s.active, earlyGamma(gamma_, paths), scales, maxDiscPhotons(k_, paths), c);
+                const double paths = batches * double(rule_.pathsPerBatch);
+                choose(s.rings, s.active, earlyGamma(rule_.gamma, paths), scales, maxDiscPhotons(rule_.k, paths), c);
                 const glm::dvec3 weight = throughput * glm::dvec3(e.albedo) / double(kPi);
-                for (int i = 0; i < (f_ > 1 ? 2 : 1); ++i) {
+                for (int i = 0; i < (image_.f > 1 ? 2 : 1); ++i) {
                     const double area = kPi * double(s.outer2) * c[i].scale * batches;
                     const glm::dvec3 value = weight * (c[i].power / area);
                     // Noise and the blur the rule saw, added in quadrature.
@@ -273,8 +273,8 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 // Rings far outside the shown disc are no longer gathered.
                 s.active = std::max(s.active, shown.disc - kActiveMargin);
             }
-            if (f_ > 1 && radius > 0.0) {
-                const double half = 0.5 * double(f_) * footprint(p);
+            if (image_.f > 1 && radius > 0.0) {
+                const double half = 0.5 * double(image_.f) * footprint(p);
                 const double t = radius / half;
                 // In 255ths, as the wire carries it, so one process and a cluster agree.
                 const uint8_t w255 = uint8_t(std::lround(std::clamp((kOwnNone - t) / (kOwnNone - kOwnFull), 0.0, 1.0) * 255.0));
@@ -286,7 +286,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
             // A pixel whose disc is narrower than the filter's window shows (some of) its own
             // estimate: from the next pass on its hits bin the other sets' photons too. One
             // that the filter alone shows has every set's photons through it already.
-            const bool share = f_ <= 1 || ownWeights_[p] > 0;
+            const bool share = image_.f <= 1 || ownWeights_[p] > 0;
             for (uint32_t h = records_.firstHit[p]; h < records_.firstHit[p + 1]; ++h)
                 state_[h].sharing = state_[h].sharing || share;
             PixelRadiance& px = out[p];

@@ -169,12 +169,10 @@ public:
     /// shared between the sets (pass) are common to the averaged pixels, so the share the rule
     /// uses grows towards 1 with them: 1 − (1 − s)·own/all, own the batches only this set binned
     /// (its restart map and its own passes), all every batch binned.
-    void setFilterShare(double share) { filterShare_ = share; }
+    void setFilterShare(double share) { rule_.filterShare = share; }
     /// The image geometry the set's pixels take: interleave M, box filter F, the set's columns.
     void setImage(int m, int f, int columns) {
-        m_ = m;
-        f_ = f;
-        columns_ = columns;
+        image_ = Image{m, f, columns};
     }
     /// Per pixel of the set, the weight its own estimate gets against the box filter (frame_image.h).
     const std::vector<uint8_t>& ownWeights() const { return ownWeights_; }
@@ -243,11 +241,17 @@ private:
     uint32_t passes_ = 0;
     uint32_t areaSets_ = 0;  ///< area-light sample sets added by passes (the restart's is one more)
     double batches_ = 0.0;
-    double filterShare_ = 1.0;
-    double gamma_ = 2.0;
-    uint32_t k_ = 64;                ///< the k-NN k of the settings (maxDiscPhotons)
-    uint32_t pathsPerBatch_ = 20000; ///< P of the settings
-    int m_ = 1, f_ = 1, columns_ = 1;
+    /// What the rule reads besides the rings: the settings at the restart and the filter's share.
+    struct Rule {
+        double gamma = 2.0;             ///< Γ of the settings
+        uint32_t k = 64;                ///< the k-NN k of the settings (maxDiscPhotons)
+        uint32_t pathsPerBatch = 20000; ///< P of the settings
+        double filterShare = 1.0;       ///< setFilterShare
+    } rule_;
+    /// The image geometry of setImage.
+    struct Image {
+        int m = 1, f = 1, columns = 1;
+    } image_;
     std::vector<uint8_t> ownWeights_;
     EyeRecords records_;
     std::vector<HitState> state_;     ///< per hit
