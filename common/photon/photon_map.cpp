@@ -466,13 +466,13 @@ std::vector<Photon> PhotonMaps::traceBatch(const EmbreeScene& scene, SetState& s
     stats.productivePaths += traced.productivePaths;
     stats.raysCast += traced.rays;
     stats.anomalies += traced.anomalies;
-    stats.sptCells = cellsTotal;
-    stats.sptRefinedCells = refinedTotal;
-    stats.sptRefinements = maxR;
-    stats.traceSeconds += traced.wallSeconds;
-    stats.samplingSeconds += traced.samplingSeconds;
-    stats.rayCastSeconds += traced.rayCastSeconds;
-    stats.interactionSeconds += traced.interactionSeconds;
+    stats.spt.cells = cellsTotal;
+    stats.spt.refinedCells = refinedTotal;
+    stats.spt.refinements = maxR;
+    stats.seconds.trace += traced.wallSeconds;
+    stats.seconds.sampling += traced.samplingSeconds;
+    stats.seconds.rayCast += traced.rayCastSeconds;
+    stats.seconds.interaction += traced.interactionSeconds;
     // A scene without lights or without a caustic generator never produces photons.
     if (emitters_.empty() || !causticPossible) st->capped = true;
     return batch;
@@ -485,7 +485,7 @@ void PhotonMaps::insertBatch(SetState& state, std::vector<Photon> batch) {
     st->index->insert(batch, settings_.k, rMax_);
     st->occupancy.insert(batch);
     stats.photonsStored = st->index->size();
-    stats.insertSeconds += std::chrono::duration<double>(Clock::now() - t0).count();
+    stats.seconds.insert += std::chrono::duration<double>(Clock::now() - t0).count();
     stats.batches += 1;
     if (settings_.capPhotons > 0 &&
         (stats.photonsStored >= settings_.capPhotons ||

@@ -23,6 +23,25 @@ inline constexpr uint64_t kCapPathsPerPhoton = 64;
 /// Upper bound on SPT refinements per cell and batch (bounds structured noise from few pilots).
 inline constexpr uint32_t kMaxSptRefinements = 64;
 
+/// Selective Photon Tracing's figures of the last batch (all 0 without SPT).
+struct SptBatchStats {
+    uint64_t cells = 0;         ///< Σ over lights of N_g
+    uint64_t refinedCells = 0;  ///< boxes refined (Σ over lights)
+    uint32_t refinements = 0;   ///< R (largest over lights)
+};
+
+/// Where a set's shooting time went, in seconds summed over batches. `trace` is the tracing wall
+/// time; `sampling`, `rayCast` and `interaction` split it as in paper Table 3 (light sampling / ray
+/// casting / surface interaction), estimated from timed sample paths (1 in kTimedPathStride)
+/// scaled to the measured wall time.
+struct PhotonPhaseSeconds {
+    double trace = 0.0;
+    double sampling = 0.0;
+    double rayCast = 0.0;
+    double interaction = 0.0;
+    double insert = 0.0;  ///< kd-tree insertion (median tree, grid: the rebuild)
+};
+
 /// Figures of one interleaving set's photon map since the last reset.
 struct PhotonSetStats {
     uint32_t batches = 0;          ///< batches in the map (the accumulation count)
@@ -33,17 +52,8 @@ struct PhotonSetStats {
     uint64_t photonsStored = 0;    ///< photons in the map
     uint64_t raysCast = 0;         ///< closest-hit queries issued while shooting
     uint64_t anomalies = 0;        ///< paths dropped for a non-finite power or direction
-    uint64_t sptCells = 0;         ///< Σ over lights of N_g in the last batch (0 without SPT)
-    uint64_t sptRefinedCells = 0;  ///< boxes refined in the last batch (Σ over lights)
-    uint32_t sptRefinements = 0;   ///< R of the last batch (largest over lights)
-    /// Seconds, summed over batches. `trace*` split the tracing time as in paper Table 3
-    /// (light sampling / ray casting / surface interaction); estimated from timed sample paths
-    /// (1 in kTimedPathStride) scaled to the measured tracing wall time.
-    double traceSeconds = 0.0;
-    double samplingSeconds = 0.0;
-    double rayCastSeconds = 0.0;
-    double interactionSeconds = 0.0;
-    double insertSeconds = 0.0;    ///< kd-tree insertion (median tree, grid: the rebuild)
+    SptBatchStats spt;             ///< of the last batch
+    PhotonPhaseSeconds seconds;    ///< summed over batches
     /// Caustic yield: productive paths / traced paths (paper Table 4).
     double yield() const {
         return pathsTraced ? static_cast<double>(productivePaths) / static_cast<double>(pathsTraced)

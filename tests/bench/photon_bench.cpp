@@ -145,11 +145,11 @@ struct Totals {
         productive += double(b.productivePaths - a.productivePaths);
         stored += double(b.photonsStored - a.photonsStored);
         rays += double(b.raysCast - a.raysCast);
-        trace += b.traceSeconds - a.traceSeconds;
-        sampling += b.samplingSeconds - a.samplingSeconds;
-        rayCast += b.rayCastSeconds - a.rayCastSeconds;
-        interaction += b.interactionSeconds - a.interactionSeconds;
-        insert += b.insertSeconds - a.insertSeconds;
+        trace += b.seconds.trace - a.seconds.trace;
+        sampling += b.seconds.sampling - a.seconds.sampling;
+        rayCast += b.seconds.rayCast - a.seconds.rayCast;
+        interaction += b.seconds.interaction - a.seconds.interaction;
+        insert += b.seconds.insert - a.seconds.insert;
     }
 };
 
@@ -333,8 +333,8 @@ void yieldRun(benchmark::State& state, const std::string& name, bool selective, 
         lastYield = lastPaths > 0 ? double(st.productivePaths - before.productivePaths) / lastPaths : 0.0;
         paths = double(st.pathsTraced);
         stored = st.photonsStored;
-        refined = st.sptRefinedCells;
-        cells = st.sptCells;
+        refined = st.spt.refinedCells;
+        cells = st.spt.cells;
     }
     const std::string key = name + "/" + std::to_string(db);
     if (!selective) plainYields()[key] = yield;

@@ -65,8 +65,8 @@ void report(const char* name, const Accumulated& acc, double reference) {
                 name, acc.power, reference, 100.0 * (acc.power / reference - 1.0),
                 100.0 * acc.stats.yield(), static_cast<unsigned long long>(acc.stats.pathsTraced),
                 static_cast<unsigned long long>(acc.stats.photonsStored),
-                static_cast<unsigned long long>(acc.stats.sptCells),
-                static_cast<unsigned long long>(acc.stats.sptRefinedCells), acc.stats.sptRefinements);
+                static_cast<unsigned long long>(acc.stats.spt.cells),
+                static_cast<unsigned long long>(acc.stats.spt.refinedCells), acc.stats.spt.refinements);
 }
 
 // Bounds. Both estimators are unbiased (photon_map.cpp), so the bounds are noise bounds: over 20

@@ -31,15 +31,15 @@ YieldRun run(const EmbreeScene& es, bool selective, uint32_t diffuseBounces, int
 
 void print(const char* scene, const char* mode, uint32_t bounces, const YieldRun& r) {
     const PhotonSetStats& s = r.stats;
-    const double t = s.traceSeconds > 0.0 ? s.traceSeconds : 1.0;
+    const double t = s.seconds.trace > 0.0 ? s.seconds.trace : 1.0;
     std::printf("%-6s %-5s bounces %u: yield %5.1f %%  paths %7llu  stored %6llu  power %.4f W  "
                 "%.2f Mpaths/s  %.2f Mrays/s  split sampling %2.0f %% / ray casting %2.0f %% / "
                 "interaction %2.0f %%\n",
                 scene, mode, bounces, 100.0 * s.yield(), static_cast<unsigned long long>(s.pathsTraced),
                 static_cast<unsigned long long>(s.photonsStored), r.power.x + r.power.y + r.power.z,
                 1e-6 * static_cast<double>(s.pathsTraced) / t,
-                1e-6 * static_cast<double>(s.raysCast) / t, 100.0 * s.samplingSeconds / t,
-                100.0 * s.rayCastSeconds / t, 100.0 * s.interactionSeconds / t);
+                1e-6 * static_cast<double>(s.raysCast) / t, 100.0 * s.seconds.sampling / t,
+                100.0 * s.seconds.rayCast / t, 100.0 * s.seconds.interaction / t);
 }
 
 // SPT must raise the share of paths that store a caustic photon (paper Table 4: ≈ 4×). Measured
