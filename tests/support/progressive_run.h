@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
+#include <string>
 #include <numbers>
 #include <numeric>
 #include <utility>
@@ -15,6 +17,7 @@
 #include "common/core/interleave.h"
 #include "common/image/error_metrics.h"
 #include "common/image/frame_image.h"
+#include "common/image/image_io.h"
 #include "common/render/progressive.h"
 #include "common/render/render_job.h"
 #include "common/scene/scene.h"
@@ -35,6 +38,7 @@ struct Convergence {
     /// per frame: Σ shown caustic over the compared pixels the reference leaves dark / Σ
     /// reference: light spread beyond the caustic's edges
     std::vector<double> spill;
+    std::vector<float> last;  ///< the last frame's shown caustic over the compared pixels (RGB)
 };
 
 /// Renders `frames` still frames of `scene` from its camera with every set of `rs`, composes
@@ -70,6 +74,7 @@ inline Convergence renderConvergence(Scene scene, const RenderSettings& rs, cons
         run.energy.push_back(total / totalRef);
         run.spill.push_back(dark / totalRef);
         run.estimate.push_back(causticErrorEstimate(st.error));
+        if (f == frames) run.last = std::move(shown);
     }
     return run;
 }
@@ -127,6 +132,15 @@ std::pair<Convergence, Convergence> againstKnn(MakeScene makeScene, RenderSettin
     for (size_t f = 0; f < progressive.relMae.size(); ++f)
         std::printf("%s, frame %2zu: rel. MAE %.4f (knn %.4f), energy %.4f (knn %.4f)\n", label, f + 1,
                     progressive.relMae[f], knn.relMae[f], progressive.energy[f], knn.energy[f]);
+    // To look at: RTPM_TEST_IMAGES=DIR writes the reference and both last frames, one exposure.
+    if (const char* dir = std::getenv("RTPM_TEST_IMAGES")) {
+        const std::string base = std::string(dir) + "/" + label;
+        ToneMap tm;
+        tm.exposureStops = std::log2(autoExposureScale(ref.rgb));
+        writePng(base + " reference.png", rs.width, rs.height, ref.rgb, tm);
+        writePng(base + " progressive.png", rs.width, rs.height, progressive.last, tm);
+        writePng(base + " knn.png", rs.width, rs.height, knn.last, tm);
+    }
     return {progressive, knn};
 }
 
