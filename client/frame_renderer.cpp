@@ -11,6 +11,7 @@
 #include <thread>
 #include <glm/gtc/type_ptr.hpp>
 
+#include "common/core/knobs.h"
 #include "common/scene/gltf_loader.h"
 #include "common/photon/photon.h"
 #include "common/scene/scene_loader.h"
@@ -26,19 +27,23 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 }
 
 
-// Only the protocol fields that change what a set's photons or pixels are; f (server-side
-// filter) and the encoding (how pixels travel) do not.
-bool sameRendering(proto::Settings a, const proto::Settings& b) {
-    a.f = b.f;
-    a.encoding = b.encoding;
-    return a == b;
+// Whether the rows a client renders by are equal: every fixed setting and every knob whose change
+// resets more than the master's output stage (the filter F does not; nor does the encoding, which
+// is how pixels travel).
+bool sameRendering(const RenderSettings& a, const RenderSettings& b) {
+    for (const SettingRow& row : kFixedSettings)
+        if (row.get(a) != row.get(b)) return false;
+    for (const KnobRow& row : kKnobs)
+        if (row.resets != KnobReset::Output && row.get(a) != row.get(b)) return false;
+    return true;
 }
 
 }  // namespace
 
 RenderSettings toRenderSettings(const proto::Settings& s) {
     try {
-        return bridge::fromWire(s);
+        validateSettings(s.render);
+        return s.render;
     } catch (const std::invalid_argument& e) {
         throw ProtocolViolation(std::string("settings refused: ") + e.what());
     }
@@ -85,7 +90,7 @@ FrameRenderer::~FrameRenderer() = default;
 
 void FrameRenderer::setSettings(const proto::Settings& s) {
     RenderSettings rs = toRenderSettings(s);
-    if (!wire_ || !sameRendering(*wire_, s)) groups_.clear();
+    if (!wire_ || !sameRendering(wire_->render, rs)) groups_.clear();
     wire_ = s;
     settings_ = rs;
 }

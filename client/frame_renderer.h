@@ -24,7 +24,9 @@ struct ProtocolViolation : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-/// bridge::fromWire, with its refusals (validateSettings, an unknown tree id) as ProtocolViolation.
+/// The settings a Settings message carries, checked again by validateSettings (the decoder
+/// checked each row and the rule between them; a message built in memory was not decoded), a
+/// refusal as ProtocolViolation.
 RenderSettings toRenderSettings(const proto::Settings& settings);
 
 /// bridge::fromWire for the camera (bit for bit, so the cluster traces the rays rtpm-render

@@ -34,6 +34,7 @@ Mac authMac(std::string_view token, const Nonce& nonce, const Hello& hello) {
     w.u16(hello.protocolVersion);
     w.u32(hello.cores);
     w.str(hello.clientName);
+    w.u64(hello.settingsLayout);
     Mac mac{};
     unsigned int len = 0;
     static const unsigned char kEmpty = 0;  // HMAC needs a non-null key pointer even when empty

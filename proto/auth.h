@@ -19,7 +19,7 @@ using Mac = std::array<uint8_t, kMacBytes>;
 Nonce makeNonce();
 
 /// HMAC-SHA256 keyed with `token` over a domain label, `nonce` and every field of `hello`
-/// (protocol version, cores, client name), each in its wire encoding: the MAC proves that the
+/// (protocol version, cores, client name, settings layout), each in its wire encoding: the MAC proves that the
 /// sender holds the token *and* binds it to this connection's nonce and to what the Hello said,
 /// so it can be neither replayed on another connection nor moved to another Hello. The token
 /// itself never leaves the process. Cost: one HMAC over < 400 bytes.

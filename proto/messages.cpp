@@ -6,13 +6,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <stdexcept>
+#include <string>
 #include <type_traits>
 
 namespace rtpm::proto {
 namespace {
 
-// Settings limits that only the decoder uses (PROTOCOL.md §5.5).
-constexpr uint32_t kMaxCapPhotonsPerSet = 1u << 30;
+// Limits that only the decoder uses.
 constexpr uint32_t kMaxCores = 1u << 16;
 
 // ---- encoding -----------------------------------------------------------------------------
@@ -75,6 +76,7 @@ void putPayload(Writer& w, const Hello& m) {
     w.u16(m.protocolVersion);
     w.u32(m.cores);
     w.str(m.clientName);
+    w.u64(m.settingsLayout);
 }
 void putPayload(Writer& w, const Challenge& m) { w.raw(m.nonce); }
 void putPayload(Writer& w, const Auth& m) { w.raw(m.mac); }
@@ -100,25 +102,20 @@ void putPayload(Writer& w, const Scene& m) {
     for (float v : m.environmentTexels) w.f32(v);
 }
 void putPayload(Writer& w, const Settings& m) {
-    w.u32(m.width);
-    w.u32(m.height);
-    w.u32(m.m);
-    w.u32(m.f);
-    w.u32(m.photonsPerBatch);
-    w.u32(m.k);
-    w.f32(m.rMax);
-    w.u32(m.maxDepth);
-    w.u32(m.diffuseBounces);
-    w.u32(m.capPhotonsPerSet);
-    w.u8(m.spt ? 1 : 0);
-    w.u8(static_cast<uint8_t>(m.tree));
     w.u8(static_cast<uint8_t>(m.encoding));
-    w.u64(m.seed);
-    w.u32(m.photonMaxDepth);
-    w.u32(m.areaLightSamples);
-    w.u8(m.gatherVisibility ? 1 : 0);
-    w.u8(static_cast<uint8_t>(m.estimator));
-    w.f32(m.progressiveGamma);
+    // Each row's value in its type; one its type cannot hold (negative, too large, not a number:
+    // only an in-memory message nobody validated has one) goes as the type's largest, which
+    // every row refuses (proto/settings_rows.h wireRowCeiling).
+    for (const SettingRow* row : kSettingsRows) {
+        const double v = row->get(m.render);
+        switch (row->wire) {
+            case WireType::U8: w.u8(v >= 0.0 && v <= 255.0 ? static_cast<uint8_t>(v) : UINT8_MAX); break;
+            case WireType::U32: w.u32(v >= 0.0 && v <= 4294967295.0 ? static_cast<uint32_t>(v) : UINT32_MAX); break;
+            case WireType::U64: w.u64(v >= 0.0 && v < 18446744073709551616.0 ? static_cast<uint64_t>(v) : UINT64_MAX); break;
+            case WireType::F32: w.f32(static_cast<float>(v)); break;
+            case WireType::None: break;
+        }
+    }
 }
 void putPayload(Writer& w, const FrameBegin& m) {
     w.u64(m.frame);
@@ -304,6 +301,7 @@ void get(Reader& r, Hello& m) {
     r.u16(m.protocolVersion);
     r.u32(m.cores);
     r.str(m.clientName, kMaxNameBytes, "hello.clientName");
+    r.u64(m.settingsLayout);
     inRange(r, m.cores, 1, kMaxCores, "hello.cores");
 }
 template <size_t N>
@@ -370,41 +368,44 @@ void get(Reader& r, Scene& m) {
         }
     }
 }
+// Each row's value in its type, within the row's limits (refused by the row's name); then the
+// rule between rows (M within the image) validateSettings applies.
 void get(Reader& r, Settings& m) {
-    r.u32(m.width);
-    r.u32(m.height);
-    r.u32(m.m);
-    r.u32(m.f);
-    r.u32(m.photonsPerBatch);
-    r.u32(m.k);
-    r.f32Finite(m.rMax, "settings.rMax");
-    r.u32(m.maxDepth);
-    r.u32(m.diffuseBounces);
-    r.u32(m.capPhotonsPerSet);
-    getBool(r, m.spt, "settings.spt");
-    getEnum8(r, m.tree, kMaxTreeVariant, "settings.tree");
     getEnum8(r, m.encoding, kMaxPixelEncoding, "settings.encoding");
-    r.u64(m.seed);
-    r.u32(m.photonMaxDepth);
-    r.u32(m.areaLightSamples);
-    getBool(r, m.gatherVisibility, "settings.gatherVisibility");
-    getEnum8(r, m.estimator, kMaxCausticEstimator, "settings.estimator");
-    r.f32Finite(m.progressiveGamma, "settings.progressiveGamma");
-    if (r.ok() && !(m.progressiveGamma > 0.0f && m.progressiveGamma <= kMaxProgressiveGamma))
-        r.fail(ErrorCode::BadValue, "settings.progressiveGamma not in (0, 16]");
-    inRange(r, m.photonMaxDepth, 0, kMaxDepthLimit, "settings.photonMaxDepth");
-    inRange(r, m.areaLightSamples, 1, kMaxAreaLightSamples, "settings.areaLightSamples");
-    inRange(r, m.width, 1, kMaxImageSide, "settings.width");
-    inRange(r, m.height, 1, kMaxImageSide, "settings.height");
-    inRange(r, m.m, 1, kMaxInterleave, "settings.m");
-    inRange(r, m.f, 1, kMaxFilterWidth, "settings.f");
-    inRange(r, m.photonsPerBatch, 0, kMaxPhotonsPerBatch, "settings.photonsPerBatch");
-    inRange(r, m.k, 1, kMaxK, "settings.k");
-    inRange(r, m.maxDepth, 0, kMaxDepthLimit, "settings.maxDepth");
-    inRange(r, m.diffuseBounces, 0, kMaxDiffuseBounces, "settings.diffuseBounces");
-    inRange(r, m.capPhotonsPerSet, 0, kMaxCapPhotonsPerSet, "settings.capPhotonsPerSet");
-    // 0 means "automatic" (PhotonSettings::rMax = 0: a fraction of the scene diagonal).
-    if (r.ok() && !(m.rMax >= 0.0f)) r.fail(ErrorCode::BadValue, "settings.rMax not >= 0");
+    for (const SettingRow* row : kSettingsRows) {
+        double v = 0.0;
+        switch (row->wire) {
+            case WireType::U8: { uint8_t x = 0; r.u8(x); v = x; break; }
+            case WireType::U32: { uint32_t x = 0; r.u32(x); v = x; break; }
+            case WireType::U64: {
+                uint64_t x = 0;
+                // Above 2^53 a double would round it, perhaps onto a value within the limits.
+                if (r.u64(x) && x > uint64_t(wireRowCeiling(WireType::U64))) {
+                    r.fail(ErrorCode::BadValue, "settings: " + std::string(row->name) + " must be in " +
+                                                    knobRange(*row) + ", got " + std::to_string(x));
+                }
+                v = double(x);
+                break;
+            }
+            case WireType::F32: { float x = 0.0f; r.f32(x); v = x; break; }
+            case WireType::None: break;
+        }
+        if (!r.ok()) return;
+        if (!std::isfinite(v)) {
+            r.fail(ErrorCode::NonFinite, "settings: " + std::string(row->name) + " is not finite");
+            return;
+        }
+        if (auto error = knobValueError(*row, v)) {
+            r.fail(row->isChoice() ? ErrorCode::BadEnum : ErrorCode::BadValue, "settings: " + *error);
+            return;
+        }
+        row->set(m.render, v);
+    }
+    try {
+        validateSettings(m.render);
+    } catch (const std::invalid_argument& e) {
+        r.fail(ErrorCode::BadValue, std::string("settings: ") + e.what());
+    }
 }
 // Photon records with finite positions; at most `maxCount`.
 bool getPhotons(Reader& r, std::vector<PhotonRecord>& out, size_t maxCount, const char* field) {

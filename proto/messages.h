@@ -10,30 +10,25 @@
 #include <variant>
 #include <vector>
 
+#include "common/core/render_settings.h"
 #include "proto/pixel_codec.h"
+#include "proto/settings_rows.h"
 #include "proto/wire.h"
 
 namespace rtpm::proto {
 
-// Field limits (PROTOCOL.md §4). Decoders reject anything above them. Those of live knobs equal
-// their rows in common/core/knobs.h (static_assert in proto/bridge/bridge.cpp).
+// Field limits (PROTOCOL.md §4). Decoders reject anything above them. The Settings message's
+// limits are its rows' (common/core/knobs.h, proto/settings_rows.h).
 inline constexpr size_t kMaxTokenBytes = 256;        ///< the shared secret (never on the wire; proto/auth.h)
 inline constexpr size_t kNonceBytes = 32;            ///< Challenge.nonce
 inline constexpr size_t kMacBytes = 32;              ///< Auth.mac (HMAC-SHA256)
 inline constexpr uint64_t kMaxEnvironmentTexels = uint64_t(4096) * 2048;  ///< Scene's map (common/scene/environment.h)
 inline constexpr size_t kMaxNameBytes = 256;         ///< Hello.clientName, Scene.builtinName
 inline constexpr size_t kMaxTextBytes = 1024;        ///< Reject.text, Bye.text
-inline constexpr uint32_t kMaxInterleave = 16;       ///< Settings.m: at most 16×16 sets
-inline constexpr uint32_t kMaxSets = kMaxInterleave * kMaxInterleave;  ///< set ids are < this
-inline constexpr uint32_t kMaxImageSide = 16384;     ///< Settings.width/height
-inline constexpr uint32_t kMaxFilterWidth = 64;      ///< Settings.f
-inline constexpr uint32_t kMaxK = 4096;              ///< Settings.k
-inline constexpr uint32_t kMaxPhotonsPerBatch = 50000000;  ///< Settings.photonsPerBatch
-inline constexpr float kMaxProgressiveGamma = 16.0f;     ///< Settings.progressiveGamma
-inline constexpr uint32_t kMaxDepthLimit = 1024;     ///< Settings.maxDepth
-inline constexpr uint32_t kMaxDiffuseBounces = 16;   ///< Settings.diffuseBounces
+/// Set ids are below this: M×M sets for the largest M the interleave row allows (16).
+inline constexpr uint32_t kMaxSets =
+    uint32_t(knobRow(Knob::Interleave).max) * uint32_t(knobRow(Knob::Interleave).max);
 inline constexpr uint32_t kMaxEditsPerScene = 65536; ///< Scene.edits
-inline constexpr uint32_t kMaxAreaLightSamples = 1024; ///< Settings.areaLightSamples
 inline constexpr uint32_t kMaxPassBatches = 1024;     ///< FrameBegin.passBatches
 inline constexpr uint32_t kMaxPassPeriod = 64;        ///< FrameBegin.passPeriod
 inline constexpr uint32_t kMaxSharedPhotons = 1u << 18;  ///< FrameBegin.shared, FrameData.shot (all photons)
@@ -60,6 +55,9 @@ struct Hello {
     uint16_t protocolVersion = kProtocolVersion;
     uint32_t cores = 1;      ///< hardware threads the client will use, ≥ 1
     std::string clientName;  ///< for logs; ≤ kMaxNameBytes
+    /// The fingerprint of the client's Settings rows (version 8): the server refuses a client
+    /// whose rows differ from its own (VersionMismatch), as it refuses another version.
+    uint64_t settingsLayout = kSettingsLayout;
     bool operator==(const Hello&) const = default;
 };
 
@@ -160,39 +158,14 @@ struct Scene {
     bool operator==(const Scene&) const = default;
 };
 
-/// Caustic estimator (PhotonSettings::estimator). Append-only ids.
-enum class CausticEstimator : uint8_t { Progressive = 0, Knn = 1 };
-inline constexpr uint8_t kMaxCausticEstimator = 1;
-
-/// Photon-map structure a client uses. Append-only ids.
-enum class TreeVariant : uint8_t { MiddleSplitKdTree = 0, BalancedKdTree = 1, UniformGrid = 2 };
-inline constexpr uint8_t kMaxTreeVariant = 2;
-
 /// Server → client: render settings. Takes effect at the next FrameBegin; a change resets photon
-/// maps unless only width/height/f changed (PROTOCOL.md §5.5).
+/// maps unless only knobs that reset the master's output changed (PROTOCOL.md §5.5). On the wire:
+/// the encoding, then the rows of kSettingsRows (proto/settings_rows.h), each read from and
+/// written to `render` through its row; a decoded `render` holds RenderSettings{}'s values for
+/// everything else.
 struct Settings {
-    // Defaults equal bridge::toWire(RenderSettings{}, encoding) (tests/unit/proto/bridge_test.cpp):
-    // one default per knob, from flag to wire to client.
-    uint32_t width = 640, height = 480;  ///< image, pixels, each in [1, kMaxImageSide]
-    uint32_t m = 3;               ///< interleaving: M×M sets, in [1, kMaxInterleave]
-    uint32_t f = 3;               ///< server's box filter width, in [1, kMaxFilterWidth]
-    uint32_t photonsPerBatch = 20000;  ///< P: light paths per set per frame (PhotonSettings::photonsPerBatch)
-    uint32_t k = 64;              ///< photons per density estimate, in [1, kMaxK]
-    float rMax = 0.0f;            ///< max search radius, metres, finite ≥ 0 (0 = automatic)
-    uint32_t maxDepth = 16;       ///< specular bounces, ≤ kMaxDepthLimit
-    uint32_t diffuseBounces = 1;  ///< photon diffuse bounces before storing, ≤ kMaxDiffuseBounces
-    uint32_t capPhotonsPerSet = 2'000'000;  ///< stop shooting when a set's map holds this many
-    bool spt = true;              ///< Selective Photon Tracing on
-    TreeVariant tree = TreeVariant::MiddleSplitKdTree;
     PixelEncoding encoding = PixelEncoding::Rgb9e5Zstd;  ///< what clients send FrameData in
-    // Appended so a cluster reproduces rtpm-render's --seed / --photon-depth / --area-samples.
-    uint64_t seed = 0x72'74'70'6d;   ///< PhotonSettings::seed (Halton rotations, hashed randoms)
-    uint32_t photonMaxDepth = 16;    ///< PhotonSettings::maxDepth: ray segments per photon path, ≤ kMaxDepthLimit
-    uint32_t areaLightSamples = 4;   ///< EyeSettings::areaLightSamples, in [1, kMaxAreaLightSamples]
-    bool gatherVisibility = false;   ///< PhotonSettings::gatherVisibility (u8 0/1)
-    // Appended in version 2: the caustic estimator (docs/ARCHITECTURE.md §6).
-    CausticEstimator estimator = CausticEstimator::Progressive;  ///< PhotonSettings::estimator
-    float progressiveGamma = 1.5f;   ///< PhotonSettings::progressiveGamma, finite, in (0, 16] (version 4; was α)
+    RenderSettings render;
     bool operator==(const Settings&) const = default;
 };
 

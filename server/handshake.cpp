@@ -2,9 +2,21 @@
 // and the per-connection handshake state machine built on them.
 #include "server/handshake.h"
 
+#include <cstdio>
+
 #include "common/core/printable_text.h"
 
 namespace rtpm::server {
+
+namespace {
+
+std::string hex64(uint64_t v) {
+    char buf[19];
+    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
+    return buf;
+}
+
+}  // namespace
 
 HandshakeResult checkHello(const proto::Message& first) {
     HandshakeResult r;
@@ -18,6 +30,13 @@ HandshakeResult checkHello(const proto::Message& first) {
         r.reason = proto::RejectReason::VersionMismatch;
         r.text = "protocol version " + std::to_string(hello->protocolVersion) + ", server speaks " +
                  std::to_string(proto::kProtocolVersion);
+        return r;
+    }
+    if (hello->settingsLayout != proto::kSettingsLayout) {
+        r.reason = proto::RejectReason::VersionMismatch;
+        r.text = "the client's settings rows (fingerprint " + hex64(hello->settingsLayout) +
+                 ") differ from the server's (" + hex64(proto::kSettingsLayout) +
+                 "): build both from the same common/core/knobs.h";
         return r;
     }
     r.accepted = true;

@@ -16,7 +16,7 @@ namespace rtpm::server {
 namespace {
 
 net::Connection::Buffer encodeSettings(const RenderSettings& s, proto::PixelEncoding encoding) {
-    return std::make_shared<const std::vector<uint8_t>>(proto::encode(bridge::toWire(s, encoding)));
+    return std::make_shared<const std::vector<uint8_t>>(proto::encode(proto::Settings{encoding, s}));
 }
 
 }  // namespace

@@ -19,15 +19,15 @@ constexpr bool rowsInOrderWithTheirDefaults() {
         const KnobRow& r = kKnobs[i];
         if (size_t(r.id) != i || !rowFitsItsDefault(r) || r.form != FlagForm::Value) return false;
         // A knob the clients never see may change only what the master's output stage does.
-        if (r.wireField.empty() && r.resets != KnobReset::Output) return false;
+        if (r.wire == WireType::None && r.resets != KnobReset::Output) return false;
     }
     for (const SettingRow& r : kFixedSettings)
-        if (!rowFitsItsDefault(r) || r.wireField.empty()) return false;
+        if (!rowFitsItsDefault(r) || r.wire == WireType::None) return false;
     return true;
 }
 static_assert(rowsInOrderWithTheirDefaults(),
               "kKnobs in Knob order; every row: min <= default <= max, default = RenderSettings{}'s, a "
-              "switch 0 or 1; a live knob off the wire resets only Output, a fixed setting has a wire field");
+              "switch 0 or 1; a live knob off the wire resets only Output, a fixed setting has a wire type");
 
 // The shortest fixed-point text that reads back to `v`; as a float when `v` is one (a value read
 // back from a float field prints as "0.3", not "0.300000012").

@@ -13,6 +13,7 @@ struct EyeSettings {
     int maxDepth = 16;          ///< specular bounces before a path is ended
     int areaLightSamples = 4;   ///< shadow rays per emissive triangle (stratified) for a light
                                 ///< of large solid angle; fewer for small or far ones (eye_light.cpp)
+    bool operator==(const EyeSettings&) const = default;
 };
 
 /// Spatial index of a photon map (paper §5.2/§5.3, Table 5). Every variant answers the same
@@ -109,6 +110,7 @@ struct PhotonSettings {
     /// because the estimator's own error figure tracks the true error within 1.5× with it and
     /// not with Γ = 1 (2.2× too high after 64 frames) (tests/bench/RESULTS.md).
     float progressiveGamma = 1.5f;
+    bool operator==(const PhotonSettings&) const = default;
 };
 
 /// Image, interleaving, filter, eye-pass and photon settings of one rendering job.
@@ -124,6 +126,7 @@ struct RenderSettings {
     PhotonSettings photons;
 
     int filterSize() const { return filter > 0 ? filter : interleave; }
+    bool operator==(const RenderSettings&) const = default;
 };
 
 /// Throws std::invalid_argument naming the setting when a value is outside its row's limits

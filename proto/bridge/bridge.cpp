@@ -7,32 +7,9 @@
 
 #include <glm/gtc/type_ptr.hpp>
 
-#include "common/core/knobs.h"
-
 namespace rtpm::bridge {
 
 // The codec addresses a pixel as six floats: direct RGB, then caustic RGB.
-// The wire's limits of the live knobs are their rows' (common/core/knobs.h): one ceiling each.
-static_assert(knobRow(Knob::Interleave).max == proto::kMaxInterleave, "M: knob row and Settings.m differ");
-static_assert(knobRow(Knob::Filter).max == proto::kMaxFilterWidth, "F: knob row and Settings.f differ");
-static_assert(knobRow(Knob::K).max == proto::kMaxK, "k: knob row and Settings.k differ");
-static_assert(knobRow(Knob::Photons).max == proto::kMaxPhotonsPerBatch, "P: knob row and Settings.photonsPerBatch differ");
-static_assert(knobRow(Knob::Confidence).max == proto::kMaxProgressiveGamma,
-              "confidence: knob row and Settings.progressiveGamma differ");
-// The fixed settings' rows are the flags' limits; the wire's ceilings (which bound what a decoder
-// accepts from a peer) hold at least every value the rows allow.
-constexpr const SettingRow& fixedRow(std::string_view flag) {
-    for (const SettingRow& r : kFixedSettings)
-        if (r.flag == flag) return r;
-    throw "no such fixed setting";  // not a constant expression: fails the static_assert below
-}
-static_assert(fixedRow("--width").max == proto::kMaxImageSide && fixedRow("--height").max == proto::kMaxImageSide,
-              "image size: rows and Settings.width/height differ");
-static_assert(fixedRow("--depth").max <= proto::kMaxDepthLimit && fixedRow("--photon-depth").max <= proto::kMaxDepthLimit,
-              "depths: the wire cannot carry the rows' limits");
-static_assert(fixedRow("--diffuse-bounces").max <= proto::kMaxDiffuseBounces, "diffuse bounces: wire below the row");
-static_assert(fixedRow("--area-samples").max <= proto::kMaxAreaLightSamples, "area samples: wire below the row");
-static_assert(fixedRow("--cap").max <= double(UINT32_MAX), "cap: Settings.capPhotonsPerSet is 32 bits");
 static_assert(sizeof(Vec3) == 3 * sizeof(float), "Vec3 is three packed floats");
 static_assert(sizeof(PixelRadiance) == 6 * sizeof(float), "PixelRadiance is six packed floats");
 static_assert(offsetof(PixelRadiance, caustic) == 3 * sizeof(float), "caustic follows direct");
@@ -41,70 +18,6 @@ static_assert(proto::kMaxPassPeriod == kMaxPassPeriod, "one limit for the sets' 
 
 proto::Vec3f toWire(Vec3 v) { return {v.x, v.y, v.z}; }
 Vec3 fromWire(proto::Vec3f v) { return {v.x, v.y, v.z}; }
-
-proto::Settings toWire(const RenderSettings& rs, proto::PixelEncoding encoding) {
-    if (rs.photons.capPhotons > (uint64_t{1} << 30))
-        throw std::invalid_argument("--cap must be at most 2^30 in a cluster");
-    proto::Settings s;
-    s.width = static_cast<uint32_t>(rs.width);
-    s.height = static_cast<uint32_t>(rs.height);
-    s.m = static_cast<uint32_t>(rs.interleave);
-    s.f = static_cast<uint32_t>(rs.filterSize());
-    s.photonsPerBatch = rs.photons.photonsPerBatch;
-    s.k = rs.photons.k;
-    s.rMax = rs.photons.rMax;
-    s.maxDepth = static_cast<uint32_t>(rs.eye.maxDepth);
-    s.diffuseBounces = rs.photons.diffuseBounces;
-    s.capPhotonsPerSet = static_cast<uint32_t>(rs.photons.capPhotons);
-    s.spt = rs.photons.selective;
-    switch (rs.photons.tree) {
-        case PhotonTree::MiddleSplit: s.tree = proto::TreeVariant::MiddleSplitKdTree; break;
-        case PhotonTree::MedianBalanced: s.tree = proto::TreeVariant::BalancedKdTree; break;
-        case PhotonTree::UniformGrid: s.tree = proto::TreeVariant::UniformGrid; break;
-    }
-    s.encoding = encoding;
-    s.seed = rs.photons.seed;
-    s.photonMaxDepth = rs.photons.maxDepth;
-    s.areaLightSamples = static_cast<uint32_t>(rs.eye.areaLightSamples);
-    s.gatherVisibility = rs.photons.gatherVisibility;
-    s.estimator = rs.photons.estimator == CausticEstimatorKind::Knn ? proto::CausticEstimator::Knn
-                                                                   : proto::CausticEstimator::Progressive;
-    s.progressiveGamma = rs.photons.progressiveGamma;
-    return s;
-}
-
-RenderSettings fromWire(const proto::Settings& s) {
-    RenderSettings rs;
-    rs.width = int(s.width);
-    rs.height = int(s.height);
-    rs.interleave = int(s.m);
-    rs.filter = int(s.f);
-    rs.eye.maxDepth = int(s.maxDepth);
-    rs.eye.areaLightSamples = int(s.areaLightSamples);
-    rs.photons.maxDepth = s.photonMaxDepth;
-    rs.photons.seed = s.seed;
-    rs.photons.photonsPerBatch = s.photonsPerBatch;
-    rs.photons.k = s.k;
-    rs.photons.rMax = s.rMax;
-    rs.photons.diffuseBounces = s.diffuseBounces;
-    rs.photons.capPhotons = s.capPhotonsPerSet;
-    rs.photons.selective = s.spt;
-    rs.photons.gatherVisibility = s.gatherVisibility;
-    rs.photons.progressiveGamma = s.progressiveGamma;
-    switch (s.estimator) {  // the decoder refuses values above kMaxCausticEstimator
-        case proto::CausticEstimator::Progressive: rs.photons.estimator = CausticEstimatorKind::Progressive; break;
-        case proto::CausticEstimator::Knn: rs.photons.estimator = CausticEstimatorKind::Knn; break;
-        default: throw std::invalid_argument("settings.estimator " + std::to_string(int(s.estimator)) + " is not an estimator");
-    }
-    switch (s.tree) {  // the decoder refuses values above kMaxTreeVariant
-        case proto::TreeVariant::MiddleSplitKdTree: rs.photons.tree = PhotonTree::MiddleSplit; break;
-        case proto::TreeVariant::BalancedKdTree: rs.photons.tree = PhotonTree::MedianBalanced; break;
-        case proto::TreeVariant::UniformGrid: rs.photons.tree = PhotonTree::UniformGrid; break;
-        default: throw std::invalid_argument("settings.tree " + std::to_string(int(s.tree)) + " is not a tree variant");
-    }
-    validateSettings(rs);
-    return rs;
-}
 
 // The wire's ids are append-only; common's enum mirrors them, so the conversion is a cast.
 static_assert(uint8_t(FrameMode::Interaction) == uint8_t(proto::FrameMode::Interaction) &&

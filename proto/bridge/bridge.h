@@ -6,7 +6,6 @@
 
 #include "common/core/frame_mode.h"
 #include "common/core/pixel_radiance.h"
-#include "common/core/render_settings.h"
 #include "common/photon/set_photons.h"
 #include "common/scene/scene.h"
 #include "common/scene/scene_edit.h"
@@ -17,14 +16,6 @@ namespace rtpm::bridge {
 
 proto::Vec3f toWire(Vec3 v);
 Vec3 fromWire(proto::Vec3f v);
-
-/// The Settings message for a job rendered with `settings`, its pixels sent in `encoding`.
-/// F is sent resolved (filterSize()). Throws std::invalid_argument naming the setting when a
-/// value has no wire form (a photon cap above 2^30).
-proto::Settings toWire(const RenderSettings& settings, proto::PixelEncoding encoding);
-/// Inverse of toWire (the encoding is not a rendering setting). Throws std::invalid_argument
-/// naming the field when the values are refused by validateSettings or the tree id is unknown.
-RenderSettings fromWire(const proto::Settings& settings);
 
 /// Bit-exact camera conversion (FrameBegin and camera edits carry it).
 proto::CameraState toWire(const Camera& camera);

@@ -98,12 +98,12 @@ int run(const Args& a) {
             }
             if (std::holds_alternative<proto::Bye>(m)) return 0;
             if (auto* s = std::get_if<proto::Settings>(&m)) {
-                if (int(s->width) != img.width || int(s->height) != img.height)
-                    throw std::runtime_error("the master renders " + std::to_string(s->width) + "x" +
-                                             std::to_string(s->height) + ", the EXR is " + std::to_string(img.width) +
-                                             "x" + std::to_string(img.height));
-                const Interleave pattern{img.width, img.height, int(s->m)};
-                const size_t sets = size_t(s->m) * size_t(s->m);
+                if (s->render.width != img.width || s->render.height != img.height)
+                    throw std::runtime_error("the master renders " + std::to_string(s->render.width) + "x" +
+                                             std::to_string(s->render.height) + ", the EXR is " +
+                                             std::to_string(img.width) + "x" + std::to_string(img.height));
+                const Interleave pattern{img.width, img.height, s->render.interleave};
+                const size_t sets = size_t(s->render.interleave) * size_t(s->render.interleave);
                 encoded.assign(sets, {});
                 used.assign(sets, s->encoding);
                 pixelCount.assign(sets, 0);

@@ -21,7 +21,7 @@ TEST(Knobs, EveryRowNamesItsFlagKeysAndDefault) {
         EXPECT_EQ(row.get(defaults), row.defaultValue) << row.name;
         EXPECT_FALSE(row.group.empty());
         // Off the wire only when the clients need not know it: the master's output alone changes.
-        EXPECT_TRUE(!row.wireField.empty() || row.resets == KnobReset::Output) << row.name;
+        EXPECT_TRUE(row.wire != WireType::None || row.resets == KnobReset::Output) << row.name;
         // set() then get() gives a value within the limits back at both limits (a float field
         // holds the nearest float, which formats back to the same text).
         RenderSettings s;
@@ -41,7 +41,7 @@ TEST(Knobs, FixedSettingRowsAgreeWithRenderSettingsAndNoFlagIsTwice) {
         EXPECT_TRUE(flags.insert(row.flag).second) << row.flag;
         EXPECT_EQ(row.get(defaults), row.defaultValue) << row.name;
         EXPECT_FALSE(row.group.empty()) << row.name;
-        EXPECT_FALSE(row.wireField.empty()) << row.name;
+        EXPECT_NE(row.wire, WireType::None) << row.name;
         RenderSettings s;
         for (double v : {row.min, row.max}) {
             row.set(s, v);
@@ -64,7 +64,7 @@ TEST(Knobs, ExposureIsALiveKnobOfTheOutputAlone) {
     const KnobRow& row = knobRow(Knob::Exposure);
     EXPECT_EQ(row.flag, "--exposure");
     EXPECT_EQ(row.resets, KnobReset::Output);
-    EXPECT_TRUE(row.wireField.empty());
+    EXPECT_EQ(row.wire, WireType::None);
     EXPECT_FALSE(knobValueError(row, -20));
     EXPECT_FALSE(knobValueError(row, 1.5));
     EXPECT_TRUE(knobValueError(row, 20.5));

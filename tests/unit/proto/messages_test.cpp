@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <random>
 
@@ -52,20 +53,21 @@ TEST(Messages, TruncationAtEveryByteIsAnErrorNotACrash) {
 }
 
 TEST(Messages, HelloGoldenBytes) {
-    auto bytes = encode(Hello{5, 8, "c1"});
+    auto bytes = encode(Hello{5, 8, "c1", 0x0123456789abcdefull});
     EXPECT_EQ(hex(bytes),
               "5254504d"   // magic 'RTPM'
-              "0700"       // version 7
+              "0800"       // version 8
               "0100"       // type Hello
               "00000000"   // flags
-              "0c000000"   // payload 12 bytes
+              "14000000"   // payload 20 bytes
               "0500"       // protocolVersion 5 (the value given)
               "08000000"   // cores 8
-              "020000006331");  // "c1"
+              "020000006331"       // "c1"
+              "efcdab8967452301");  // settingsLayout (version 8)
 }
 
 TEST(Messages, HeartbeatIsABareHeaderAndRefusesAnyPayload) {
-    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0700" "0d00" "00000000" "00000000");
+    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0800" "0d00" "00000000" "00000000");
     EXPECT_FALSE(decodePayload(MessageType::Heartbeat, std::vector<uint8_t>{0}).ok());
 }
 
@@ -81,11 +83,11 @@ TEST(Messages, OnlyBusyRefusalsAreTransient) {
 TEST(Messages, ChallengeAndAuthGoldenBytes) {
     Challenge c;
     for (size_t i = 0; i < c.nonce.size(); ++i) c.nonce[i] = uint8_t(i);
-    EXPECT_EQ(hex(encode(c)), "5254504d07000b0000000000" "20000000"  // type 11, payload 32
+    EXPECT_EQ(hex(encode(c)), "5254504d08000b0000000000" "20000000"  // type 11, payload 32
                               "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f");
     Auth a;
     a.mac.fill(0xab);
-    EXPECT_EQ(hex(encode(a)).substr(0, 32), "5254504d07000c000000000020000000");  // type 12, payload 32
+    EXPECT_EQ(hex(encode(a)).substr(0, 32), "5254504d08000c000000000020000000");  // type 12, payload 32
 }
 
 TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
@@ -134,7 +136,7 @@ TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
 TEST(Messages, FrameBeginGoldenBytes) {
     FrameBegin fb{5, 2, 3, {{1, 2, 3}, {0, 0, -1}, {0, 1, 0}, 0.5f}, FrameMode::Accumulate, {0, 7}};
     EXPECT_EQ(hex(encode(fb)),
-              "5254504d07000600" "00000000" "51000000"  // header v7, type 6, payload 81 bytes
+              "5254504d08000600" "00000000" "51000000"  // header v8, type 6, payload 81 bytes
               "0500000000000000"                        // frame 5
               "02000000" "03000000"                     // epoch 2, sceneVersion 3
               "0000803f" "00000040" "00004040"          // position (1, 2, 3)
@@ -310,23 +312,23 @@ TEST(Messages, FieldValidationRejectsBadValues) {
     reject(Reject{static_cast<RejectReason>(0), ""}, ErrorCode::BadEnum);
     reject(Bye{static_cast<ByeReason>(99), ""}, ErrorCode::BadEnum);
     Settings s;
-    s.m = 0;
+    s.render.interleave = 0;
     reject(s, ErrorCode::BadValue);
     s = Settings{};
-    s.rMax = -1.0f;
+    s.render.photons.rMax = -1.0f;
     reject(s, ErrorCode::BadValue);
     s = Settings{};
     s.encoding = static_cast<PixelEncoding>(9);
     reject(s, ErrorCode::BadEnum);
     s = Settings{};
-    s.estimator = static_cast<CausticEstimator>(kMaxCausticEstimator + 1);
+    s.render.photons.estimator = static_cast<CausticEstimatorKind>(2);
     reject(s, ErrorCode::BadEnum);
     s = Settings{};
-    s.progressiveGamma = 0.0f;
+    s.render.photons.progressiveGamma = 0.0f;
     reject(s, ErrorCode::BadValue);
-    s.progressiveGamma = 16.5f;
+    s.render.photons.progressiveGamma = 16.5f;
     reject(s, ErrorCode::BadValue);
-    s.progressiveGamma = std::numeric_limits<float>::quiet_NaN();
+    s.render.photons.progressiveGamma = std::numeric_limits<float>::quiet_NaN();
     reject(s, ErrorCode::NonFinite);
     reject(Scene{1, Scene::Source::Builtin, "", {}, {}}, ErrorCode::BadValue);
     reject(Scene{1, Scene::Source::Gltf, "ring", {1}, {}}, ErrorCode::BadValue);
@@ -360,7 +362,7 @@ TEST(Messages, FieldValidationRejectsBadValues) {
 
 TEST(Messages, FixedSizePayloadsHaveTheDocumentedSizes) {
     // PROTOCOL.md §5.5 and §5.9 state these sizes.
-    EXPECT_EQ(encode(Settings{}).size(), kHeaderBytes + 65);
+    EXPECT_EQ(encode(Settings{}).size(), kHeaderBytes + kSettingsPayloadBytes);
     EXPECT_EQ(encode(Stats{}).size(), kHeaderBytes + 52);
     EXPECT_EQ(encode(Edit{1, CameraEdit{}}).size(), kHeaderBytes + 4 + 41);
     EXPECT_EQ(encode(Edit{1, LightEdit{}}).size(), kHeaderBytes + 4 + 41);
@@ -460,6 +462,126 @@ TEST(FrameSplitter, InvalidPayloadIsFatal) {
     auto r = splitter.next();
     ASSERT_FALSE(r.ok());
     EXPECT_EQ(r.error().code, ErrorCode::BadValue);
+}
+
+// The Settings message is its rows (proto/settings_rows.h): every row's value travels in its type
+// and comes back exactly at both its limits; past a limit (and for a u64 past 2^53, where a double
+// would round) the decoder refuses it naming the row, as validateSettings would.
+TEST(SettingsRows, EveryRowTravelsWithinItsLimitsAndIsRefusedByNameBeyondThem) {
+    size_t bytes = 1;
+    for (const SettingRow* row : kSettingsRows) bytes += wireBytes(row->wire);
+    EXPECT_EQ(bytes, kSettingsPayloadBytes);
+    for (const SettingRow* row : kSettingsRows) {
+        Settings base;
+        base.render.interleave = 1;  // within any image size the width and height rows allow
+        for (double v : {row->min, row->max}) {
+            Settings s = base;
+            row->set(s.render, v);
+            auto back = decodeMessage(encode(s));
+            ASSERT_TRUE(back.ok()) << row->name << " = " << v << ": " << back.error().message;
+            EXPECT_EQ(std::get<Settings>(*back), s) << row->name;
+            EXPECT_EQ(row->get(std::get<Settings>(*back).render), row->get(s.render)) << row->name;
+        }
+        const double step = row->integer ? 1.0 : std::max(1e-3, 1e-3 * row->max);
+        for (double v : {row->min - step, row->max + step}) {
+            if (v < 0.0 && row->integer) continue;  // not a value of an unsigned field
+            Settings s = base;
+            row->set(s.render, v);
+            if (row->get(s.render) == row->min || row->get(s.render) == row->max) continue;  // a switch's bool
+            auto back = decodeMessage(encode(s));
+            ASSERT_FALSE(back.ok()) << row->name << " = " << v << " accepted";
+            EXPECT_NE(back.error().message.find("settings: " + std::string(row->name)), std::string::npos)
+                << back.error().message;
+        }
+    }
+    // A seed above 2^53 (which a double would round to 2^53, the row's max) is refused.
+    Settings s;
+    auto bytesOf = encode(s);
+    size_t at = kHeaderBytes + 1;
+    for (const SettingRow* row : kSettingsRows) {
+        if (row->flag == "--seed") break;
+        at += wireBytes(row->wire);
+    }
+    const uint64_t seed = (uint64_t(1) << 53) + 1;
+    for (int i = 0; i < 8; ++i) bytesOf[at + size_t(i)] = uint8_t(seed >> (8 * i));
+    auto r = decodeMessage(bytesOf);
+    ASSERT_FALSE(r.ok());
+    EXPECT_NE(r.error().message.find("settings: seed must be in"), std::string::npos) << r.error().message;
+    // The rule between rows: M within the image.
+    s = Settings{};
+    s.render.width = 2;
+    auto m = decodeMessage(encode(s));
+    ASSERT_FALSE(m.ok());
+    EXPECT_NE(m.error().message.find("interleave M = 3 exceeds the image size"), std::string::npos)
+        << m.error().message;
+}
+
+// Every setting a client renders by reaches it as it was set; the master's alone (exposure) does not.
+TEST(SettingsRows, EveryRowRoundTripsAwayFromItsDefault) {
+    RenderSettings rs;
+    rs.width = 321;
+    rs.height = 123;
+    rs.interleave = 4;
+    rs.filter = 5;
+    rs.exposure = 1.5f;
+    rs.eye.maxDepth = 7;
+    rs.eye.areaLightSamples = 9;
+    rs.photons.photonsPerBatch = 12345;
+    rs.photons.selective = false;
+    rs.photons.diffuseBounces = 0;
+    rs.photons.maxDepth = 11;
+    rs.photons.k = 33;
+    rs.photons.rMax = 0.125f;
+    rs.photons.capPhotons = 777;
+    rs.photons.seed = 0xfeedbeefull;
+    rs.photons.tree = PhotonTree::UniformGrid;
+    rs.photons.gatherVisibility = true;
+    rs.photons.estimator = CausticEstimatorKind::Knn;
+    rs.photons.progressiveGamma = 0.75f;
+    auto back = decodeMessage(encode(Settings{PixelEncoding::Float32, rs}));
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    const Settings& s = std::get<Settings>(*back);
+    EXPECT_EQ(s.encoding, PixelEncoding::Float32);
+    RenderSettings expected = rs;
+    expected.exposure = RenderSettings{}.exposure;  // the master's output stage alone
+    EXPECT_EQ(s.render, expected);
+    for (const SettingRow* row : kSettingsRows)
+        EXPECT_NE(row->get(s.render), row->defaultValue) << row->name << " left at its default by this test";
+}
+
+// Two builds whose settings rows differ have different layouts; the fingerprint follows a row's
+// flag, type and limits (PROTOCOL.md §5.1 gives the algorithm a peer recomputes).
+TEST(SettingsRows, TheLayoutFingerprintIsThatOfTheRowsInOrder) {
+    uint64_t h = 0xcbf29ce484222325ull;
+    auto byte = [&h](uint8_t b) {
+        h ^= b;
+        h *= 0x100000001b3ull;
+    };
+    for (const SettingRow* row : kSettingsRows) {
+        for (char c : row->flag) byte(uint8_t(c));
+        byte(0);
+        byte(uint8_t(row->wire));
+        for (double v : {row->min, row->max}) {
+            uint64_t bits = 0;
+            std::memcpy(&bits, &v, 8);
+            for (int i = 0; i < 8; ++i) byte(uint8_t(bits >> (8 * i)));
+        }
+    }
+    EXPECT_EQ(h, kSettingsLayout);
+    EXPECT_EQ(Hello{}.settingsLayout, kSettingsLayout);
+    // The rows are the fixed settings and then the live knobs that have a wire type, in table order.
+    size_t i = 0;
+    for (const SettingRow& row : kFixedSettings) {
+        if (row.wire != WireType::None) {
+            EXPECT_EQ(kSettingsRows[i++], &row) << row.name;
+        }
+    }
+    for (const KnobRow& row : kKnobs) {
+        if (row.wire != WireType::None) {
+            EXPECT_EQ(kSettingsRows[i++], &row) << row.name;
+        }
+    }
+    EXPECT_EQ(i, kSettingsRowCount);
 }
 
 }  // namespace

@@ -34,6 +34,18 @@ TEST(Handshake, WrongVersionOrTypeIsRefusedWithItsReason) {
     EXPECT_EQ(checkHello(unnamed).clientName, "unnamed");
 }
 
+// A client built from other settings rows (a knob more, another type or limit) would read the
+// Settings message differently: refused at the Hello, as another version is, naming both layouts.
+TEST(Handshake, OtherSettingsRowsAreRefusedAsAVersionMismatch) {
+    proto::Hello other = hello();
+    other.settingsLayout = proto::kSettingsLayout ^ 1;
+    const HandshakeResult r = checkHello(other);
+    EXPECT_FALSE(r.accepted);
+    EXPECT_EQ(r.reason, proto::RejectReason::VersionMismatch);
+    EXPECT_NE(r.text.find("settings rows"), std::string::npos) << r.text;
+    EXPECT_TRUE(checkHello(hello()).accepted);
+}
+
 TEST(Handshake, AuthWithTheTokensMacIsAccepted) {
     const proto::Nonce n = proto::makeNonce();
     const proto::Hello h = hello();
@@ -69,12 +81,14 @@ TEST(Handshake, MacIsBoundToTheNonceAndEveryHelloField) {
 
 TEST(Handshake, MacIsHmacSha256OfTheDocumentedBytes) {
     // PROTOCOL.md §7: HMAC-SHA256(token, str("rtpm client auth v3") ‖ nonce ‖ u16 version ‖
-    // u32 cores ‖ str(name)). Reference computed with `openssl dgst -sha256 -mac HMAC` over the
-    // same bytes (the nonce is 32 × 0x01, version 3, cores 2, name "w1", token "key").
+    // u32 cores ‖ str(name) ‖ u64 settingsLayout). Reference computed with `openssl dgst -sha256
+    // -mac HMAC` over the same bytes (the nonce is 32 × 0x01, version 3, cores 2, name "w1",
+    // layout 0x0123456789abcdef, token "key").
     proto::Nonce n;
     n.fill(0x01);
     proto::Hello h = hello();
     h.protocolVersion = 3;
+    h.settingsLayout = 0x0123456789abcdefull;
     const proto::Mac mac = proto::authMac("key", n, h);
     std::string hex;
     for (uint8_t b : mac) {
@@ -82,7 +96,7 @@ TEST(Handshake, MacIsHmacSha256OfTheDocumentedBytes) {
         std::snprintf(buf, sizeof buf, "%02x", b);
         hex += buf;
     }
-    EXPECT_EQ(hex, "0366658fdb69ed67c3f23f8031d97c78fe92636fa992b5832bf1d0f63cdba581");
+    EXPECT_EQ(hex, "7d98d91beecbd8e472924c98562d7abfb353b3ad0283758418ab1b5da1454bf6");
 }
 
 TEST(Handshake, InsecureModeAcceptsAnyAuth) {
