@@ -29,8 +29,8 @@ enum class KnobReset : uint8_t {
     Resize,  ///< every structure sized by M² is rebuilt once no frame is in flight, then an epoch
 };
 
-enum class Knob : uint8_t { Interleave, Filter, Photons, K, RMax, Tree, Estimator, Confidence, Exposure };
-inline constexpr size_t kKnobCount = 9;
+enum class Knob : uint8_t { Interleave, Filter, Photons, K, RMax, Tree, Estimator, Confidence, Exposure, GlossySamples };
+inline constexpr size_t kKnobCount = 10;
 
 /// How a row travels in the Settings message, little-endian (proto/PROTOCOL.md §5.5): an
 /// unsigned integer of 1, 4 or 8 bytes, or an IEEE-754 binary32. A row's limits fit its type
@@ -133,6 +133,12 @@ inline constexpr std::array<KnobRow, kKnobCount> kKnobs{{
       [](const RenderSettings& s) { return double(s.exposure); },
       [](RenderSettings& s, double v) { s.exposure = float(v); }},
      Knob::Exposure, "exposure", "exposure", KnobReset::Output},
+    {{"glossy samples", "--glossy-samples", "", "image", "rays", 1, 64, 4, true, {}, WireType::U32,
+      "BSDF samples an eye path takes at each glossy (rough metal or glass) surface it meets: more "
+      "is smoother, fewer is faster",
+      [](const RenderSettings& s) { return double(s.eye.glossySamples); },
+      [](RenderSettings& s, double v) { s.eye.glossySamples = int(v); }},
+     Knob::GlossySamples, "glossy", "glossy", KnobReset::Epoch},
 }};
 
 /// The settings fixed for a run (a flag at start; the edit script and the viewer cannot change

@@ -13,6 +13,8 @@ struct EyeSettings {
     int maxDepth = 16;          ///< specular bounces before a path is ended
     int areaLightSamples = 4;   ///< shadow rays per emissive triangle (stratified) for a light
                                 ///< of large solid angle; fewer for small or far ones (eye_light.cpp)
+    int glossySamples = 4;      ///< BSDF samples per glossy vertex of an eye path (eye_glossy.cpp); a
+                                ///< progressive pass draws one fresh sample there per pass
     bool operator==(const EyeSettings&) const = default;
 };
 

@@ -3,7 +3,7 @@
 //
 // * Glossy materials (a Mirror or Dielectric rougher than kSmoothRoughness, common/trace/
 //   microfacet.h) end the pixel's split path: what arrives at a glossy vertex is estimated from
-//   kGlossySamples visible microfacet normals (stratified in the first number). At each, a
+//   EyeSettings::glossySamples visible microfacet normals (stratified in the first number). At each, a
 //   conductor reflects and a dielectric splits into both lobes with weights F·G2/G1 and
 //   (1 − F)·G2/G1, which in the smooth limit is the smooth dielectric's Fresnel split above; the
 //   branches then go on as a split tree like the pixel's own (further glossy vertices take one

@@ -59,9 +59,6 @@ namespace {
 constexpr float kSplitThroughput = 0.25f;
 constexpr int kMaxTrianglesSampledEach = 16;
 constexpr int kStackSize = 64;
-/// BSDF samples per glossy vertex in an eye pass; a progressive pass adds one more (it re-traces
-/// the glossy pixels' trees, where a smooth scene's pass traces no eye ray at all).
-constexpr int kGlossySamples = 4;
 
 Context makeContext(const EmbreeScene& scene, const EyeSettings& settings,
                     const CausticEstimator* caustics, int set) {
@@ -173,7 +170,8 @@ void shadeGlossy(PixelShading& px, const SurfaceHit& hit, Vec3 dir, Vec3 ns, Vec
         vertex.depth = uint16_t(path.depth);
         vertex.kind = EyeHit::Kind::Glossy;
         vertex.areaDirect = glossyTree(ctx, uint32_t(ctx.set), hit, dir, ng, ns, path.depth, rot, 0,
-                                       kGlossySamples, GlossyCaustic::Record, px.count, px.hits, &vertex).direct;
+                                       ctx.settings.glossySamples, GlossyCaustic::Record, px.count, px.hits,
+                                       &vertex).direct;
         if (!finite(vertex.areaDirect)) {
             vertex.areaDirect = Vec3(0.0f);
             ++px.count.nonFinite;
@@ -181,7 +179,7 @@ void shadeGlossy(PixelShading& px, const SurfaceHit& hit, Vec3 dir, Vec3 ns, Vec
         px.hits->push_back(vertex);
     } else {
         const GlossyRadiance g = glossyTree(ctx, uint32_t(ctx.set), hit, dir, ng, ns, path.depth, rot, 0,
-                                            kGlossySamples, GlossyCaustic::Lookup, px.count);
+                                            ctx.settings.glossySamples, GlossyCaustic::Lookup, px.count);
         px.result.direct += path.throughput * path.weight * g.direct;
         px.result.caustic += path.throughput * path.weight * g.caustic;
     }

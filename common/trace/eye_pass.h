@@ -70,7 +70,7 @@ struct EyeRecords {
 /// areaLightSamples per emissive triangle (at most 16·areaLightSamples in total) chosen by the
 /// solid angle they subtend, and with a world light 8 directions from it (see eye_light.cpp); a ray
 /// that leaves the scene returns the world light's radiance. A glossy vertex ends the pixel's split
-/// path and traces kGlossySamples trees on from sampled microfacet normals (eye_glossy.cpp), each
+/// path and traces EyeSettings::glossySamples trees on from sampled microfacet normals (eye_glossy.cpp), each
 /// split like the pixel's own, to diffuse end points with their direct light and caustic lookup.
 /// Primary rays go to Embree in packets of 8, and
 /// the caustic lookups of a packet's pixels go to `caustics` as one group (radianceGroup).

@@ -477,6 +477,41 @@ TEST_P(ClusterImageGlossy, RoughSceneEqualsSingleProcessBitForBit) {
     expectClusterGives(rs, 2, ref);
 }
 
+// The glossy samples, a live knob the clients obey: given by the flag at start, or by an edit
+// script line once frames have begun, the cluster renders what rtpm-render renders with the flag
+// (the edit starts an epoch at frame 2: frames 2-4 are a single-process run of three frames), and
+// that differs from the default of 4. About 6 s.
+TEST(ClusterImageGlossySamples, TheKnobReachesTheClientsByFlagAndByEditScript) {
+    TempDir sceneDir;
+    Scene scene = buildBuiltinScene("RING");
+    for (Material& m : scene.materials)
+        if (m.isSpecular()) m.roughness = 0.3f;
+    const std::string path = sceneDir.file("glossy.glb");
+    exportGlb(scene, path);
+    RunSettings byDefault;
+    byDefault.scene = path;
+    RunSettings one = byDefault;
+    one.extra = {"--glossy-samples", "1"};
+    const ExrImage& ref = reference(one);
+    expectNonTrivial(ref);
+    EXPECT_NE(ref.layerRgb("direct"), reference(byDefault).layerRgb("direct"))
+        << "one glossy sample renders as four do";
+    expectClusterGives(one, 2, ref);
+
+    RunSettings edited = byDefault;
+    edited.frames = 5;
+    Cluster c;
+    const std::string script = c.dir.file("edits.txt");
+    std::ofstream(script) << "frame 2 settings glossy 1\n";
+    c.startServer(edited, 2, "float32", {"--edit-script", script});
+    c.startClient();
+    c.startClient();
+    c.expectServerFinishes(120s);
+    for (auto& cl : c.clients) c.expectClientExits(*cl, client::kExitOk);
+    const ExrImage got = readExr(c.outPath());
+    for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
+}
+
 INSTANTIATE_TEST_SUITE_P(Scenes, ClusterImageGlossy,
                          ::testing::Values(GlossyCase{"RING", "progressive"}, GlossyCase{"GLASS", "progressive"},
                                            GlossyCase{"RING", "knn"}),

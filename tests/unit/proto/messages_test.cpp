@@ -538,6 +538,7 @@ TEST(SettingsRows, EveryRowRoundTripsAwayFromItsDefault) {
     rs.photons.gatherVisibility = true;
     rs.photons.estimator = CausticEstimatorKind::Knn;
     rs.photons.progressiveGamma = 0.75f;
+    rs.eye.glossySamples = 2;
     auto back = decodeMessage(encode(Settings{PixelEncoding::Float32, rs}));
     ASSERT_TRUE(back.ok()) << back.error().message;
     const Settings& s = std::get<Settings>(*back);

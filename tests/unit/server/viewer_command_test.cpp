@@ -37,6 +37,9 @@ TEST(ViewerCommand, AcceptsEveryControl) {
     ViewerParse gamma = parseViewerCommand(R"({"type":"settings","confidence":0.75})");
     ASSERT_TRUE(gamma.ok()) << gamma.error();
     EXPECT_EQ(*edit(gamma).knob(Knob::Confidence), 0.75);
+    ViewerParse glossy = parseViewerCommand(R"({"type":"settings","glossy":12})");
+    ASSERT_TRUE(glossy.ok()) << glossy.error();
+    EXPECT_EQ(*edit(glossy).knob(Knob::GlossySamples), 12);
     ViewerParse d = parseViewerCommand(R"({"type":"display","layer":"caustic_unfiltered","exposure":-1.5})");
     ASSERT_TRUE(d.ok()) << d.error();
     EXPECT_EQ(std::get<ViewerDisplay>(d.command()).layer, ViewerLayer::CausticUnfiltered);
@@ -74,6 +77,7 @@ TEST(ViewerCommand, RefusesMalformedControlsNamingWhatIsWrong) {
     refused(R"({"type":"settings","P":100000000})", "\"P\"");
     refused(R"({"type":"settings","k":4097})", "\"k\"");
     refused(R"({"type":"settings","confidence":0})", "\"confidence\"");
+    refused(R"({"type":"settings","glossy":65})", "\"glossy\"");
     refused(R"({"type":"settings","tree":"oak"})", "middle|median|grid");
     refused(R"({"type":"settings","Q":1})", "unknown field \"Q\"");
     refused(R"({"type":"settings"})", "needs one of its keys");
