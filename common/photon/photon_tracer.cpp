@@ -13,6 +13,7 @@
 #include "common/core/check.h"
 #include "common/trace/microfacet.h"
 #include "common/trace/optics.h"
+#include "common/trace/plastic_bsdf.h"
 
 namespace rtpm {
 namespace {
@@ -438,10 +439,11 @@ Vec3 scatterDielectric(PhotonWalk& w, const SurfaceHit& hit, const Material& mat
 }
 
 /// The diffuse lobe at `hit`: stores a caustic photon (unless `storedHere` on arrival), then ends
-/// the path or bounces (Russian roulette on the albedo, cosine-weighted). Returns false for an
-/// anomaly (a non-finite power to store), else true with `next` 0 when the path ends.
+/// the path or bounces (Russian roulette on the albedo, cosine-weighted; a plastic's base, `coat`,
+/// weights the bounce by the base's share of its direction). Returns false for an anomaly (a
+/// non-finite power to store), else true with `next` 0 when the path ends.
 bool scatterDiffuse(PhotonWalk& w, const SurfaceHit& hit, const Material& mat, Vec3 dir, Vec3 ns, Vec3 ng,
-                    uint32_t depth, bool storedHere, Vec3& next) {
+                    uint32_t depth, bool storedHere, Vec3& next, const PlasticBsdf* coat = nullptr) {
     if (w.specularSinceDiffuse && !storedHere) {
         if (!finite(w.power)) return false;
         w.out.push_back(TracedPhoton{hit.position, w.power, dir});
@@ -468,8 +470,51 @@ bool scatterDiffuse(PhotonWalk& w, const SurfaceHit& hit, const Material& mat, V
     }
     next = cosineDirection(ns, u0, u1);
     if (glm::dot(next, ng) <= 0.0f) next = cosineDirection(ng, u0, u1);
+    if (coat) w.power *= coat->lightShare(glm::dot(next, ns));
     ++w.diffuseCount;
     w.specularSinceDiffuse = false;
+    return true;
+}
+
+/// A plastic at `hit` (plastic_bsdf.h): its base is a diffuse receiver, so a caustic photon is stored
+/// on arrival, × lightShare (the incoming side's factor; the viewer's is the eye pass's). One lobe
+/// is then chosen by the photon's hashed number: metal (probability m), the dielectric coat
+/// ((1 − m)·s·E(cos θ)) or the base (a Lambertian bounce), each weighted by its share over its
+/// probability, as for a partly transmissive dielectric (a smooth coat keeps the power exactly).
+/// Returns false for an anomaly, else true with `next` 0 when absorbed.
+bool scatterPlastic(PhotonWalk& w, const SurfaceHit& hit, const Material& mat, Vec3 dir, Vec3 ns, Vec3 ng,
+                    uint32_t depth, Vec3& next) {
+    const PlasticBsdf bsdf(mat);
+    const float cosIn = std::clamp(-glm::dot(dir, ns), 0.0f, 1.0f);
+    bool storedHere = false;
+    if (w.specularSinceDiffuse) {
+        const Vec3 power = w.power * bsdf.lightShare(cosIn);
+        if (!finite(power)) return false;
+        w.out.push_back(TracedPhoton{hit.position, power, dir});
+        ++w.stored;
+        storedHere = true;
+    }
+    const float u = hashed(w, depth, kLobeChoice);
+    const float metal = bsdf.metalChance();
+    if (u >= metal + bsdf.coatChance(cosIn))
+        return scatterDiffuse(w, hit, mat, dir, ns, ng, depth, storedHere, next, &bsdf);
+    const ShadingFrame frame(ns);
+    BsdfSample s;
+    const Vec2 uv(hashed(w, depth, kGlossyU), hashed(w, depth, kGlossyV));
+    const bool sampled = u < metal ? bsdf.sampleMetal(frame.toLocal(-dir), uv, s)
+                                   : bsdf.sampleDielectricCoat(frame.toLocal(-dir), uv, s);
+    next = Vec3(0.0f);
+    if (!sampled) return true;
+    if (bsdf.smooth()) {
+        // As a mirror: about the shading normal, or the true one if that goes below the surface.
+        next = reflect(dir, ns);
+        if (glm::dot(next, ng) <= 0.0f) next = reflect(dir, ng);
+    } else {
+        next = glm::normalize(frame.toWorld(s.wi));
+        if (glm::dot(next, ng) <= 0.0f) next = Vec3(0.0f);  // below the true surface: absorbed
+    }
+    w.power *= s.weight;
+    w.specularSinceDiffuse = true;
     return true;
 }
 
@@ -550,6 +595,9 @@ int tracePhotonPath(const EmbreeScene& scene, const PhotonSource& src, const Tra
                 break;
             case MaterialType::Diffuse:
                 anomaly = !scatterDiffuse(w, hit, mat, dir, ns, ng, depth, storedHere, next);
+                break;
+            case MaterialType::Plastic:
+                anomaly = !scatterPlastic(w, hit, mat, dir, ns, ng, depth, next);
                 break;
         }
         if (anomaly) break;

@@ -88,7 +88,18 @@ tinygltf::Material exportMaterial(tinygltf::Model& model, const Material& m) {
     pbr.baseColorFactor = {m.baseColor.x, m.baseColor.y, m.baseColor.z, 1.0};
     pbr.metallicFactor = 0.0;
     pbr.roughnessFactor = 1.0;
-    if (m.type == MaterialType::Mirror) {
+    // A Lambertian is glTF's dielectric base without its coat (KHR_materials_specular factor 0),
+    // a Plastic the base with its coat: each loads back as itself.
+    auto specularFactor = [&](float f) {
+        gm.extensions["KHR_materials_specular"] = Value(Value::Object{{"specularFactor", Value(double(f))}});
+        useExtension(model, "KHR_materials_specular");
+    };
+    if (m.type == MaterialType::Diffuse && !m.unlit) specularFactor(0.0f);
+    if (m.type == MaterialType::Plastic) {
+        pbr.metallicFactor = double(m.metallic);
+        pbr.roughnessFactor = double(m.roughness);
+        if (m.specular != 1.0f) specularFactor(m.specular);
+    } else if (m.type == MaterialType::Mirror) {
         pbr.metallicFactor = 1.0;
         pbr.roughnessFactor = double(m.roughness);
     } else if (m.type == MaterialType::Dielectric) {
@@ -122,7 +133,8 @@ tinygltf::Material exportMaterial(tinygltf::Model& model, const Material& m) {
                       "KHR_materials_unlit") == model.extensionsRequired.end())
             model.extensionsRequired.push_back("KHR_materials_unlit");
     }
-    if (m.baseColorTexture >= 0 && (m.type == MaterialType::Diffuse || m.isPartlyDiffuse())) {
+    if (m.baseColorTexture >= 0 &&
+        (m.type == MaterialType::Diffuse || m.type == MaterialType::Plastic || m.isPartlyDiffuse())) {
         pbr.baseColorTexture.index = m.baseColorTexture;
         if (!m.baseColorTransform.isIdentity()) {
             const TextureTransform& t = m.baseColorTransform;

@@ -91,6 +91,7 @@ private:
     MetallicRoughness specularGlossiness(const tinygltf::Value& sg, const std::string& sgEl) const;
     tinygltf::TextureInfo specularGlossinessTexture(const tinygltf::Value& sg, const std::string& element) const;
     void readIorAndVolume(const tinygltf::Material& gm, const std::string& el, Material& m) const;
+    void readSpecular(const tinygltf::Material& gm, const std::string& el, Material& m);
     void readEmission(const tinygltf::Material& gm, const std::string& el, Material& m, int& uvSet);
     void warnIgnored(const tinygltf::Material& gm, const std::string& el);
     TextureTransform textureTransform(const tinygltf::Value& ext, const std::string& element,

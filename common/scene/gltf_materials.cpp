@@ -20,7 +20,7 @@ const std::set<std::string>& supportedExtensions() {
         "KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior",
         "KHR_materials_volume", "KHR_materials_emissive_strength", "KHR_texture_transform",
         "KHR_materials_unlit", "EXT_mesh_gpu_instancing", "KHR_mesh_quantization",
-        "KHR_materials_variants", "KHR_materials_pbrSpecularGlossiness"};
+        "KHR_materials_variants", "KHR_materials_pbrSpecularGlossiness", "KHR_materials_specular"};
     return kSupported;
 }
 
@@ -290,7 +290,17 @@ void GltfImporter::convertMaterials() {
             m.type = MaterialType::Mirror;
             m.roughness = checkedRoughness(roughness, el);
         } else {
-            m.type = MaterialType::Diffuse;
+            // glTF's dielectric base: a Lambertian of the base colour under a dielectric coat
+            // (F0 = 0.04), mixed with the metal lobe by metallicFactor (common/trace/plastic_bsdf.h).
+            // KHR_materials_specular's specularFactor scales the coat; 0 leaves a Lambertian.
+            m.type = MaterialType::Plastic;
+            m.roughness = checkedRoughness(roughness, el);
+            if (!std::isfinite(metallic) || metallic < 0.0 || metallic > 1.0)
+                fail(el + ".pbrMetallicRoughness.metallicFactor",
+                     "metallicFactor " + std::to_string(metallic) + " outside [0, 1]");
+            m.metallic = float(metallic);
+            readSpecular(gm, el, m);
+            if (m.specular == 0.0f && m.metallic == 0.0f) m.type = MaterialType::Diffuse;
             useBaseColorTexture();
         }
         readEmission(gm, el, m, uvSet);
@@ -357,6 +367,30 @@ tinygltf::TextureInfo GltfImporter::specularGlossinessTexture(const tinygltf::Va
             texture.extensions["KHR_texture_transform"] = t.Get("extensions").Get("KHR_texture_transform");
     }
     return texture;
+}
+
+// KHR_materials_specular of the opaque dielectric `gm` (at `el`) into m.specular; what the coat
+// does not model (a coloured F0, textures, an index other than 1.5) is warned about.
+void GltfImporter::readSpecular(const tinygltf::Material& gm, const std::string& el, Material& m) {
+    if (const tinygltf::Value* sp = extension(gm.extensions, "KHR_materials_specular")) {
+        const std::string spEl = el + ".extensions.KHR_materials_specular";
+        if (!sp->IsObject()) fail(spEl, "must be an object");
+        const double f = numberOr(*sp, "specularFactor", 1.0);
+        if (!std::isfinite(f) || f < 0.0 || f > 1.0)
+            fail(spEl + ".specularFactor", "specularFactor " + std::to_string(f) + " outside [0, 1]");
+        m.specular = float(f);
+        const glm::dvec3 colour = dvec3Of(*sp, "specularColorFactor").value_or(glm::dvec3(1.0));
+        if (colour != glm::dvec3(1.0))
+            warn(el + ": KHR_materials_specular specularColorFactor ignored (the coat's F0 is 0.04 in every channel)");
+        if (sp->Has("specularTexture") || sp->Has("specularColorTexture"))
+            warn(el + ": KHR_materials_specular textures ignored (specularFactor used everywhere)");
+    }
+    if (const tinygltf::Value* iorExt = extension(gm.extensions, "KHR_materials_ior")) {
+        const double ior = numberOr(*iorExt, "ior", 1.5);
+        if (ior != 1.5)
+            warn(el + ": KHR_materials_ior " + std::to_string(ior) +
+                 " ignored on an opaque material (the coat's index is 1.5, F0 = 0.04)");
+    }
 }
 
 // KHR_materials_ior and KHR_materials_volume of the transmissive material `gm` (at `el`) into `m`.

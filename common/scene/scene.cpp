@@ -206,6 +206,10 @@ void validateMaterial(const Material& m, size_t textureCount, const std::string&
         throw SceneError(fileName, el, "emission above " + num(kMaxRadiantValue));
     if (!inRange(m.absorption, 0.0f, kMaxAbsorption))
         throw SceneError(fileName, el, "absorption above " + num(kMaxAbsorption) + " per metre");
+    if (!(m.metallic >= 0.0f && m.metallic <= 1.0f))
+        throw SceneError(fileName, el, "metallic " + std::to_string(m.metallic) + " outside [0, 1]");
+    if (!(m.specular >= 0.0f && m.specular <= 1.0f))
+        throw SceneError(fileName, el, "specular " + std::to_string(m.specular) + " outside [0, 1]");
     if (m.type == MaterialType::Dielectric && !(m.ior >= 1.0f && m.ior <= 4.0f))
         throw SceneError(fileName, el, "ior " + std::to_string(m.ior) + " outside [1, 4]");
     if ((m.baseColorTexture >= 0 && size_t(m.baseColorTexture) >= textureCount) ||

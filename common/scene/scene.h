@@ -57,9 +57,12 @@ enum class MaterialType : uint8_t {
                  ///< a GGX conductor with Schlick Fresnel F0 = baseColor
     Dielectric,  ///< glass/liquid: exact Fresnel, refraction, Beer–Lambert inside; with roughness
                  ///< a GGX rough dielectric (Walter et al. 2007)
+    Plastic,     ///< glTF's dielectric base (metallicFactor < 0.99): a Lambertian base of albedo
+                 ///< baseColor (times texture) under a dielectric coat of index 1.5, smooth or GGX,
+                 ///< mixed with the metal lobe by `metallic` (common/trace/plastic_bsdf.h)
 };
 
-/// glTF perceptual roughness at or below which a Mirror or Dielectric is the exact smooth specular
+/// glTF perceptual roughness at or below which a Mirror, Dielectric or Plastic coat is the exact smooth specular
 /// surface (deterministic splits in the eye pass, exact reflection and refraction of photons).
 /// Above it the surface is a GGX microfacet surface (common/trace/microfacet.h).
 inline constexpr float kSmoothRoughness = 0.01f;
@@ -90,9 +93,15 @@ struct Material {
     /// Dielectric: share t ∈ (0, 1] of the smooth dielectric lobe; the rest (1 − t) is Lambertian
     /// with albedo baseColor × texture (glTF KHR_materials_transmission factor). 1 = clear glass.
     float transmission = 1.0f;
-    /// Mirror and Dielectric: glTF perceptual roughness in [0, 1] (GGX α = roughness²); at most
-    /// kSmoothRoughness is a smooth surface. Ignored by Diffuse.
+    /// Mirror, Dielectric and Plastic (its coat): glTF perceptual roughness in [0, 1] (GGX
+    /// α = roughness²); at most kSmoothRoughness is a smooth surface. Ignored by Diffuse.
     float roughness = 0.0f;
+    /// Plastic: glTF metallicFactor in [0, 1], the share of the metal lobe (F0 = baseColor) mixed
+    /// with the coated base. Ignored by the other types.
+    float metallic = 0.0f;
+    /// Plastic: KHR_materials_specular specularFactor in [0, 1], the strength of the coat's
+    /// reflection (0: the base alone, a Lambertian). Ignored by the other types.
+    float specular = 1.0f;
     Vec3 emission{0.0f};        ///< emitted radiance W/(m²·sr) from the front face; > 0 → area light
     int32_t emissiveTexture = -1;  ///< index into Scene::textures multiplying emission, -1 for none
     /// Diffuse only, ignored for other types (glTF KHR_materials_unlit): seen as baseColor × texture, receives no light,
@@ -100,7 +109,7 @@ struct Material {
     bool unlit = false;
     bool isEmissive() const { return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f; }
     bool isSpecular() const { return type != MaterialType::Diffuse; }
-    /// A rough Mirror or Dielectric: scattered by the GGX BSDF instead of exactly.
+    /// A rough Mirror, Dielectric or Plastic coat: scattered by the GGX BSDF instead of exactly.
     bool isGlossy() const { return type != MaterialType::Diffuse && roughness > kSmoothRoughness; }
     /// A Dielectric with a Lambertian share (transmission < 1).
     bool isPartlyDiffuse() const { return type == MaterialType::Dielectric && transmission < 1.0f; }
@@ -221,7 +230,8 @@ Bounds meshBounds(const Mesh& mesh);
 /// spot/directional direction a unit vector; spot cones 0 ≤ inner < outer ≤ π/2.
 void validateLight(const Light& light, const std::string& fileName, const std::string& element);
 /// Material: finite; colour, emission ≤ kMaxRadiantValue and absorption ≤ kMaxAbsorption
-/// non-negative; a dielectric's ior in [1, 4]; roughness in [0, 1]; texture index < `textureCount`.
+/// non-negative; a dielectric's ior in [1, 4]; roughness, metallic and specular in [0, 1]; texture
+/// index < `textureCount`.
 void validateMaterial(const Material& material, size_t textureCount, const std::string& fileName,
                       const std::string& element);
 /// Instance transform: finite; affine (last row 0 0 0 1); every column of the linear part of

@@ -70,6 +70,14 @@ void scatterGlossy(GlossyWalk& w, const SurfaceHit& h, Vec3 rdir, Vec3 hng, Vec3
                    int d) {
     const Material& m = w.ctx.scene.materials[h.material];
     const Vec3 wo = -glm::normalize(rdir);
+    if (m.type == MaterialType::Plastic) {
+        const ShadingFrame frame(hns);
+        BsdfSample s;
+        if (!PlasticBsdf(m).sampleCoat(frame.toLocal(wo), u, s)) return;
+        const Vec3 next = glm::normalize(frame.toWorld(s.wi));
+        if (glm::dot(next, hng) > 0.0f) pushBranch(w, h, hng, next, throughput * s.weight, d);
+        return;
+    }
     if (m.type == MaterialType::Mirror) {
         const ShadingFrame frame(hns);
         BsdfSample s;
@@ -93,12 +101,13 @@ void scatterGlossy(GlossyWalk& w, const SurfaceHit& h, Vec3 rdir, Vec3 hng, Vec3
 }
 
 /// A diffuse end point `h` of material `m` reached with `throughput` (per sample): its direct light,
-/// and its caustic looked up or recorded as the walk asks.
-void glossyEndPoint(GlossyWalk& w, const SurfaceHit& h, const Material& m, Vec3 hns, Vec3 hng, Vec3 throughput) {
+/// and its caustic looked up or recorded as the walk asks. `coat`: a plastic's base (eye_shading.h).
+void glossyEndPoint(GlossyWalk& w, const SurfaceHit& h, const Material& m, Vec3 hns, Vec3 hng, Vec3 throughput,
+                    const PlasticBsdf* coat = nullptr) {
     const EmbreeScene& es = w.ctx.es;
     const Vec3 albedo = baseColorAt(m, w.ctx.scene.textures, h.uv);
     const std::array<float, 3> r{nextUniform(w), nextUniform(w), nextUniform(w)};
-    w.out.direct += (throughput * w.share) * directLight(w.ctx, h, hns, hng, albedo, r, w.count);
+    w.out.direct += (throughput * w.share) * directLight(w.ctx, h, hns, hng, albedo, r, w.count, coat);
     if (w.caustic == GlossyCaustic::Lookup && w.ctx.caustics) {
         w.out.caustic += (throughput * w.share) * w.ctx.caustics->radiance(es, w.set, h, hns, albedo);
     } else if (w.caustic == GlossyCaustic::Record) {
@@ -142,6 +151,27 @@ void traceGlossyBranch(GlossyWalk& w, PathState path) {
             else
                 glossyEndPoint(w, h, m, hns, hng, path.throughput);
             break;
+        }
+        if (m.type == MaterialType::Plastic) {
+            // As shadePixel: the base ends here, the coat goes on (reflected, or one microfacet).
+            const PlasticBsdf coat(m);
+            const Vec3 wo = -glm::normalize(rdir);
+            const float cosO = std::clamp(glm::dot(wo, hns), 0.0f, 1.0f);
+            glossyEndPoint(w, h, m, hns, hng, path.throughput * coat.viewShare(cosO), &coat);
+            if (path.depth >= w.ctx.settings.maxDepth) break;
+            if (!coat.smooth()) {
+                w.out.direct += (path.throughput * w.share) * coatHighlight(w.ctx, h, wo, hns, hng, coat, w.count);
+                const float u0 = nextUniform(w);
+                scatterGlossy(w, h, rdir, hng, hns, Vec2(u0, nextUniform(w)), path.throughput, path.depth + 1);
+                break;
+            }
+            Vec3 r = glm::normalize(reflect(rdir, hns));
+            if (glm::dot(r, hng) <= 0.0f) r = glm::normalize(reflect(rdir, hng));
+            path.throughput *= coat.coatFresnel(cosO);
+            path.ray = Ray{es.offsetOrigin(h.position, hng, r), r};
+            ++path.depth;
+            if (maxComponent(path.throughput) < kMinThroughput) break;
+            continue;
         }
         if (m.isPartlyDiffuse()) {
             glossyEndPoint(w, h, m, hns, hng, path.throughput * (1.0f - m.transmission));
@@ -192,6 +222,9 @@ GlossyRadiance glossyTree(const Context& ctx, uint32_t set, const SurfaceHit& hi
     const uint64_t key = splitMix64((uint64_t(b0) << 32 | b1) ^ splitMix64(0x676c6f7373ull + pass));
     PathState stack[kGlossyStackSize];
     GlossyWalk w{ctx, set, caustic, count, record, base, 1.0f / float(samples), key, stack, 0, 0, {}};
+    const Material& m = ctx.scene.materials[hit.material];
+    if (m.type == MaterialType::Plastic)  // the punctual lights' highlight, once per vertex
+        w.out.direct += coatHighlight(ctx, hit, -glm::normalize(dir), ns, ng, PlasticBsdf(m), count);
     // Throughputs are per sample (so branches are pruned as in shadePixel); the mean over the
     // samples is taken at the end points.
     for (int k = 0; k < samples; ++k) {

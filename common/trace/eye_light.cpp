@@ -34,6 +34,7 @@
 #include "common/core/halton.h"
 #include "common/core/math.h"
 #include "common/core/sampling.h"
+#include "common/trace/microfacet.h"
 #include "common/trace/optics.h"
 
 namespace rtpm {
@@ -49,7 +50,7 @@ constexpr int kEnvironmentSamples = 8;
 /// `sum` plus the radiance reflected from the world light (file comment), sampled with the
 /// rotation `rot`. Precondition: ctx.environment set.
 Vec3 environmentLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
-                      const std::array<float, 3>& rot, Counters& count, Vec3 sum) {
+                      const std::array<float, 3>& rot, Counters& count, Vec3 sum, const PlasticBsdf* coat) {
     const EmbreeScene& es = ctx.es;
     const Environment& env = *ctx.environment;
     const bool uniform = !env.hasMap();
@@ -72,6 +73,7 @@ Vec3 environmentLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng
             value = albedo * kInvPi * e.radiance * (cosS / e.pdf);
         }
         if (glm::dot(wi, ng) <= 0.0f) continue;
+        if (coat) value *= coat->lightShare(glm::dot(wi, n));
         ++count.shadow;
         rays[queued] = Ray{es.offsetOrigin(hit.position, ng, wi), wi, 0.0f, std::numeric_limits<float>::infinity()};
         values[queued++] = value * (1.0f / float(kEnvironmentSamples));
@@ -84,9 +86,50 @@ Vec3 environmentLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng
 
 }  // namespace
 
-Vec3 punctualLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
-                   Counters& count) {
+namespace {
+
+/// Light `light` arriving at `position`: its unit direction toward the light `wi`, the irradiance
+/// perpendicular to it (W/m², before the cosine) and the shadow ray's end (`target`, unused when
+/// `toInfinity`). False when it sends nothing there.
+bool punctualIncidence(const Light& light, Vec3 position, Vec3& wi, Vec3& irradiance, Vec3& target,
+                       bool& toInfinity) {
+    target = Vec3(0.0f);
+    toInfinity = false;
+    if (light.type == LightType::Directional) {
+        wi = -glm::normalize(light.direction);
+        irradiance = light.intensity;
+        toInfinity = true;
+        return true;
+    }
+    const Vec3 d = light.position - position;
+    const float dist2 = glm::dot(d, d);
+    if (!(dist2 > 0.0f)) return false;
+    wi = d / std::sqrt(dist2);
+    irradiance = light.intensity / dist2;
+    if (light.type == LightType::Spot) {
+        const float att = spotFalloff(light, glm::dot(glm::normalize(light.direction), -wi));
+        if (!(att > 0.0f)) return false;
+        irradiance *= att;
+    }
+    target = light.position;
+    return true;
+}
+
+/// True when the shadow ray from `hit` (lifted along `ng`) toward the light is blocked.
+bool shadowed(const Context& ctx, const SurfaceHit& hit, Vec3 ng, Vec3 wi, Vec3 target, bool toInfinity,
+              Counters& count) {
     const EmbreeScene& es = ctx.es;
+    const Vec3 origin = es.offsetOrigin(hit.position, ng, wi);
+    Ray shadow = toInfinity ? Ray{origin, wi, 0.0f, std::numeric_limits<float>::infinity()}
+                            : Ray{origin, target - origin, 0.0f, 1.0f};
+    ++count.shadow;
+    return es.occluded(shadow);
+}
+
+}  // namespace
+
+Vec3 punctualLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
+                   Counters& count, const PlasticBsdf* coat) {
     Vec3 sum(0.0f);
     const Vec3 brdf = albedo * kInvPi;
     if (maxComponent(albedo) <= 0.0f) return sum;
@@ -94,46 +137,49 @@ Vec3 punctualLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, V
     for (const Light& light : ctx.scene.lights) {
         Vec3 wi;
         Vec3 irradiance;  // W/m² perpendicular to wi, before the cosine
-        Vec3 target(0.0f);
-        bool toInfinity = false;
-        if (light.type == LightType::Directional) {
-            wi = -glm::normalize(light.direction);
-            irradiance = light.intensity;
-            toInfinity = true;
-        } else {
-            const Vec3 d = light.position - hit.position;
-            const float dist2 = glm::dot(d, d);
-            if (!(dist2 > 0.0f)) continue;
-            wi = d / std::sqrt(dist2);
-            irradiance = light.intensity / dist2;
-            if (light.type == LightType::Spot) {
-                const float att = spotFalloff(light, glm::dot(glm::normalize(light.direction), -wi));
-                if (!(att > 0.0f)) continue;
-                irradiance *= att;
-            }
-            target = light.position;
-        }
+        Vec3 target;
+        bool toInfinity;
+        if (!punctualIncidence(light, hit.position, wi, irradiance, target, toInfinity)) continue;
         // The light must be on the viewer's side of the true surface, or the offset would put the
         // shadow ray's origin through the surface.
         if (glm::dot(wi, ng) <= 0.0f) continue;
         const float cosS = glm::dot(wi, n);
         if (cosS <= 0.0f) continue;
-        const Vec3 origin = es.offsetOrigin(hit.position, ng, wi);
-        Ray shadow = toInfinity ? Ray{origin, wi, 0.0f, std::numeric_limits<float>::infinity()}
-                                : Ray{origin, target - origin, 0.0f, 1.0f};
-        ++count.shadow;
-        if (es.occluded(shadow)) continue;
-        sum += brdf * irradiance * cosS;
+        if (shadowed(ctx, hit, ng, wi, target, toInfinity, count)) continue;
+        if (coat)
+            sum += brdf * irradiance * (cosS * coat->lightShare(cosS));
+        else
+            sum += brdf * irradiance * cosS;
+    }
+    return sum;
+}
+
+Vec3 coatHighlight(const Context& ctx, const SurfaceHit& hit, Vec3 wo, Vec3 ns, Vec3 ng,
+                   const PlasticBsdf& coat, Counters& count) {
+    Vec3 sum(0.0f);
+    if (coat.smooth()) return sum;
+    const ShadingFrame frame(ns);
+    const Vec3 woLocal = frame.toLocal(wo);
+    for (const Light& light : ctx.scene.lights) {
+        Vec3 wi, irradiance, target;
+        bool toInfinity;
+        if (!punctualIncidence(light, hit.position, wi, irradiance, target, toInfinity)) continue;
+        if (glm::dot(wi, ng) <= 0.0f) continue;
+        const Vec3 wiLocal = frame.toLocal(wi);
+        const Vec3 f = coat.coatEval(woLocal, wiLocal);
+        if (!(maxComponent(f) > 0.0f)) continue;
+        if (shadowed(ctx, hit, ng, wi, target, toInfinity, count)) continue;
+        sum += f * irradiance * wiLocal.z;
     }
     return sum;
 }
 
 Vec3 areaLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
-               const std::array<float, 3>& rot, Counters& count, Vec3 sum) {
+               const std::array<float, 3>& rot, Counters& count, Vec3 sum, const PlasticBsdf* coat) {
     const EmbreeScene& es = ctx.es;
     const Vec3 brdf = albedo * kInvPi;
     if (maxComponent(albedo) <= 0.0f) return sum;
-    if (ctx.environment) sum = environmentLight(ctx, hit, n, ng, albedo, rot, count, sum);
+    if (ctx.environment) sum = environmentLight(ctx, hit, n, ng, albedo, rot, count, sum, coat);
     const auto& tris = es.emissiveTriangles();
     if (tris.empty()) return sum;
     // Shadow rays toward the emitters go to Embree in packets of 8 (one origin, one small light:
@@ -164,6 +210,7 @@ Vec3 areaLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 
         ++count.shadow;
         pendingRay[pending] = Ray{origin, end - origin, 0.0f, 1.0f};
         pendingValue[pending] = brdf * e.radiance * (cosS * cosL / dist2 * weight);
+        if (coat) pendingValue[pending] *= coat->lightShare(cosS);
         if (++pending == 8) flush();
     };
 
@@ -205,8 +252,9 @@ Vec3 areaLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 
 }
 
 Vec3 directLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
-                 const std::array<float, 3>& rot, Counters& count) {
-    return areaLight(ctx, hit, n, ng, albedo, rot, count, punctualLight(ctx, hit, n, ng, albedo, count));
+                 const std::array<float, 3>& rot, Counters& count, const PlasticBsdf* coat) {
+    return areaLight(ctx, hit, n, ng, albedo, rot, count, punctualLight(ctx, hit, n, ng, albedo, count, coat),
+                     coat);
 }
 
 }  // namespace detail

@@ -120,10 +120,11 @@ struct PixelShading {
     uint32_t split = 0;  // dielectric splits so far: the key of a sampled split's random number
 };
 
-/// Lambertian end point (or the Lambertian share of a partly transmissive dielectric, weighted by
-/// `throughput`): direct light by shadow rays plus the caustic estimate.
+/// Lambertian end point (or the Lambertian share of a partly transmissive dielectric, or a plastic's
+/// base with its `coat`, weighted by `throughput`): direct light by shadow rays plus the caustic
+/// estimate.
 void shadeDiffuse(PixelShading& px, const SurfaceHit& hit, const Material& mat, Vec3 ns, Vec3 ng,
-                  Vec3 throughput) {
+                  Vec3 throughput, const PlasticBsdf* coat = nullptr) {
     const Context& ctx = px.ctx;
     const Vec3 albedo = baseColorAt(mat, ctx.scene.textures, hit.uv);
     const uint64_t h = splitMix64(px.pixelKey ^ splitMix64(px.diffuseVertex++));
@@ -137,15 +138,15 @@ void shadeDiffuse(PixelShading& px, const SurfaceHit& hit, const Material& mat, 
         e.throughput = throughput;
         e.rotation = rot;
         e.pixel = px.pixel;
-        px.result.direct += throughput * punctualLight(ctx, hit, ns, ng, albedo, px.count);
-        e.areaDirect = areaLight(ctx, hit, ns, ng, albedo, rot, px.count, Vec3(0.0f));
+        px.result.direct += throughput * punctualLight(ctx, hit, ns, ng, albedo, px.count, coat);
+        e.areaDirect = areaLight(ctx, hit, ns, ng, albedo, rot, px.count, Vec3(0.0f), coat);
         if (!finite(e.areaDirect)) {
             e.areaDirect = Vec3(0.0f);
             ++px.count.nonFinite;
         }
         return;
     }
-    px.result.direct += throughput * directLight(ctx, hit, ns, ng, albedo, rot, px.count);
+    px.result.direct += throughput * directLight(ctx, hit, ns, ng, albedo, rot, px.count, coat);
     if (ctx.caustics) px.requests.push_back(CausticRequest{hit, ns, albedo, throughput, px.lane});
 }
 
@@ -305,6 +306,27 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
                     shadeDiffuse(px, hit, mat, ns, ng, path.throughput * path.weight);
                 break;
             }
+            if (mat.type == MaterialType::Plastic) {
+                // The base is a diffuse end point weighted by its view share; the coat goes on as
+                // a mirror weighted by its reflectance (smooth) or as a glossy vertex (rough).
+                // The path never branches here (the base traces no ray on), so a plastic needs
+                // no sampled split: it costs what a mirror costs plus a diffuse end point.
+                const PlasticBsdf coat(mat);
+                const float cosO = std::clamp(-glm::dot(glm::normalize(dir), ns), 0.0f, 1.0f);
+                shadeDiffuse(px, hit, mat, ns, ng, path.throughput * path.weight * coat.viewShare(cosO), &coat);
+                if (path.depth >= ctx.settings.maxDepth) break;
+                if (!coat.smooth()) {
+                    shadeGlossy(px, hit, dir, ns, ng, path);
+                    break;
+                }
+                Vec3 r = glm::normalize(reflect(dir, ns));
+                if (glm::dot(r, ng) <= 0.0f) r = glm::normalize(reflect(dir, ng));
+                path.throughput *= coat.coatFresnel(cosO);
+                path.ray = Ray{es.offsetOrigin(hit.position, ng, r), r};
+                ++path.depth;
+                if (maxComponent(path.throughput) < kMinThroughput) break;
+                continue;
+            }
             if (mat.isPartlyDiffuse()) {
                 // Deterministic split of a partly transmissive material: the Lambertian share
                 // (1 − t) ends here, the dielectric share t continues below.
@@ -461,7 +483,13 @@ Vec3 AreaLightSampler::sample(const EyeHit& e, uint32_t pass, uint64_t& shadowRa
         v = glossyTree(impl_->ctx, e.set, e.hit, -e.wo, e.geometricNormal, e.normal, int(e.depth), rot, pass, 1,
                        GlossyCaustic::Skip, count).direct;
     } else if (e.kind == EyeHit::Kind::EndPoint) {
-        v = areaLight(impl_->ctx, e.hit, e.normal, e.geometricNormal, e.albedo, rot, count, Vec3(0.0f));
+        const Material& m = impl_->ctx.scene.materials[e.hit.material];
+        if (m.type == MaterialType::Plastic) {
+            const PlasticBsdf coat(m);
+            v = areaLight(impl_->ctx, e.hit, e.normal, e.geometricNormal, e.albedo, rot, count, Vec3(0.0f), &coat);
+        } else {
+            v = areaLight(impl_->ctx, e.hit, e.normal, e.geometricNormal, e.albedo, rot, count, Vec3(0.0f));
+        }
     }
     shadowRays += count.shadow;
     return finite(v) ? v : Vec3(0.0f);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "common/trace/eye_pass.h"
+#include "common/trace/plastic_bsdf.h"
 
 namespace rtpm {
 namespace detail {
@@ -51,19 +52,29 @@ struct PathState {
 };
 
 /// Radiance reflected toward the viewer by a Lambertian point from the punctual lights (shadow
-/// rays). `n` shading normal and `ng` geometric normal, both facing the viewer.
+/// rays). `n` shading normal and `ng` geometric normal, both facing the viewer. With `coat` (the
+/// base of a plastic) each light's share is weighted by coat->lightShare of its cosine; the
+/// viewer's share (viewShare) is the caller's, in the throughput.
 Vec3 punctualLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
-                   Counters& count);
+                   Counters& count, const PlasticBsdf* coat = nullptr);
 
 /// `sum` plus the radiance reflected from the world light and the emissive triangles, sampled with
-/// the Cranley–Patterson rotation `rot` (the pixel's, advanced per progressive pass).
+/// the Cranley–Patterson rotation `rot` (the pixel's, advanced per progressive pass). `coat` as
+/// for punctualLight.
 Vec3 areaLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
-               const std::array<float, 3>& rot, Counters& count, Vec3 sum);
+               const std::array<float, 3>& rot, Counters& count, Vec3 sum, const PlasticBsdf* coat = nullptr);
 
 /// Direct light from every light: punctual first, then the area samples added to that sum (the
 /// order the image has always been computed in).
 Vec3 directLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
-                 const std::array<float, 3>& rot, Counters& count);
+                 const std::array<float, 3>& rot, Counters& count, const PlasticBsdf* coat = nullptr);
+
+/// The punctual lights' radiance reflected toward `wo` (unit, toward the viewer) by the rough coat of
+/// a plastic at `hit` (shadow rays; `ns`, `ng` facing the viewer): the coat's highlights, which no
+/// sampled direction can find (a point has no area). Area lights and the world light are met by the
+/// glossy samples instead. 0 for a smooth coat.
+Vec3 coatHighlight(const Context& ctx, const SurfaceHit& hit, Vec3 wo, Vec3 ns, Vec3 ng,
+                   const PlasticBsdf& coat, Counters& count);
 
 /// What arrives at a glossy vertex, times the throughput from it: direct light (and emission met
 /// on the way) and, when looked up, the caustic estimate at the diffuse end points.

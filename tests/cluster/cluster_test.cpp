@@ -519,6 +519,44 @@ INSTANTIATE_TEST_SUITE_P(Scenes, ClusterImageGlossy,
                              return std::string(i.param.scene) + "_" + i.param.estimator;
                          });
 
+// Plastics (glTF's dielectric base) in a glTF the master loads and sends on: RING's floor a satin
+// plastic (roughness 0.3: glossy eye trees, coat highlights, photons reflected off the coat and
+// stored on the base) and CORNELL's walls smooth plastics with part of the metal lobe.
+struct PlasticCase {
+    const char* scene;
+    float roughness;
+    float metallic;
+    const char* estimator;
+};
+
+class ClusterImagePlastic : public ::testing::TestWithParam<PlasticCase> {};
+
+TEST_P(ClusterImagePlastic, PlasticSceneEqualsSingleProcessBitForBit) {
+    TempDir sceneDir;
+    Scene scene = buildBuiltinScene(GetParam().scene);
+    for (Material& m : scene.materials)
+        if (m.type == MaterialType::Diffuse && !m.isEmissive()) {
+            m.type = MaterialType::Plastic;
+            m.roughness = GetParam().roughness;
+            m.metallic = GetParam().metallic;
+        }
+    const std::string path = sceneDir.file("plastic.glb");
+    exportGlb(scene, path);
+    RunSettings rs;
+    rs.scene = path;
+    rs.extra = {"--estimator", GetParam().estimator};
+    const ExrImage& ref = reference(rs);
+    expectNonTrivial(ref);
+    expectClusterGives(rs, 2, ref);
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, ClusterImagePlastic,
+                         ::testing::Values(PlasticCase{"RING", 0.3f, 0.0f, "progressive"},
+                                           PlasticCase{"CORNELL", 0.0f, 0.2f, "knn"}),
+                         [](const ::testing::TestParamInfo<PlasticCase>& i) {
+                             return std::string(i.param.scene) + "_" + i.param.estimator;
+                         });
+
 /// Sets client `id` holds in the master's first "sets by measured cost" line, -1 if none.
 int balancedShareOf(const std::string& err, const std::string& name) {
     const size_t joined = err.find("(" + name + ", ");

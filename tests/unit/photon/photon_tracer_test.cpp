@@ -11,6 +11,8 @@
 #include <tbb/global_control.h>
 
 #include "common/photon/photon_map.h"
+#include "common/trace/optics.h"
+#include "common/trace/plastic_bsdf.h"
 
 namespace rtpm {
 namespace {
@@ -314,6 +316,46 @@ TEST(PhotonTracer, MirrorMultipliesByReflectance) {
         EXPECT_NEAR(p.position.x, -3.0f, 1e-3f);
         EXPECT_NEAR(p.incoming.x, -1.0f, 1e-4f);
     }
+}
+
+// A plastic tilted 45° in the sun throws a reflected caustic onto a diffuse wall (the mirror test's
+// geometry, in a scene small enough that an eighth of the sun's photons hit the plastic): the wall
+// receives the coat's share of the 4 W falling on it, F(cos 45°) = 0.0502 of index 1.5 for a
+// smooth coat (the lobe is chosen with that probability and keeps the power), the coat's albedo
+// E(0.3, cos 45°) less what passes the wall for a rough one, and the metal lobe's Schlick share on
+// top for metallic 0.5. The base has no bounce here, so it stores nothing. Tolerances: 3σ of the
+// coat's binary choices (about 5000 reflected photons of 100 000 on the plastic: 4 %).
+TEST(PhotonTracer, PlasticCoatThrowsItsFresnelShare) {
+    auto traceWith = [](float roughness, float metallic) {
+        Scene s;
+        const uint32_t wall = addMaterial(s, MaterialType::Diffuse, Vec3(0.5f));
+        const uint32_t coat = addMaterial(s, MaterialType::Plastic, Vec3(0.9f, 0.5f, 0.1f));
+        s.materials[coat].roughness = roughness;
+        s.materials[coat].metallic = metallic;
+        Mesh m;
+        m.positions = {{-1, -1, -1}, {1, 1, -1}, {1, 1, 1}, {-1, -1, 1}};
+        m.indices = {0, 1, 2, 0, 2, 3};
+        m.material = coat;
+        addMesh(s, m);
+        Mesh w;  // wall x = −2 facing +x
+        w.positions = {{-2, -2, -2}, {-2, 2, -2}, {-2, 2, 2}, {-2, -2, 2}};
+        w.indices = {0, 2, 1, 0, 3, 2};
+        w.material = wall;
+        addMesh(s, w);
+        s.lights.push_back(sun(Vec3(1.0f)));
+        EmbreeScene es(s);
+        const std::vector<Emitter> em = buildEmitters(es);
+        return traceAll(es, em[0], 800000).power;
+    };
+    const float c = std::sqrt(0.5f);
+    const float f = fresnelDielectric(c, 1.0f, 1.5f);
+    expectVecNear(traceWith(0.0f, 0.0f), Vec3(4.0f * f), 0.04f);
+    const Vec3 rough = traceWith(0.3f, 0.0f);
+    std::printf("rough coat: %.4f W on the wall of %.4f W its albedo reflects\n", rough.x, 4.0f * coatAlbedo(0.3f, c));
+    EXPECT_LE(rough.x, 4.0f * coatAlbedo(0.3f, c) * 1.04f);
+    EXPECT_GE(rough.x, 4.0f * coatAlbedo(0.3f, c) * 0.85f);
+    const Vec3 schlick = Vec3(0.9f, 0.5f, 0.1f) + (Vec3(1.0f) - Vec3(0.9f, 0.5f, 0.1f)) * std::pow(1.0f - c, 5.0f);
+    expectVecNear(traceWith(0.0f, 0.5f), 4.0f * (0.5f * Vec3(f) + 0.5f * schlick), 0.02f);
 }
 
 TEST(PhotonTracer, DiffuseOnlyPathsStoreNothingWithoutBounces) {

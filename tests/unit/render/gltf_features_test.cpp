@@ -159,8 +159,9 @@ std::string lightlessGlassScene(GltfBuilder& b, const std::string& glassExtensio
 
 TEST(GltfFeatures, RoughMetalAndGlassKeepTheirRoughnessAndBadRoughnessIsRefused) {
     ScratchDir dir;
-    // A transmissive material: roughness 0.35 is frosted glass; the floor (metallic 0) stays
-    // Lambertian whatever its roughness.
+    // A transmissive material: roughness 0.35 is frosted glass; the floor (metallic 0) is glTF's
+    // dielectric base, a plastic of the file's roughness (it was a Lambertian before the coat was
+    // modelled).
     GltfBuilder b;
     std::string json = lightlessGlassScene(b, R"("KHR_materials_transmission":{"transmissionFactor":1})");
     json.replace(json.find(R"("metallicFactor":0,"roughnessFactor":0)"), 38, R"("metallicFactor":0,"roughnessFactor":0.35)");
@@ -168,7 +169,9 @@ TEST(GltfFeatures, RoughMetalAndGlassKeepTheirRoughnessAndBadRoughnessIsRefused)
     EXPECT_EQ(glass.materials[1].type, MaterialType::Dielectric);
     EXPECT_FLOAT_EQ(glass.materials[1].roughness, 0.35f);
     EXPECT_TRUE(glass.materials[1].isGlossy());
-    EXPECT_EQ(glass.materials[0].type, MaterialType::Diffuse);
+    EXPECT_EQ(glass.materials[0].type, MaterialType::Plastic);
+    EXPECT_EQ(glass.materials[0].metallic, 0.0f);
+    EXPECT_EQ(glass.materials[0].specular, 1.0f);
     // A metal: roughness 0.5 is a GGX conductor, 0.01 still the perfect mirror.
     for (const char* rough : {"0.5", "0.01"}) {
         GltfBuilder m;
@@ -190,6 +193,43 @@ TEST(GltfFeatures, RoughMetalAndGlassKeepTheirRoughnessAndBadRoughnessIsRefused)
     } catch (const SceneError& e) {
         EXPECT_NE(e.element.find("materials[1]"), std::string::npos) << e.what();
         EXPECT_NE(std::string(e.what()).find("roughnessFactor"), std::string::npos) << e.what();
+    }
+}
+
+// metallicFactor < 0.99 is glTF's dielectric base, a plastic with the file's metallic and roughness;
+// KHR_materials_specular's specularFactor scales its coat (0: a Lambertian); what the coat does not
+// model is warned about, a factor outside [0, 1] refused.
+TEST(GltfFeatures, DielectricBaseIsAPlasticAndKhrSpecularScalesItsCoat) {
+    ScratchDir dir;
+    auto load = [&](const std::string& name, const std::string& factors, const std::string& extensions) {
+        GltfBuilder b;
+        std::string json = lightlessGlassScene(b, extensions);
+        json.replace(json.find(R"("metallicFactor":0,"roughnessFactor":0)"), 38, factors);
+        return loadScene(dir.write(name, b.json(json)));
+    };
+    const Scene satin = load("satin.gltf", R"("metallicFactor":0.5,"roughnessFactor":0.4)", "");
+    EXPECT_EQ(satin.materials[1].type, MaterialType::Plastic);
+    EXPECT_FLOAT_EQ(satin.materials[1].metallic, 0.5f);
+    EXPECT_FLOAT_EQ(satin.materials[1].roughness, 0.4f);
+    EXPECT_TRUE(satin.materials[1].isGlossy());
+    const Scene half = load("half.gltf", R"("metallicFactor":0,"roughnessFactor":0)",
+                            R"("KHR_materials_specular":{"specularFactor":0.5,"specularColorFactor":[1,0.5,0.5]},)"
+                            R"("KHR_materials_ior":{"ior":1.45})");
+    EXPECT_EQ(half.materials[1].type, MaterialType::Plastic);
+    EXPECT_FLOAT_EQ(half.materials[1].specular, 0.5f);
+    EXPECT_FALSE(half.materials[1].isGlossy());
+    std::string warnings;
+    for (const std::string& w : half.warnings) warnings += w + "\n";
+    EXPECT_NE(warnings.find("specularColorFactor ignored"), std::string::npos) << warnings;
+    EXPECT_NE(warnings.find("KHR_materials_ior 1.45"), std::string::npos) << warnings;
+    const Scene matte = load("matte.gltf", R"("metallicFactor":0,"roughnessFactor":0.2)",
+                             R"("KHR_materials_specular":{"specularFactor":0})");
+    EXPECT_EQ(matte.materials[1].type, MaterialType::Diffuse);
+    try {
+        load("bad.gltf", R"("metallicFactor":0,"roughnessFactor":0)", R"("KHR_materials_specular":{"specularFactor":2})");
+        ADD_FAILURE() << "specularFactor 2 was accepted";
+    } catch (const SceneError& e) {
+        EXPECT_NE(e.element.find("KHR_materials_specular.specularFactor"), std::string::npos) << e.what();
     }
 }
 

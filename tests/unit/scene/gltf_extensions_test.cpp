@@ -234,8 +234,11 @@ TEST(GltfSpecularGlossiness, MaterialsAreConvertedToMetallicRoughnessWithOneWarn
                                     R"(,"material":1}]},{"primitives":[)" + prim + R"(,"material":2}]}])");
     const Scene s = loadText(json);
     ASSERT_EQ(s.materials.size(), 3u);
-    // A dielectric's specular (0.04) gives metallic 0: the base colour is the diffuse colour.
-    EXPECT_EQ(s.materials[0].type, MaterialType::Diffuse);
+    // A dielectric's specular (0.04) gives metallic 0: a plastic whose base colour is the diffuse
+    // colour (a Lambertian before the coat was modelled).
+    EXPECT_EQ(s.materials[0].type, MaterialType::Plastic);
+    EXPECT_EQ(s.materials[0].metallic, 0.0f);
+    EXPECT_NEAR(s.materials[0].roughness, 0.5f, 1e-6f);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(s.materials[0].baseColor[c], 0.5f, 1e-6f);
     // Black diffuse, coloured specular, glossiness 1: metallic 1, roughness 0, a mirror of the
     // specular colour.
@@ -243,9 +246,12 @@ TEST(GltfSpecularGlossiness, MaterialsAreConvertedToMetallicRoughnessWithOneWarn
     EXPECT_NEAR(s.materials[1].baseColor.x, 1.0f, 1e-5f);
     EXPECT_NEAR(s.materials[1].baseColor.y, 0.766f, 1e-5f);
     EXPECT_NEAR(s.materials[1].baseColor.z, 0.336f, 1e-5f);
-    // Worked by hand: brightnesses D = 0.46840, S = 0.2, metallic 0.30617 (a diffuse surface
-    // here, roughness 0.7), base colour (0.92352, 0.27043, 0.27043).
-    EXPECT_EQ(s.materials[2].type, MaterialType::Diffuse);
+    // Worked by hand: brightnesses D = 0.46840, S = 0.2, metallic 0.30617 (below 0.99
+    // here, roughness 0.7), base colour (0.92352, 0.27043, 0.27043): a plastic mixing in that
+    // much of the metal lobe.
+    EXPECT_EQ(s.materials[2].type, MaterialType::Plastic);
+    EXPECT_NEAR(s.materials[2].metallic, 0.30617f, 1e-4f);
+    EXPECT_NEAR(s.materials[2].roughness, 0.7f, 1e-6f);
     EXPECT_NEAR(s.materials[2].baseColor.x, 0.92352f, 1e-4f);
     EXPECT_NEAR(s.materials[2].baseColor.y, 0.27043f, 1e-4f);
     EXPECT_NEAR(s.materials[2].baseColor.z, 0.27043f, 1e-4f);

@@ -174,7 +174,7 @@ TEST(GltfLoader, HandWrittenFileLoadsCameraLightsMaterialsAndInstances) {
     // σ = −ln(colour) / distance, distance 2 m.
     expectNear3(glass.absorption, Vec3(-std::log(0.5f) / 2, -std::log(0.25f) / 2, 0.0f));
     const Material& lampMat = s.materials[s.meshes[lamp->mesh].material];
-    EXPECT_EQ(lampMat.type, MaterialType::Diffuse);
+    EXPECT_EQ(lampMat.type, MaterialType::Plastic);  // metallic 0: glTF's dielectric base
     expectNear3(lampMat.emission, Vec3(4.0f, 2.0f, 1.0f));
     expectNear3(lampMat.baseColor, Vec3(0.5f));
 
@@ -212,6 +212,43 @@ TEST(GltfLoader, RequiredUnsupportedExtensionIsAnError) {
     std::string text = readText(kDataDir + "/gltf/handmade.gltf");
     text.insert(text.find('{') + 1, R"("extensionsRequired":["KHR_draco_mesh_compression"],)");
     expectSceneError(dir.write("required.gltf", text), "extensionsRequired");
+}
+
+// Export and load: a plastic comes back a plastic with its roughness, metallic and specular
+// factor bit for bit (a cluster master sends its scene as a GLB), a Lambertian comes back a
+// Lambertian (KHR_materials_specular factor 0).
+TEST(GltfExport, PlasticAndLambertianRoundTripAsThemselves) {
+    Scene s = loadScene("RING");
+    s.materials[0].type = MaterialType::Diffuse;
+    Material lambert = s.materials[0];
+    Material p = s.materials[0];
+    p.name = "satin";
+    p.type = MaterialType::Plastic;
+    p.roughness = 0.37f;
+    p.metallic = 0.21f;
+    p.specular = 0.6f;
+    s.materials.push_back(p);
+    s.meshes[0].material = uint32_t(s.materials.size() - 1);
+    ScratchDir dir;
+    const std::string path = dir.write("plastic.glb", "");
+    exportGlb(s, path);
+    const Scene back = loadScene(path);
+    bool sawPlastic = false, sawLambert = false;
+    for (const Material& m : back.materials) {
+        if (m.name == "satin") {
+            sawPlastic = true;
+            EXPECT_EQ(m.type, MaterialType::Plastic);
+            EXPECT_EQ(m.roughness, p.roughness);
+            EXPECT_EQ(m.metallic, p.metallic);
+            EXPECT_EQ(m.specular, p.specular);
+            EXPECT_EQ(m.baseColor, p.baseColor);
+        } else if (m.name == lambert.name) {
+            sawLambert = true;
+            EXPECT_EQ(m.type, MaterialType::Diffuse);
+        }
+    }
+    EXPECT_TRUE(sawPlastic);
+    EXPECT_TRUE(sawLambert);
 }
 
 TEST(GltfExport, RingRoundTripsThroughGlb) {
