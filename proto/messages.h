@@ -120,8 +120,8 @@ struct LightEdit {
     bool operator==(const LightEdit&) const = default;
 };
 /// Material model of an edit (mirrors rtpm::MaterialType). Append-only ids.
-enum class MaterialKind : uint8_t { Diffuse = 0, Mirror = 1, Dielectric = 2 };
-inline constexpr uint8_t kMaxMaterialKind = 2;
+enum class MaterialKind : uint8_t { Diffuse = 0, Mirror = 1, Dielectric = 2, Plastic = 3 };
+inline constexpr uint8_t kMaxMaterialKind = 3;
 struct MaterialEdit {
     uint32_t index = 0;  ///< into Scene::materials
     MaterialKind kind = MaterialKind::Diffuse;

@@ -73,6 +73,16 @@ Vec2 TextureTransform::apply(Vec2 uv) const {
     return Vec2(c * scaled.x + s * scaled.y, -s * scaled.x + c * scaled.y) + offset;
 }
 
+const char* materialTypeName(MaterialType type) {
+    switch (type) {
+        case MaterialType::Mirror: return "mirror";
+        case MaterialType::Dielectric: return "dielectric";
+        case MaterialType::Plastic: return "plastic";
+        case MaterialType::Diffuse: break;
+    }
+    return "diffuse";
+}
+
 Vec3 baseColorAt(const Material& material, const std::vector<Texture>& textures, Vec2 uv) {
     Vec3 albedo = material.baseColor;
     if (material.baseColorTexture >= 0 && size_t(material.baseColorTexture) < textures.size()) {

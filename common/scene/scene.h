@@ -115,6 +115,10 @@ struct Material {
     bool isPartlyDiffuse() const { return type == MaterialType::Dielectric && transmission < 1.0f; }
 };
 
+/// The lower-case name of `type` as edit scripts and the viewer spell it: "diffuse", "mirror",
+/// "dielectric" or "plastic". Pure, O(1).
+const char* materialTypeName(MaterialType type);
+
 /// Albedo (Diffuse) at texture coordinates `uv`: baseColor times the transformed base-colour
 /// texture lookup when the material has one. `textures` is Scene::textures. Pure, O(1).
 Vec3 baseColorAt(const Material& material, const std::vector<Texture>& textures, Vec2 uv);

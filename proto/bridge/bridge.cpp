@@ -62,6 +62,7 @@ proto::MaterialEdit materialToWire(const Scene& scene, uint32_t index) {
     switch (m.type) {
         case MaterialType::Mirror: e.kind = proto::MaterialKind::Mirror; break;
         case MaterialType::Dielectric: e.kind = proto::MaterialKind::Dielectric; break;
+        case MaterialType::Plastic: e.kind = proto::MaterialKind::Plastic; break;
         default: e.kind = proto::MaterialKind::Diffuse; break;
     }
     e.baseColor = toWire(m.baseColor);
@@ -110,6 +111,7 @@ std::optional<SceneEdit> fromWire(const Scene& scene, const proto::SceneEdit& wi
             case proto::MaterialKind::Diffuse: edit.material.type = MaterialType::Diffuse; break;
             case proto::MaterialKind::Mirror: edit.material.type = MaterialType::Mirror; break;
             case proto::MaterialKind::Dielectric: edit.material.type = MaterialType::Dielectric; break;
+            case proto::MaterialKind::Plastic: edit.material.type = MaterialType::Plastic; break;
         }
         edit.material.baseColor = fromWire(m->baseColor);
         edit.material.ior = m->ior;

@@ -150,12 +150,13 @@ std::vector<ScriptEdit> parseEditScript(std::string_view text, const std::string
             else if (e.kind == K::Light && key == "direction") setOnce(p, e.light.direction, p.vec3("direction"), key);
             else if (e.kind == K::Light && key == "intensity") setOnce(p, e.light.intensity, p.vec3("intensity"), key);
             else if (e.kind == K::Material && key == "type") {
-                std::string t = p.word("diffuse, mirror or dielectric");
+                std::string t = p.word("diffuse, mirror, dielectric or plastic");
                 MaterialType mt = MaterialType::Diffuse;
                 if (t == "diffuse") mt = MaterialType::Diffuse;
                 else if (t == "mirror") mt = MaterialType::Mirror;
                 else if (t == "dielectric") mt = MaterialType::Dielectric;
-                else p.fail("unknown material type '" + printableText(t) + "' (expected diffuse, mirror or dielectric)");
+                else if (t == "plastic") mt = MaterialType::Plastic;
+                else p.fail("unknown material type '" + printableText(t) + "' (expected diffuse, mirror, dielectric or plastic)");
                 setOnce(p, e.material.type, mt, key);
             } else if (e.kind == K::Material && key == "color") setOnce(p, e.material.color, p.vec3("color"), key);
             else if (e.kind == K::Material && key == "ior") setOnce(p, e.material.ior, p.number("ior"), key);
@@ -229,7 +230,7 @@ std::string formatScriptEdit(const ScriptEdit& e) {
     v3("intensity", e.light.intensity);
     if (e.material.type)
         o << " type "
-          << (*e.material.type == MaterialType::Mirror ? "mirror" : *e.material.type == MaterialType::Dielectric ? "dielectric" : "diffuse");
+          << materialTypeName(*e.material.type);
     v3("color", e.material.color);
     if (e.material.ior) o << " ior " << *e.material.ior;
     v3("absorption", e.material.absorption);

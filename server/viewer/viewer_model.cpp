@@ -11,10 +11,6 @@ namespace {
 
 nlohmann::json vec(Vec3 v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
-const char* materialTypeName(MaterialType t) {
-    return t == MaterialType::Mirror ? "mirror" : t == MaterialType::Dielectric ? "dielectric" : "diffuse";
-}
-
 Vec3 instanceCentre(const Scene& s, size_t i) {
     Bounds b;
     const Instance& in = s.instances[i];

@@ -56,6 +56,14 @@ TEST(Bridge, EditsRoundTripThroughTheScene) {
     EXPECT_EQ(m->kind, SceneEdit::Kind::Material);
     EXPECT_EQ(m->material.baseColor, edited.materials[0].baseColor);
     EXPECT_EQ(m->material.type, edited.materials[0].type);
+    // Every material type crosses as itself (a plastic was sent as a Lambertian before kind 3).
+    for (MaterialType type : {MaterialType::Diffuse, MaterialType::Mirror, MaterialType::Dielectric,
+                              MaterialType::Plastic}) {
+        edited.materials[0].type = type;
+        auto k = bridge::fromWire(ring, bridge::materialToWire(edited, 0));
+        ASSERT_TRUE(k);
+        EXPECT_EQ(k->material.type, type) << materialTypeName(type);
+    }
     auto t = bridge::fromWire(ring, bridge::transformToWire(edited, 0));
     ASSERT_TRUE(t);
     EXPECT_EQ(t->transform, edited.instances[0].transform);

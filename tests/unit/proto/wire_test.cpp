@@ -152,7 +152,7 @@ TEST(Wire, HeaderErrorsAreTyped) {
     EXPECT_EQ(code({1, 2, 3}), ErrorCode::Truncated);
     EXPECT_EQ(code(header(0x4D505453u, 1, 1, 0, 0)), ErrorCode::BadMagic);
     EXPECT_EQ(code(header(kMagic, 9, 1, 0, 0)), ErrorCode::BadVersion);
-    EXPECT_EQ(code(header(kMagic, 7, 1, 0, 0)), ErrorCode::BadVersion);  // version 7 peers (Settings by field)
+    EXPECT_EQ(code(header(kMagic, 7, 1, 0, 0)), ErrorCode::BadVersion);  // version 7 peers (Settings by field, no plastics)
     EXPECT_EQ(code(header(kMagic, 6, 1, 0, 0)), ErrorCode::BadVersion);  // version 6 peers (no Edit frames)
     EXPECT_EQ(code(header(kMagic, 5, 1, 0, 0)), ErrorCode::BadVersion);  // version 5 peers (no turns in still passes)
     EXPECT_EQ(code(header(kMagic, 4, 1, 0, 0)), ErrorCode::BadVersion);  // version 4 peers (no shared photons, no world light)

@@ -102,7 +102,8 @@ TEST(EditScript, FormattedEditsParseBackToTheSameEdit) {
         "frame 4 light 0 position 1.25 -2 3.0000001 intensity 10 20 30\n"
         "frame 5 material 1 type dielectric color 0.5 0.25 1 ior 1.33333 absorption 0.1 0 0 emission 0 0 0\n"
         "frame 6 transform 0 translate 0.1 0 -0.2 rotate 0 1 0 45 scale 2\n"
-        "frame 7 settings M 4 F 0 k 16 P 12345 rmax 0.0375 tree median estimator knn\n";
+        "frame 7 settings M 4 F 0 k 16 P 12345 rmax 0.0375 tree median estimator knn\n"
+        "frame 8 material 0 type plastic color 0.8 0.1 0.1\n";
     const auto edits = parseEditScript(text, "a.txt");
     std::string formatted;
     for (const ScriptEdit& e : edits) formatted += formatScriptEdit(e) + "\n";
