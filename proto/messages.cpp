@@ -231,14 +231,6 @@ bool getEnum8(Reader& r, E& out, uint8_t maxValue, const char* field) {
     return true;
 }
 
-bool getBool(Reader& r, bool& out, const char* field) {
-    uint8_t v = 0;
-    if (!r.u8(v)) return false;
-    if (v > 1) return r.fail(ErrorCode::BadEnum, std::string(field) + ": flag " + std::to_string(v));
-    out = v == 1;
-    return true;
-}
-
 bool inRange(Reader& r, uint64_t v, uint64_t lo, uint64_t hi, const char* field) {
     if (!r.ok()) return false;
     if (v < lo || v > hi)
