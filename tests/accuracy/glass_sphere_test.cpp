@@ -28,7 +28,7 @@ constexpr int kWidth = 160, kHeight = 120;
 TEST(GlassSphereReference, PixelsHoldTheFluxTheBinsPutInTheView) {
     const GlassSphere gs;
     const CausticReference ref = gs.reference(kWidth, kHeight);
-    const Camera cam = *gs.scene().camera;
+    const Camera cam = gs.camera();
     const Camera::PixelRays rays = cam.pixelRays(kWidth, kHeight);
     const double h = cam.position.y;
     const double xHalf = double(rays.halfW) * h, zHalf = double(rays.halfH) * h;

@@ -119,8 +119,12 @@ struct GlassSphere {
         l.outerConeAngle = float(ballAngle() + 0.02);
         l.innerConeAngle = float(ballAngle() + 0.015);
         s.lights.push_back(l);
-        s.camera = Camera::lookAt(cameraEye, Vec3(cameraEye.x, 0.0f, cameraEye.z), Vec3(0.0f, 0.0f, -1.0f), yfov);
+        s.camera = camera();
         return s;
+    }
+
+    Camera camera() const {
+        return Camera::lookAt(cameraEye, Vec3(cameraEye.x, 0.0f, cameraEye.z), Vec3(0.0f, 0.0f, -1.0f), yfov);
     }
 
     /// Flux landing per radial bin of width `binWidth` out to `maxRho` (W), from `steps` midpoint
@@ -183,7 +187,7 @@ struct GlassSphere {
 
     /// Reference caustic radiance per pixel: ρ_f/π × the pixel's flux over its floor area.
     CausticReference reference(int width, int height) const {
-        const Camera cam = *scene().camera;
+        const Camera cam = camera();
         const Camera::PixelRays rays = cam.pixelRays(width, height);
         const double h = cam.position.y;
         // Floor x of image column edge i, floor z of row edge j (right = +x, up = −z here).
