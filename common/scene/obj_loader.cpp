@@ -4,6 +4,7 @@
 #include <tiny_obj_loader.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -77,8 +78,10 @@ void prescanObj(const std::string& text, const std::string& file) {
                     std::string s = tok.substr(start, slash == std::string::npos ? std::string::npos : slash - start);
                     if (!s.empty()) {
                         char* end = nullptr;
+                        errno = 0;
                         long v = std::strtol(s.c_str(), &end, 10);
-                        if (end == s.c_str() || *end != '\0' || v == 0)
+                        // Beyond any count a file can define (and −LONG_MIN is no long): refused.
+                        if (end == s.c_str() || *end != '\0' || v == 0 || errno == ERANGE)
                             throw SceneError(file, lineEl(lineNo), "bad index '" + tok + "'");
                         r.index[part] = v;
                     } else if (part == 0) {

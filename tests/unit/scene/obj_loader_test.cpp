@@ -104,6 +104,9 @@ TEST(ObjLoader, MalformedLinesAreErrorsWithTheirLine) {
         {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", "line 4"},
         {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\n", "line 4"},  // no vt defined
         {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", "line 4"},
+        // Beyond a long (strtol saturates; negating LONG_MIN was undefined): a bad index.
+        {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -27777777777777777777777777 -3\n", "line 4"},
+        {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999999\n", "line 4"},
         {"", "file"},
         {"# only a comment\n", "faces"},
         {"\x01\x02garbage\0bytes", "file"},
