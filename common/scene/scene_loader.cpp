@@ -26,12 +26,20 @@ Camera defaultCamera(const Bounds& b) {
     return Camera::lookAt(eye, centre, Vec3(0, 1, 0), yfov);
 }
 
+// True when some light or emissive surface of `s` emits: a light of zero intensity, or an emissive
+// material whose emissive texture is black everywhere (factor × texture = 0), lights nothing.
 bool hasLightOrEmitter(const Scene& s) {
-    if (!s.lights.empty()) return true;
-    for (const Instance& inst : s.instances)
-        if (inst.mesh < s.meshes.size() && s.meshes[inst.mesh].material < s.materials.size() &&
-            s.materials[s.meshes[inst.mesh].material].isEmissive())
-            return true;
+    for (const Light& l : s.lights)
+        if (maxComponent(l.intensity) > 0.0f) return true;
+    for (const Instance& inst : s.instances) {
+        if (inst.mesh >= s.meshes.size() || s.meshes[inst.mesh].material >= s.materials.size()) continue;
+        const Material& m = s.materials[s.meshes[inst.mesh].material];
+        if (!m.isEmissive()) continue;
+        if (m.emissiveTexture < 0 || size_t(m.emissiveTexture) >= s.textures.size()) return true;
+        const Texture& tex = s.textures[size_t(m.emissiveTexture)];
+        if (tex.width <= 0 || tex.height <= 0) return true;  // no texels: the factor alone (emissionAt)
+        if (std::any_of(tex.rgb.begin(), tex.rgb.end(), [](float v) { return v > 0.0f; })) return true;
+    }
     return false;
 }
 
@@ -148,7 +156,7 @@ Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides,
     if (!hasLightOrEmitter(scene) && scene.environment.empty()) {
         if (!overrides.defaultLight)
             throw SceneError(nameOrPath, "lights",
-                             "scene has no light and no emissive material; give one (e.g. --light "
+                             "scene has no light and no emissive material that emits; give one (e.g. --light "
                              "x y z or --env FILE) or drop --no-default-light to get the default lights");
         // The framing camera first: it must frame the geometry, not the light above it.
         if (!scene.camera) scene.camera = defaultCamera(scene.bounds());
@@ -161,9 +169,18 @@ Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides,
             return std::to_string(p.x) + ", " + std::to_string(p.y) + ", " + std::to_string(p.z);
         };
         scene.warnings.push_back(
-            nameOrPath + ": no light and no emissive material; added the default spot light (at " + at(light.position) +
+            nameOrPath + ": no light and no emissive material that emits; added the default spot light (at " + at(light.position) +
             ", behind the scene, for caustics) and a key light from the camera's side (at " + at(key.position) +
             "), both aimed at the scene's centre, and a dim grey sky; see README. --no-default-light refuses such scenes");
+    } else if (overrides.defaultLight && scene.environment.empty() && !isBuiltinScene(nameOrPath) &&
+               std::none_of(scene.lights.begin(), scene.lights.end(),
+                            [](const Light& l) { return maxComponent(l.intensity) > 0.0f; })) {
+        // A file lit by its emissive surfaces alone: what they do not reach would be black, where
+        // Blender (and a glTF viewer) shows the world it always has, which glTF cannot carry.
+        scene.environment = defaultSky();
+        scene.warnings.push_back(nameOrPath +
+                                 ": lit by emissive surfaces only; added the dim grey sky as its world, as "
+                                 "Blender's default world; --no-default-light leaves it out");
     }
     if (!scene.camera) scene.camera = defaultCamera(scene.bounds());
     scene.validate(nameOrPath);

@@ -34,6 +34,7 @@ struct SceneOverrides {
     std::optional<EnvironmentOverride> environment;
     /// A scene with no light, no emissive material and no world light gets defaultLight(), keyLight()
     /// and defaultSky() (with a warning); false makes such a scene an error instead (--no-default-light).
+    /// A scene file lit by emissive surfaces alone gets defaultSky(); false leaves it out.
     bool defaultLight = true;
     /// glTF KHR_materials_variants: the variant whose materials are used (GltfOptions::variant);
     /// empty: the default materials. Set for a scene other than a glTF file, it is an error.
@@ -71,7 +72,9 @@ bool isBuiltinScene(const std::string& name);
 /// A scene with no light, no emissive material and no world light (after `overrides.light` and
 /// `overrides.environment`) gets defaultLight() and keyLight() (in that order), defaultSky() as its
 /// world light and a warning naming the file, or, with `overrides.defaultLight` false, is an error
-/// (SceneError naming the file). The world light's file and decoded map count against
+/// (SceneError naming the file). A scene file (not a built-in scene) lit by emissive surfaces alone
+/// (no punctual light, no world light) gets defaultSky() as its world and a warning, unless
+/// `overrides.defaultLight` is false. The world light's file and decoded map count against
 /// `input.maxSceneBytes` with the scene's own arrays (loadEnvironment). Warnings (unsupported features) are in Scene::warnings.
 /// Throws SceneError{file, element, message} on any bad input; never crashes on malformed files.
 /// Files are read through SceneFiles under `input`: the files a scene names must lie in its

@@ -7,7 +7,9 @@
 //   conductor reflects and a dielectric splits into both lobes with weights F·G2/G1 and
 //   (1 − F)·G2/G1, which in the smooth limit is the smooth dielectric's Fresnel split above; the
 //   branches then go on as a split tree like the pixel's own (further glossy vertices take one
-//   microfacet each). Numbers come from the pixel's hashed rotation at the vertex and the pass,
+//   microfacet each). Point, spot and sun lights, which no sampled direction meets, add their
+//   highlight at every glossy vertex by a shadow ray (glossyHighlight; for a dielectric its
+//   reflection lobe). Numbers come from the pixel's hashed rotation at the vertex and the pass,
 //   never from threads. In record mode (the progressive estimator) the glossy vertex is recorded
 //   with the direct light of its restart samples, and each pass draws one fresh normal (the
 //   rotation advanced along the R3 sequence, as for area lights) and re-traces its tree, so a
@@ -180,6 +182,8 @@ void traceGlossyBranch(GlossyWalk& w, PathState path) {
         }
         if (path.depth >= w.ctx.settings.maxDepth) break;
         if (m.isGlossy()) {
+            w.out.direct += (path.throughput * w.share) * glossyHighlight(w.ctx, h, -glm::normalize(rdir), hns, hng, m,
+                                                                          w.count);
             const float u0 = nextUniform(w);
             scatterGlossy(w, h, rdir, hng, hns, Vec2(u0, nextUniform(w)), path.throughput, path.depth + 1);
             break;
@@ -223,8 +227,11 @@ GlossyRadiance glossyTree(const Context& ctx, uint32_t set, const SurfaceHit& hi
     PathState stack[kGlossyStackSize];
     GlossyWalk w{ctx, set, caustic, count, record, base, 1.0f / float(samples), key, stack, 0, 0, {}};
     const Material& m = ctx.scene.materials[hit.material];
-    if (m.type == MaterialType::Plastic)  // the punctual lights' highlight, once per vertex
+    // The punctual lights' highlight, once per vertex.
+    if (m.type == MaterialType::Plastic)
         w.out.direct += coatHighlight(ctx, hit, -glm::normalize(dir), ns, ng, PlasticBsdf(m), count);
+    else
+        w.out.direct += glossyHighlight(ctx, hit, -glm::normalize(dir), ns, ng, m, count);
     // Throughputs are per sample (so branches are pruned as in shadePixel); the mean over the
     // samples is taken at the end points.
     for (int k = 0; k < samples; ++k) {

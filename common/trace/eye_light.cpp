@@ -174,6 +174,31 @@ Vec3 coatHighlight(const Context& ctx, const SurfaceHit& hit, Vec3 wo, Vec3 ns, 
     return sum;
 }
 
+Vec3 glossyHighlight(const Context& ctx, const SurfaceHit& hit, Vec3 wo, Vec3 ns, Vec3 ng, const Material& m,
+                     Counters& count) {
+    Vec3 sum(0.0f);
+    if (ctx.scene.lights.empty()) return sum;
+    const float alpha = ggxAlpha(m.roughness);
+    const bool conductor = m.type == MaterialType::Mirror;
+    // A dielectric's frame has its normal out of the medium (microfacet.h); a conductor's faces
+    // the viewer.
+    const ShadingFrame frame(conductor ? ns : hit.shadingNormal);
+    const Vec3 woLocal = frame.toLocal(wo);
+    for (const Light& light : ctx.scene.lights) {
+        Vec3 wi, irradiance, target;
+        bool toInfinity;
+        if (!punctualIncidence(light, hit.position, wi, irradiance, target, toInfinity)) continue;
+        if (glm::dot(wi, ng) <= 0.0f) continue;  // behind the surface: only reflection is direct light
+        const Vec3 wiLocal = frame.toLocal(wi);
+        const Vec3 f = conductor ? roughConductorEval(woLocal, wiLocal, alpha, m.baseColor)
+                                 : Vec3(roughDielectricEval(woLocal, wiLocal, alpha, m.ior, Transport::Radiance));
+        if (!(maxComponent(f) > 0.0f)) continue;
+        if (shadowed(ctx, hit, ng, wi, target, toInfinity, count)) continue;
+        sum += f * irradiance * std::abs(wiLocal.z);
+    }
+    return sum;
+}
+
 Vec3 areaLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec3 albedo,
                const std::array<float, 3>& rot, Counters& count, Vec3 sum, const PlasticBsdf* coat) {
     const EmbreeScene& es = ctx.es;

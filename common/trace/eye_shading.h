@@ -76,6 +76,13 @@ Vec3 directLight(const Context& ctx, const SurfaceHit& hit, Vec3 n, Vec3 ng, Vec
 Vec3 coatHighlight(const Context& ctx, const SurfaceHit& hit, Vec3 wo, Vec3 ns, Vec3 ng,
                    const PlasticBsdf& coat, Counters& count);
 
+/// The punctual lights' radiance reflected toward `wo` by glossy material `m` (a rough conductor,
+/// or a rough dielectric's reflection lobe) at `hit` (shadow rays; `ns`, `ng` facing the viewer):
+/// the highlights of point, spot and sun lights, which no sampled direction can find. Light
+/// through a dielectric is caustic light (photons), as everywhere in the eye pass.
+Vec3 glossyHighlight(const Context& ctx, const SurfaceHit& hit, Vec3 wo, Vec3 ns, Vec3 ng, const Material& m,
+                     Counters& count);
+
 /// What arrives at a glossy vertex, times the throughput from it: direct light (and emission met
 /// on the way) and, when looked up, the caustic estimate at the diffuse end points.
 struct GlossyRadiance {

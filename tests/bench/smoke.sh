@@ -7,7 +7,7 @@
 #   tests/bench/smoke.sh CASE BUILD_DIR
 #
 # CASE: viewer_encode ring_mirror viewer_cost cluster_convergence pov_compare cluster_bench
-#       frame_profile sweep tls_cost viewer_port_probe scale_bench balance modes. Exit status 77: skipped (the reason is printed).
+#       frame_profile sweep tls_cost viewer_port_probe scale_bench balance modes gltf_corpus. Exit status 77: skipped (the reason is printed).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
 case=${1:?usage: smoke.sh CASE BUILD_DIR}
@@ -34,6 +34,16 @@ run() {
 num='[0-9]+(\.[0-9]+)?'
 
 case $case in
+gltf_corpus)
+    # The built-in scenes exported as .glb files, surveyed at 64x48: each renders, none dark.
+    mkdir -p "$work/corpus"
+    for scene in RING GLASS EGG HEADLIGHT CORNELL; do
+        "$render" --scene "$scene" --export-glb "$work/corpus/$scene.glb" >/dev/null
+    done
+    run "$work/out.log" /usr/bin/python3 "$root/tests/bench/gltf_corpus.py" "$work/corpus" --build "$build" --size 64x48
+    expectRows 5 "^\| [A-Z]+\.glb \| 0 \| $num \| " "$work/out.log"
+    expectRows 1 "^renders 5 of 5 without flags, 0 of them dark" "$work/out.log"
+    ;;
 modes)
     # RING at 64x48, 4 frames, in the five modes.
     run "$work/out.log" bash "$root/tests/bench/modes_bench.sh"
