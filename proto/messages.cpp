@@ -563,6 +563,7 @@ const char* frameModeName(FrameMode mode) {
         case FrameMode::Walkthrough: return "walkthrough";
         case FrameMode::Converging: return "converging";
         case FrameMode::Edit: return "edit";
+        case FrameMode::Relight: return "relight";
     }
     return "unknown";
 }

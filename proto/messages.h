@@ -174,8 +174,15 @@ struct Settings {
 /// progressive estimator; clients run a progressive pass (shooting even when capped).
 /// Edit (version 7): the first frame of an epoch a scene edit began; as Interaction, but clients with the
 /// progressive estimator show the map's k-NN estimate and start no progression.
-enum class FrameMode : uint8_t { Interaction = 0, Accumulate = 1, Walkthrough = 2, Converging = 3, Edit = 4 };
-inline constexpr uint8_t kMaxFrameMode = 4;
+enum class FrameMode : uint8_t {
+    Interaction = 0,
+    Accumulate = 1,
+    Walkthrough = 2,
+    Converging = 3,
+    Edit = 4,
+    Relight = 5,  ///< version 9
+};
+inline constexpr uint8_t kMaxFrameMode = 5;
 
 /// Server → client: render `frame`. A client resets its photon maps when `epoch` changes.
 /// `sets` lists the sets to render this frame (a subset of, or equal to, the Welcome sets).

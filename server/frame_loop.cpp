@@ -226,7 +226,7 @@ void FrameLoop::beginFrame(TimePoint now) {
     policy_.setProgressive(control_.settings().photons.estimator == CausticEstimatorKind::Progressive);
     FramePlan plan = policy_.plan(f, start->sceneChanged, registry.joinOrder(),
                                   [this](ClientId id) { return assembler_.outstanding(id); }, start->cameraMoved,
-                                  start->still, start->sceneEdited);
+                                  start->still, start->sceneEdited, start->relit);
     if (plan.balanced) {
         std::string share;
         for (ClientId id : registry.joinOrder()) {
@@ -257,7 +257,8 @@ void FrameLoop::beginFrame(TimePoint now) {
     // A frame whose cost the last ones do not predict waits the ceiling, and so does the last
     // frame of a finite run (it is the image written: nothing rendered may be cut short).
     const bool last = opt_.frames > 0 && f + 1 == static_cast<uint64_t>(opt_.frames);
-    const bool epochStart = plan.mode == proto::FrameMode::Interaction || plan.mode == proto::FrameMode::Edit;
+    const bool epochStart = plan.mode == proto::FrameMode::Interaction || plan.mode == proto::FrameMode::Edit ||
+                            plan.mode == proto::FrameMode::Relight;
     const auto deadline = clock_.begin(epochStart || plan.reassigned || last, frameCost(plan.mode));
     // A message that stops halfway is no client building maps: it gets the measured deadline
     // even when this frame waits the ceiling.

@@ -28,7 +28,7 @@ FramePolicy::FramePolicy(uint32_t setCount, bool walkthrough, size_t pipeline, u
 
 FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<ClientId>& joinOrder,
                             const std::function<size_t(ClientId)>& outstanding, bool cameraMoved,
-                            bool cameraStill, bool sceneEdited) {
+                            bool cameraStill, bool sceneEdited, bool relit) {
     for (ClientId id : joinOrder) state_.try_emplace(id);
     // The clients that take sets, in join order; when none does yet, every one does (nobody is
     // rendering for the joiners to wait behind).
@@ -83,6 +83,7 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
     FrameFacts facts;
     facts.epochStart = frame == epochStart_;
     facts.edited = edited && sceneEdited;
+    facts.relit = relit;
     facts.cameraMoved = cameraMoved;
     facts.cameraStill = cameraStill;
     facts.progressive = progressive_;

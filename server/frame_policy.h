@@ -68,11 +68,12 @@ public:
     /// the frame is a Walkthrough (no shooting while the view moves) unless it starts an epoch.
     /// `cameraStill`: the frame's camera equals the previous frame's (progressive: Converging).
     /// `sceneEdited`: among the edits a scene edit (light, material, transform), not only
-    /// settings: the epoch starts with an Edit frame (frame_mode.h).
+    /// settings: the epoch starts with an Edit frame (frame_mode.h). `relit`: every edit is a
+    /// light edit: with `cameraStill` the epoch starts with a Relight frame instead.
     /// `outstanding(id)`: frames sent to client id that it has not finished.
     FramePlan plan(uint64_t frame, bool edited, const std::vector<ClientId>& joinOrder,
                    const std::function<size_t(ClientId)>& outstanding, bool cameraMoved = false,
-                   bool cameraStill = false, bool sceneEdited = false);
+                   bool cameraStill = false, bool sceneEdited = false, bool relit = false);
 
     /// The caustic estimator changed (a settings edit, which also starts an epoch): with the
     /// progressive one, still frames are Converging.

@@ -1,8 +1,10 @@
 // The one edit path and the settings in force; what each frame begins with.
 #include "server/live_control.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <stdexcept>
+#include <variant>
 
 #include "common/core/knobs.h"
 #include "common/scene/gltf_export.h"
@@ -125,6 +127,9 @@ std::optional<FrameStart> LiveControl::startFrame(uint64_t f) {
     start.sceneVersion = live_.version();
     start.sceneChanged = !edits.empty() || settingsChanged_;
     start.sceneEdited = !edits.empty();
+    start.relit = !edits.empty() && !settingsChanged_ &&
+                  std::all_of(edits.begin(), edits.end(),
+                              [](const proto::SceneEdit& e) { return std::holds_alternative<proto::LightEdit>(e); });
     start.cameraMoved = cameraMoved_;
     start.still = still && !cameraMoved_;
     settingsChanged_ = false;

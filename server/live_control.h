@@ -27,6 +27,7 @@ struct FrameStart {
     uint32_t sceneVersion = 1;
     bool sceneChanged = false;  ///< a scene edit or a settings change: a new epoch
     bool sceneEdited = false;   ///< a scene edit (light, material, transform): the epoch starts with an Edit frame
+    bool relit = false;         ///< every edit is a light edit (no settings change): Relight if the camera is still
     bool cameraMoved = false;   ///< a camera edit: a walkthrough frame
     bool still = false;         ///< the camera is where the previous FrameBegin had it, and no edit moved it
 };

@@ -21,12 +21,20 @@ enum class FrameMode : uint8_t {
     /// frame an epoch start: each then costs a knn frame of sampled glass, not a restart's
     /// gathers over the full split trees.
     Edit = 4,
+    /// First frame of an epoch that punctual-light edits alone began, the camera where the
+    /// previous frame had it: what eye rays meet is the previous frame's, so the eye paths'
+    /// deterministic split trees are kept (RenderJob) and only re-lit — the light's direct
+    /// light and the map's k-NN caustic at their end points. As Edit otherwise (no progression
+    /// starts). A light dragged over glass then costs shadow rays and gathers, not split trees,
+    /// and shows the full trees' image instead of sampled glass.
+    Relight = 5,
 };
 
 /// What the frame-mode decision looks at.
 struct FrameFacts {
     bool epochStart = false;   ///< first frame of an epoch (frame 0, or edits/settings come with it)
     bool edited = false;       ///< the epoch starts because of a scene edit (not settings alone)
+    bool relit = false;        ///< every edit that starts the epoch moves or changes a punctual light
     bool cameraMoved = false;  ///< the camera was moved for this frame (the maps are kept)
     bool cameraStill = false;  ///< this frame's camera equals the previous frame's, bit for bit
     bool progressive = false;  ///< the progressive estimator is in use
@@ -35,12 +43,15 @@ struct FrameFacts {
 };
 
 /// The frame's mode. The first frame of an epoch is Interaction, or Edit when an edit began the
-/// epoch; a moved camera is Walkthrough;
+/// epoch (Relight when only punctual-light edits did and the camera is still); a moved camera is
+/// Walkthrough;
 /// with the progressive estimator a still camera is Converging (unless walkthrough was asked
 /// for); otherwise Walkthrough when asked for or when every map is capped, else Accumulate.
 /// Pure; the single place this is decided.
 constexpr FrameMode decideFrameMode(const FrameFacts& f) {
-    if (f.epochStart) return f.edited ? FrameMode::Edit : FrameMode::Interaction;
+    if (f.epochStart)
+        return !f.edited ? FrameMode::Interaction
+                         : f.relit && f.cameraStill && !f.cameraMoved ? FrameMode::Relight : FrameMode::Edit;
     if (f.cameraMoved) return FrameMode::Walkthrough;
     if (f.progressive && f.cameraStill && !f.walkthrough) return FrameMode::Converging;
     if (f.walkthrough || f.allCapped) return FrameMode::Walkthrough;

@@ -57,6 +57,7 @@ RenderJob::RenderJob(std::shared_ptr<RenderScene> scene, const RenderSettings& s
     photons_ = std::make_unique<PhotonMaps>(settings_.photons, sets_);
     photons_->setShareCap(kSharedPhotonBudget / size_t(pattern_.setCount()));
     progressive_.resize(sets_.size());
+    kept_.resize(sets_.size());
     irradiance_ = std::make_unique<IrradiancePoints>(sets_);
 }
 
@@ -70,6 +71,7 @@ FrameStats RenderJob::renderFrame(const Camera& camera, std::vector<SetPixels>& 
     FrameFacts facts;
     facts.epochStart = epochStart_;
     facts.edited = edited_;
+    facts.relit = relit_;
     facts.cameraStill = lastCamera_ && sameCamera(*lastCamera_, camera);
     facts.progressive = settings_.photons.estimator == CausticEstimatorKind::Progressive;
     return renderFrame(camera, decideFrameMode(facts), out, passBatches, nullptr, passPeriod, framesRendered_);
@@ -91,10 +93,11 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     const bool moving = progressive && lastCamera_ && !sameCamera(*lastCamera_, camera);
     // An Edit frame shows the map's k-NN estimate and starts no progression (the next still
     // frame restarts): an edit being dragged costs a knn frame per frame, not a restart's gathers.
-    const bool edit = progressive && mode == FrameMode::Edit;
+    const bool edit = progressive && (mode == FrameMode::Edit || mode == FrameMode::Relight);
     lastCamera_ = camera;
     epochStart_ = false;
     edited_ = false;
+    relit_ = false;
     ++framesRendered_;
     // A pass gathers at the progression's eye records: they must be of this very camera. It shoots
     // only on its set's turn (passShoots over the progression's pass count, which every process
@@ -103,7 +106,10 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     const uint32_t setCount = uint32_t(pattern_.setCount());
     std::vector<uint8_t> converge(sets_.size(), 0), passShot(sets_.size(), 0), batchShot(sets_.size(), 0);
     for (size_t i = 0; i < sets_.size(); ++i) {
-        if (moving) progressive_[i].invalidate();
+        if (moving) {
+            progressive_[i].invalidate();
+            kept_[i] = KeptEyePaths{};  // of another camera: its memory back
+        }
         converge[i] = progressive && mode == FrameMode::Converging && progressive_[i].valid() &&
                       sameCamera(progressive_[i].camera(), camera);
         passShot[i] = converge[i] && passShoots(progressive_[i].passes() + 1, sets_[i], setCount, passPeriod);
@@ -159,10 +165,7 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
             progressive_[i].restart(embree, *photons_, sets_[i], camera, std::move(records),
                                     out[i].pixels);
         } else {
-            // An Edit frame's eye paths sample the dielectric splits, as a moving camera's do: a
-            // light dragged over GLASS paid the full split trees in every frame (480 of 500 ms).
-            renderSet(embree, camera, settings_.eye, pattern_, set, photons_.get(), out[i].pixels,
-                      &stats.eye, nullptr, mode == FrameMode::Edit ? sampleSeedOf(camera) : 0);
+            knnPixels(i, camera, mode, out[i].pixels, stats.eye);
         }
         const bool progression = progressive && !moving && !edit;
         out[i].passes = progression ? progressive_[i].passes() : 0;
@@ -209,7 +212,32 @@ void scatterSet(FrameImage& image, const Interleave& pattern, const SetPixels& p
 void RenderJob::applyEdit(const SceneEdit& edit) {
     scene_->applyEdit(edit);
     resetPhotons();
+    relit_ = (edited_ ? relit_ : true) && edit.kind == SceneEdit::Kind::Light;
     edited_ = true;
+}
+
+void RenderJob::knnPixels(size_t i, const Camera& camera, FrameMode mode, std::span<PixelRadiance> out,
+                          EyeStats& eye) {
+    const EmbreeScene& embree = scene_->embree();
+    const int set = int(sets_[i]);
+    if (mode != FrameMode::Relight) {
+        // An Edit frame's eye paths sample the dielectric splits, as a moving camera's do: a
+        // material or object dragged over GLASS paid the full split trees in every frame.
+        renderSet(embree, camera, settings_.eye, pattern_, set, photons_.get(), out, &eye, nullptr,
+                  mode == FrameMode::Edit ? sampleSeedOf(camera) : 0);
+        return;
+    }
+    KeptEyePaths& kept = kept_[i];
+    if (!kept.camera || !sameCamera(*kept.camera, camera) || kept.eyeVersion != scene_->eyeVersion()) {
+        kept = KeptEyePaths{};
+        std::vector<PixelRadiance> unlit(out.size());
+        renderSet(embree, camera, settings_.eye, pattern_, set, nullptr, unlit, &eye, &kept.records, 0, false);
+        kept.base.resize(unlit.size());
+        for (size_t p = 0; p < unlit.size(); ++p) kept.base[p] = unlit[p].direct;
+        kept.camera = camera;
+        kept.eyeVersion = scene_->eyeVersion();
+    }
+    relightSet(embree, settings_.eye, pattern_, set, photons_.get(), kept.records, kept.base, out, &eye);
 }
 
 void RenderJob::resetPhotons() {

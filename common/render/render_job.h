@@ -39,6 +39,16 @@ struct SetPixels {
 /// the tests and, from the wire, the master do).
 void scatterSet(FrameImage& image, const Interleave& pattern, const SetPixels& pixels);
 
+/// One set's eye paths of one camera and geometry without their lights (renderSet with
+/// recordLights false: its records, and `base`, what the paths meet besides the lights), kept
+/// across Relight frames and re-lit there (relightSet).
+struct KeptEyePaths {
+    std::optional<Camera> camera;  ///< none: nothing kept
+    uint64_t eyeVersion = 0;       ///< RenderScene::eyeVersion when traced
+    EyeRecords records;
+    std::vector<Vec3> base;
+};
+
 /// Figures of one renderFrame call.
 struct FrameStats {
     double shootSeconds = 0.0;     ///< photon shooting + kd-tree insertion, all owned sets
@@ -80,8 +90,10 @@ public:
     /// sample dielectric splits (renderSet's sampleSeed, hashed from the camera). Any other set
     /// that cannot pass (the first frame, the first frame of a camera that stopped, the first
     /// still frame after an edit, a set that moved here), and every set in the other modes but
-    /// Edit, restarts its progression from a record-mode eye pass and the accumulated map. An
-    /// Edit frame starts none: it shows the map's k-NN estimate, as the knn estimator does, so
+    /// Edit or Relight, restarts its progression from a record-mode eye pass and the accumulated
+    /// map. A Relight frame traces each set's deterministic eye paths without lights once per
+    /// camera and geometry (kept while only punctual lights change) and re-lights them
+    /// (relightSet): the same image whether kept or traced now. An Edit or Relight frame starts none: it shows the map's k-NN estimate, as the knn estimator does, so
     /// that an edit per frame (a dragged light) costs a knn frame. The knn estimator has no passes:
     /// Converging shoots a batch as Accumulate does.
     /// `passBatches` (≥ 1): batches a progressive pass shoots (PassBudget); other frames shoot one.
@@ -122,6 +134,10 @@ public:
 private:
     /// Paths traced into the owned sets' maps so far.
     uint64_t pathsTraced() const;
+    /// The pixels of owned set `i` at `camera` with the map's k-NN caustic: a Relight frame
+    /// re-lights the set's KeptEyePaths (traced first when stale), an Edit frame samples the
+    /// dielectric splits, any other traces them all.
+    void knnPixels(size_t i, const Camera& camera, FrameMode mode, std::span<PixelRadiance> out, EyeStats& eye);
 
     std::shared_ptr<RenderScene> scene_;
     RenderSettings settings_;
@@ -129,6 +145,7 @@ private:
     std::vector<uint32_t> sets_;
     std::unique_ptr<PhotonMaps> photons_;
     std::vector<ProgressiveSet> progressive_;  ///< per owned set (progressive estimator)
+    std::vector<KeptEyePaths> kept_;           ///< per owned set (Relight frames)
     /// The owned sets' shots of the last kSharedPhotonLag frames, oldest first (renderFrame
     /// without `shared`).
     std::vector<std::vector<SetPhotons>> shots_;
@@ -139,6 +156,8 @@ private:
     bool epochStart_ = true;
     /// applyEdit began the epoch (renderFrame without a mode: its first frame is an Edit frame).
     bool edited_ = false;
+    /// Every edit since the last frame changed a punctual light (its first frame: Relight if still).
+    bool relit_ = false;
     /// Frames this job rendered (renderFrame without a mode numbers its frames by it).
     uint64_t framesRendered_ = 0;
 };

@@ -12,6 +12,7 @@ void RenderScene::applyEdit(const SceneEdit& edit) {
     Material previous;
     rtpm::applyEdit(*scene_, edit, &previous);  // throws and leaves the scene unchanged if refused
     const Scene& s = *scene_;
+    if (edit.kind != SceneEdit::Kind::Light) ++eyeVersion_;
     switch (edit.kind) {
         case SceneEdit::Kind::Light: break;  // lights are read from the scene at the next batch
         case SceneEdit::Kind::Material:

@@ -32,10 +32,14 @@ public:
     /// The photon maps of every job sharing the scene are then stale (RenderJob::resetPhotons).
     /// Cost: a transform or emission edit rebuilds the flat BVH (O(triangles log triangles)).
     void applyEdit(const SceneEdit& edit);
+    /// Counts the edits that change what an eye ray meets (material, transform; not a punctual
+    /// light's): eye-path records of one camera stay valid while it is unchanged.
+    uint64_t eyeVersion() const { return eyeVersion_; }
 
 private:
     std::unique_ptr<Scene> scene_;  // stable address: EmbreeScene keeps a pointer to it
     std::unique_ptr<EmbreeScene> embree_;
+    uint64_t eyeVersion_ = 0;
 };
 
 }  // namespace rtpm

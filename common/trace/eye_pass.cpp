@@ -39,6 +39,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "common/core/check.h"
@@ -138,6 +139,7 @@ void shadeDiffuse(PixelShading& px, const SurfaceHit& hit, const Material& mat, 
         e.throughput = throughput;
         e.rotation = rot;
         e.pixel = px.pixel;
+        if (!ctx.recordLights) return;  // relightSet lights it
         px.result.direct += throughput * punctualLight(ctx, hit, ns, ng, albedo, px.count, coat);
         e.areaDirect = areaLight(ctx, hit, ns, ng, albedo, rot, px.count, Vec3(0.0f), coat);
         if (!finite(e.areaDirect)) {
@@ -170,6 +172,10 @@ void shadeGlossy(PixelShading& px, const SurfaceHit& hit, Vec3 dir, Vec3 ns, Vec
         vertex.set = uint16_t(ctx.set);
         vertex.depth = uint16_t(path.depth);
         vertex.kind = EyeHit::Kind::Glossy;
+        if (!ctx.recordLights) {  // relightSet traces its trees
+            px.hits->push_back(vertex);
+            return;
+        }
         vertex.areaDirect = glossyTree(ctx, uint32_t(ctx.set), hit, dir, ng, ns, path.depth, rot, 0,
                                        ctx.settings.glossySamples, GlossyCaustic::Record, px.count, px.hits,
                                        &vertex).direct;
@@ -368,11 +374,13 @@ PixelRadiance shadePixel(const Context& ctx, int x, int y, const Ray& primaryRay
 
 void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings& settings,
                const Interleave& pattern, int set, const CausticEstimator* caustics,
-               std::span<PixelRadiance> out, EyeStats* stats, EyeRecords* records, uint64_t sampleSeed) {
+               std::span<PixelRadiance> out, EyeStats* stats, EyeRecords* records, uint64_t sampleSeed,
+               bool recordLights) {
     RTPM_CHECK(set >= 0 && set < pattern.setCount());
     RTPM_CHECK(out.size() == size_t(pattern.pixelCount(set)));
     Context context = makeContext(scene, settings, caustics, set);
     context.sampleSeed = sampleSeed;
+    context.recordLights = recordLights;
     const Context& ctx = context;
     const int rows = pattern.setRows(set);
     const int cols = pattern.setColumns(set);
@@ -448,6 +456,82 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
         stats->nonFinite += nonFinite;
         stats->stackOverflows += overflow;
         stats->sampledSplits += sampled;
+    }
+}
+
+void relightSet(const EmbreeScene& scene, const EyeSettings& settings, const Interleave& pattern, int set,
+                const CausticEstimator* caustics, const EyeRecords& records, std::span<const Vec3> base,
+                std::span<PixelRadiance> out, EyeStats* stats) {
+    RTPM_CHECK(set >= 0 && set < pattern.setCount());
+    RTPM_CHECK(out.size() == size_t(pattern.pixelCount(set)) && base.size() == out.size());
+    RTPM_CHECK(records.firstHit.size() == out.size() + 1);
+    const Context context = makeContext(scene, settings, caustics, set);
+    const Context& ctx = context;
+    const int rows = pattern.setRows(set);
+    const int cols = pattern.setColumns(set);
+    std::atomic<uint64_t> secondary{0}, shadow{0}, nonFinite{0};
+    tbb::parallel_for(tbb::blocked_range<int>(0, rows), [&](const tbb::blocked_range<int>& range) {
+        Counters count;
+        std::vector<CausticRequest> requests;
+        std::vector<CausticQuery> queries;
+        std::vector<Vec3> answers;
+        for (int r = range.begin(); r < range.end(); ++r) {
+            GatherHint hint;  // per row, as renderSet's
+            for (int c0 = 0; c0 < cols; c0 += 8) {
+                const int lanes = std::min(8, cols - c0);
+                requests.clear();
+                for (int l = 0; l < lanes; ++l) {
+                    const size_t n = size_t(r * cols + c0 + l);
+                    PixelRadiance px{base[n], Vec3(0.0f)};
+                    for (uint32_t k = records.firstHit[n]; k < records.firstHit[n + 1]; ++k) {
+                        const EyeHit& e = records.hits[k];
+                        const Material& m = ctx.scene.materials[e.hit.material];
+                        if (e.kind == EyeHit::Kind::Glossy) {
+                            const GlossyRadiance g =
+                                glossyTree(ctx, uint32_t(set), e.hit, -e.wo, e.geometricNormal, e.normal, e.depth,
+                                           e.rotation, 0, settings.glossySamples, GlossyCaustic::Lookup, count);
+                            px.direct += e.throughput * g.direct;
+                            px.caustic += e.throughput * g.caustic;
+                        } else if (e.kind == EyeHit::Kind::EndPoint) {
+                            std::optional<PlasticBsdf> coat;  // a plastic's base: lit through its coat
+                            if (m.type == MaterialType::Plastic) coat.emplace(m);
+                            px.direct += e.throughput * directLight(ctx, e.hit, e.normal, e.geometricNormal, e.albedo,
+                                                                    e.rotation, count, coat ? &*coat : nullptr);
+                            if (caustics) requests.push_back(CausticRequest{e.hit, e.normal, e.albedo, e.throughput, l});
+                        }
+                    }
+                    if (!finite(px.direct)) {
+                        px.direct = Vec3(0.0f);
+                        ++count.nonFinite;
+                    }
+                    out[n] = px;
+                }
+                if (!requests.empty()) {
+                    queries.resize(requests.size());
+                    answers.resize(requests.size());
+                    for (size_t i = 0; i < requests.size(); ++i)
+                        queries[i] = CausticQuery{&requests[i].hit, requests[i].normal, requests[i].albedo};
+                    caustics->radianceGroup(ctx.es, uint32_t(set), queries, answers, &hint);
+                    for (size_t i = 0; i < requests.size(); ++i)
+                        out[size_t(r * cols + c0 + requests[i].lane)].caustic += requests[i].throughput * answers[i];
+                }
+                for (int l = 0; l < lanes; ++l) {
+                    Vec3& caustic = out[size_t(r * cols + c0 + l)].caustic;
+                    if (!finite(caustic)) {
+                        caustic = Vec3(0.0f);
+                        ++count.nonFinite;
+                    }
+                }
+            }
+        }
+        secondary += count.secondary;
+        shadow += count.shadow;
+        nonFinite += count.nonFinite;
+    });
+    if (stats) {
+        stats->secondaryRays += secondary;
+        stats->shadowRays += shadow;
+        stats->nonFinite += nonFinite;
     }
 }
 

@@ -84,13 +84,28 @@ struct EyeRecords {
 void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings& settings,
                const Interleave& pattern, int set, const CausticEstimator* caustics,
                std::span<PixelRadiance> out, EyeStats* stats = nullptr,
-               EyeRecords* records = nullptr, uint64_t sampleSeed = 0);
+               EyeRecords* records = nullptr, uint64_t sampleSeed = 0, bool recordLights = true);
 
 /// Record mode (`records` given to renderSet): the diffuse end points and glossy vertices go to
 /// `records` (behind a glossy vertex, the end points its restart samples reached, for their
 /// caustic only); out[p].direct then holds everything but the area-light term at the end points
 /// and what arrives at the glossy vertices (each EyeHit::areaDirect holds it, unweighted by the
 /// throughput), and no caustic is looked up (out[p].caustic = 0).
+/// With `recordLights` false the records keep no light at all: out[p].direct is only what the
+/// eye paths meet on their way (emission, the world light seen, unlit surfaces), every
+/// areaDirect is 0 and a glossy vertex is recorded without tracing its trees: what relightSet
+/// completes, for any lights.
+
+/// The pixels of `set` from records of renderSet(…, recordLights = false) of the same camera and
+/// geometry (`base`: that call's out[p].direct): `base` plus, at each diffuse end point, its
+/// direct light by shadow rays (as renderSet's) and its caustic from `caustics` (grouped per 8
+/// pixels as renderSet does), and at each glossy vertex its sampled trees (pass 0). The image of
+/// renderSet with deterministic splits for the scene's lights now, up to the order of the sums:
+/// moving or changing a punctual light needs no eye ray but shadow rays. Parallel over rows,
+/// independent of the thread count. Output is always finite.
+void relightSet(const EmbreeScene& scene, const EyeSettings& settings, const Interleave& pattern, int set,
+                const CausticEstimator* caustics, const EyeRecords& records, std::span<const Vec3> base,
+                std::span<PixelRadiance> out, EyeStats* stats = nullptr);
 
 /// The per-pass samples at recorded eye hits, for progressive passes: the area lights
 /// (emissive triangles) and the world light at a diffuse end point, fresh BSDF samples and the

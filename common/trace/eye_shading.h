@@ -38,6 +38,7 @@ struct Context {
     Vec3 emitterCentre{0.0f}; // bounding sphere of the emissive triangles
     float emitterRadius2 = 0.0f;
     const Environment* environment = nullptr;  // null when the scene has no world light
+    bool recordLights = true;  // record mode: the end points' lights in out and the records (renderSet)
 };
 
 struct Counters {

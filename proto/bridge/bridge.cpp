@@ -25,7 +25,8 @@ static_assert(uint8_t(FrameMode::Interaction) == uint8_t(proto::FrameMode::Inter
               uint8_t(FrameMode::Walkthrough) == uint8_t(proto::FrameMode::Walkthrough) &&
               uint8_t(FrameMode::Converging) == uint8_t(proto::FrameMode::Converging) &&
               uint8_t(FrameMode::Edit) == uint8_t(proto::FrameMode::Edit) &&
-              proto::kMaxFrameMode == uint8_t(FrameMode::Edit));
+              uint8_t(FrameMode::Relight) == uint8_t(proto::FrameMode::Relight) &&
+              proto::kMaxFrameMode == uint8_t(FrameMode::Relight));
 
 proto::FrameMode toWire(FrameMode mode) { return proto::FrameMode(uint8_t(mode)); }
 FrameMode fromWire(proto::FrameMode mode) { return FrameMode(uint8_t(mode)); }

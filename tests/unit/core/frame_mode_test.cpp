@@ -39,6 +39,27 @@ TEST(FrameMode, AnEpochAnEditBeganStartsWithAnEditFrameWhateverElseHolds) {
     }
 }
 
+TEST(FrameMode, AnEpochThatLightEditsAloneBeganAtAStillCameraStartsWithARelightFrame) {
+    for (int bits = 0; bits < 32; ++bits) {
+        FrameFacts f;
+        f.epochStart = true;
+        f.edited = true;
+        f.relit = true;
+        f.cameraMoved = bits & 1;
+        f.cameraStill = bits & 2;
+        f.progressive = bits & 4;
+        f.walkthrough = bits & 8;
+        f.allCapped = bits & 16;
+        const bool still = f.cameraStill && !f.cameraMoved;
+        EXPECT_EQ(decideFrameMode(f), still ? FrameMode::Relight : FrameMode::Edit) << "facts " << bits;
+        f.edited = false;  // a settings change alone: relit means nothing
+        EXPECT_EQ(decideFrameMode(f), FrameMode::Interaction) << "facts " << bits;
+        f.edited = true;
+        f.epochStart = false;
+        EXPECT_NE(decideFrameMode(f), FrameMode::Relight) << "facts " << bits;
+    }
+}
+
 TEST(FrameMode, AMovedCameraIsAWalkthrough) {
     EXPECT_EQ(decide(false, true, false, true, false, false), FrameMode::Walkthrough);
     EXPECT_EQ(decide(false, true, true, true, false, false), FrameMode::Walkthrough);

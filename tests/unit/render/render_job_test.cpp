@@ -1,6 +1,7 @@
 // RenderJob's choice of estimator per frame: a moving camera's frames take the irradiance points,
 // the first frame of a camera that stopped restarts the progression, later ones are passes; an
-// edit's first frame shows the map's k-NN estimate and the next still frame restarts.
+// edit's first frame shows the map's k-NN estimate and the next still frame restarts; a light
+// edit's at a still camera re-lights kept eye paths.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -149,7 +150,8 @@ TEST(RenderJob, AnEditFrameShowsTheKnnEstimateAndTheNextStillFrameRestarts) {
 }
 
 // An Edit frame samples the dielectric splits (one branch each) where the epoch's first frame of
-// a still view traces both: GLASS's edit frames trace far fewer secondary rays.
+// a still view traces both: GLASS's edit frames trace far fewer secondary rays. (A light edit
+// alone makes a Relight frame instead: below.)
 TEST(RenderJob, AnEditFrameSamplesTheDielectricSplits) {
     Scene scene = buildGlassScene();
     const Camera camera = *scene.camera;
@@ -165,15 +167,86 @@ TEST(RenderJob, AnEditFrameSamplesTheDielectricSplits) {
     const FrameStats first = job.renderFrame(camera, out);
     EXPECT_EQ(first.eye.sampledSplits, 0u);
     SceneEdit edit;
-    edit.kind = SceneEdit::Kind::Light;
-    edit.index = 0;
-    edit.light = scene.lights[0];
-    edit.light.position.x += 0.05f;
+    edit.kind = SceneEdit::Kind::Transform;
+    edit.index = 0;  // the table, 1 mm lower
+    edit.transform[3] = glm::vec4(0.0f, -0.001f, 0.0f, 1.0f);
     job.applyEdit(edit);
     const FrameStats edited = job.renderFrame(camera, out);
     EXPECT_GT(edited.eye.sampledSplits, 0u);
     EXPECT_LT(edited.eye.secondaryRays, first.eye.secondaryRays / 2) << first.eye.secondaryRays;
     EXPECT_EQ(edited.eye.nonFinite, 0u);
+}
+
+// A light edit alone at a still camera: the Relight frame traces the deterministic eye paths
+// once, without their lights, and re-lights them at the next light edits with shadow rays alone.
+// Kept or traced afresh (a job that joins later), the pixels are the same bit for bit, and their
+// direct light is the deterministic eye pass's at the moved light (up to the order of the sums).
+TEST(RenderJob, ARelightFrameKeepsTheEyePathsAndOnlyRelightsThem) {
+    Scene scene = buildGlassScene();
+    const Camera camera = *scene.camera;
+    ASSERT_FALSE(scene.lights.empty());
+    RenderSettings rs;
+    rs.width = 48;
+    rs.height = 36;
+    rs.interleave = 2;
+    rs.photons.photonsPerBatch = 2000;
+    const std::vector<uint32_t> sets{0, 1, 2, 3};
+    RenderJob kept(scene, rs, sets), fresh(scene, rs, sets);
+    std::vector<SetPixels> out, ref;
+    const FrameStats first = kept.renderFrame(camera, out);
+    fresh.renderFrame(camera, ref);
+    SceneEdit edit;
+    edit.kind = SceneEdit::Kind::Light;
+    edit.index = 0;
+    edit.light = scene.lights[0];
+    edit.light.position.x += 0.05f;
+    kept.applyEdit(edit);
+    const FrameStats traced = kept.renderFrame(camera, out);
+    EXPECT_EQ(traced.eye.sampledSplits, 0u) << "the full split trees";
+    EXPECT_EQ(traced.eye.secondaryRays, first.eye.secondaryRays);
+    edit.light.position.z += 0.05f;
+    kept.applyEdit(edit);
+    const FrameStats relit = kept.renderFrame(camera, out);
+    EXPECT_EQ(relit.eye.primaryRays + relit.eye.secondaryRays, 0u) << "no eye ray: the paths were kept";
+    EXPECT_GT(relit.eye.shadowRays, 0u);
+    EXPECT_EQ(relit.eye.nonFinite, 0u);
+    fresh.applyEdit(edit);
+    fresh.renderFrame(camera, ref);
+    ASSERT_EQ(out.size(), ref.size());
+    for (size_t i = 0; i < out.size(); ++i)
+        for (size_t p = 0; p < out[i].pixels.size(); ++p)
+            ASSERT_EQ(std::memcmp(&out[i].pixels[p].direct, &ref[i].pixels[p].direct, sizeof(Vec3)), 0)
+                << "set " << i << " pixel " << p;
+
+    // The direct light against a deterministic eye pass at the moved light.
+    Scene moved = scene;
+    moved.lights[0] = edit.light;
+    const EmbreeScene es(moved);
+    const Interleave pattern{rs.width, rs.height, rs.interleave};
+    double diff = 0.0, total = 0.0;
+    for (size_t i = 0; i < out.size(); ++i) {
+        std::vector<PixelRadiance> det(out[i].pixels.size());
+        renderSet(es, camera, rs.eye, pattern, out[i].set, nullptr, det);
+        for (size_t p = 0; p < det.size(); ++p)
+            for (int c = 0; c < 3; ++c) {
+                diff += std::abs(double(out[i].pixels[p].direct[c]) - double(det[p].direct[c]));
+                total += double(det[p].direct[c]);
+            }
+    }
+    EXPECT_GT(total, 0.0);
+    EXPECT_LT(diff / total, 1e-5) << "relit direct light off the deterministic eye pass's";
+    // The test can fail: the light where it was before the last edit is another image.
+    Scene before = scene;
+    before.lights[0].position = edit.light.position - Vec3(0.0f, 0.0f, 0.05f);
+    const EmbreeScene esBefore(before);
+    double other = 0.0;
+    for (size_t i = 0; i < out.size(); ++i) {
+        std::vector<PixelRadiance> det(out[i].pixels.size());
+        renderSet(esBefore, camera, rs.eye, pattern, out[i].set, nullptr, det);
+        for (size_t p = 0; p < det.size(); ++p)
+            for (int c = 0; c < 3; ++c) other += std::abs(double(out[i].pixels[p].direct[c]) - double(det[p].direct[c]));
+    }
+    EXPECT_GT(other / total, 1e-3);
 }
 
 // Accumulate frames with a period: a set shoots its batch in the frames passShoots names by the

@@ -36,6 +36,11 @@ TEST(FramePolicy, EditsStartANewEpochWithAnEditFrameAndResetCapped) {
     EXPECT_EQ(e.mode, proto::FrameMode::Edit);
     EXPECT_EQ(e.epoch, 1u);
     EXPECT_EQ(p.plan(3, false, clients, none).mode, proto::FrameMode::Accumulate);
+    // Light edits alone at a still camera: a Relight frame; with the camera moved, an Edit frame.
+    FramePlan r = p.plan(4, true, clients, none, false, /*cameraStill=*/true, true, /*relit=*/true);
+    EXPECT_EQ(r.mode, proto::FrameMode::Relight);
+    EXPECT_EQ(r.epoch, 2u);
+    EXPECT_EQ(p.plan(5, true, clients, none, false, /*cameraStill=*/false, true, true).mode, proto::FrameMode::Edit);
 }
 
 TEST(FramePolicy, CameraMovesAreWalkthroughFramesAndDoNotMarkClientsCapped) {
