@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <functional>
 #include <map>
 #include <sstream>
@@ -510,6 +511,32 @@ TEST(ClusterImageGlossySamples, TheKnobReachesTheClientsByFlagAndByEditScript) {
     for (auto& cl : c.clients) c.expectClientExits(*cl, client::kExitOk);
     const ExrImage got = readExr(c.outPath());
     for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
+}
+
+// Light edits at a still camera are Relight frames: each client keeps its sets' eye paths across
+// the edits and re-lights them. One client or two, the image is the same bit for bit.
+TEST(ClusterImageRelight, LightEditsAtAStillCameraGiveOneImageForAnySetSplit) {
+    RunSettings rs;
+    rs.scene = "GLASS";
+    rs.frames = 4;
+    std::vector<ExrImage> images;
+    for (int clients : {1, 2}) {
+        Cluster c;
+        const std::string script = c.dir.file("edits.txt");
+        std::ofstream(script) << "frame 1 light 0 position -0.3 0.32 -0.08\n"
+                                 "frame 2 light 0 position -0.28 0.32 -0.06\n"
+                                 "frame 3 light 0 position -0.26 0.32 -0.04\n";
+        c.startServer(rs, clients, "float32", {"--edit-script", script, "--csv", c.dir.file("frames.csv")});
+        for (int i = 0; i < clients; ++i) c.startClient();
+        c.expectServerFinishes(120s);
+        for (auto& cl : c.clients) c.expectClientExits(*cl, client::kExitOk);
+        std::ifstream csv(c.dir.file("frames.csv"));
+        const std::string rows((std::istreambuf_iterator<char>(csv)), std::istreambuf_iterator<char>());
+        EXPECT_NE(rows.find(",relight,"), std::string::npos) << rows;
+        images.push_back(readExr(c.outPath()));
+    }
+    expectNonTrivial(images[0]);
+    for (const char* layer : kLayers) expectBitIdentical(images[1], images[0], layer);
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, ClusterImageGlossy,
