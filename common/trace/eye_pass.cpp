@@ -246,6 +246,27 @@ bool splitDielectric(PixelShading& px, const SurfaceHit& hit, const Material& ma
     return false;
 }
 
+/// Answers a packet's queued caustic lookups as one group (CausticEstimator::radianceGroup, with the
+/// row's `hint`) and adds throughput × radiance to their pixels (`packet`: the packet's pixels, by
+/// lane); `queries` and `answers` are scratch. A non-finite caustic becomes 0 and is counted.
+void answerCaustics(const Context& ctx, const std::vector<CausticRequest>& requests, std::vector<CausticQuery>& queries,
+                    std::vector<Vec3>& answers, GatherHint& hint, std::span<PixelRadiance> packet, Counters& count) {
+    if (!requests.empty()) {
+        queries.resize(requests.size());
+        answers.resize(requests.size());
+        for (size_t i = 0; i < requests.size(); ++i)
+            queries[i] = CausticQuery{&requests[i].hit, requests[i].normal, requests[i].albedo};
+        ctx.caustics->radianceGroup(ctx.es, uint32_t(ctx.set), queries, answers, &hint);
+        for (size_t i = 0; i < requests.size(); ++i)
+            packet[size_t(requests[i].lane)].caustic += requests[i].throughput * answers[i];
+    }
+    for (PixelRadiance& p : packet)
+        if (!finite(p.caustic)) {
+            p.caustic = Vec3(0.0f);
+            ++count.nonFinite;
+        }
+}
+
 /// `stack` is kStackSize entries of scratch owned by the calling task: constructing the split
 /// stack per pixel (64 rays with their default values) cost more than a typical pixel's shading.
 /// With `hits` (record mode) the diffuse end points are appended to it (pixel index `pixel`),
@@ -417,22 +438,8 @@ void renderSet(const EmbreeScene& scene, const Camera& camera, const EyeSettings
                                                 uint32_t(n));
                 }
                 // The packet's caustic lookups as one group (neighbouring hits share their search).
-                if (!requests.empty()) {
-                    queries.resize(requests.size());
-                    answers.resize(requests.size());
-                    for (size_t i = 0; i < requests.size(); ++i)
-                        queries[i] = CausticQuery{&requests[i].hit, requests[i].normal, requests[i].albedo};
-                    ctx.caustics->radianceGroup(ctx.es, uint32_t(ctx.set), queries, answers, &hint);
-                    for (size_t i = 0; i < requests.size(); ++i)
-                        out[size_t(r * cols + c0 + requests[i].lane)].caustic += requests[i].throughput * answers[i];
-                    for (int l = 0; l < lanes; ++l) {
-                        Vec3& caustic = out[size_t(r * cols + c0 + l)].caustic;
-                        if (!finite(caustic)) {
-                            caustic = Vec3(0.0f);
-                            ++count.nonFinite;
-                        }
-                    }
-                }
+                answerCaustics(ctx, requests, queries, answers, hint, out.subspan(size_t(r * cols + c0), size_t(lanes)),
+                               count);
             }
         }
         primary += count.primary;
@@ -506,22 +513,8 @@ void relightSet(const EmbreeScene& scene, const EyeSettings& settings, const Int
                     }
                     out[n] = px;
                 }
-                if (!requests.empty()) {
-                    queries.resize(requests.size());
-                    answers.resize(requests.size());
-                    for (size_t i = 0; i < requests.size(); ++i)
-                        queries[i] = CausticQuery{&requests[i].hit, requests[i].normal, requests[i].albedo};
-                    caustics->radianceGroup(ctx.es, uint32_t(set), queries, answers, &hint);
-                    for (size_t i = 0; i < requests.size(); ++i)
-                        out[size_t(r * cols + c0 + requests[i].lane)].caustic += requests[i].throughput * answers[i];
-                }
-                for (int l = 0; l < lanes; ++l) {
-                    Vec3& caustic = out[size_t(r * cols + c0 + l)].caustic;
-                    if (!finite(caustic)) {
-                        caustic = Vec3(0.0f);
-                        ++count.nonFinite;
-                    }
-                }
+                answerCaustics(ctx, requests, queries, answers, hint, out.subspan(size_t(r * cols + c0), size_t(lanes)),
+                               count);
             }
         }
         secondary += count.secondary;
