@@ -271,6 +271,10 @@ std::vector<uint8_t> encodeGlb(const Scene& scene) {
     model.scenes.emplace_back();
     model.scenes[0].name = scene.name;
     model.defaultScene = 0;
+    // glTF has no world light. A scene without one says so, so that loading the file back adds
+    // no default sky (loadScene); a world light is not written (the wire carries it apart).
+    if (scene.environment.empty())
+        model.scenes[0].extras = tinygltf::Value(tinygltf::Value::Object{{"rtpm_world", tinygltf::Value(std::string("none"))}});
 
     for (size_t ti = 0; ti < scene.textures.size(); ++ti) {
         std::vector<unsigned char> png = encodePng(scene.textures[ti], scene.name);

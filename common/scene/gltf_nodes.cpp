@@ -228,6 +228,11 @@ Scene GltfImporter::run() {
             fail("scene", "default scene " + std::to_string(s) + " out of range");
         roots = model_.scenes[size_t(s)].nodes;
         scene_.name = model_.scenes[size_t(s)].name;
+        const tinygltf::Value& extras = model_.scenes[size_t(s)].extras;
+        if (extras.IsObject() && extras.Has("rtpm_world")) {
+            const tinygltf::Value& world = extras.Get("rtpm_world");
+            scene_.worldless = world.IsString() && world.Get<std::string>() == "none";
+        }
     } else {
         // No scenes: every node that is nobody's child is a root.
         std::vector<uint8_t> isChild(model_.nodes.size(), 0);

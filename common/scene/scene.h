@@ -191,6 +191,9 @@ struct Scene {
     Environment environment;  ///< the world light; empty() when there is none (the default)
     std::optional<Camera> camera;
     std::vector<std::string> warnings;  ///< unsupported features met while loading
+    /// The file says it has no world light (rtpm's own .glb export of a scene without one, glTF
+    /// scene extras `"rtpm_world": "none"`): loadScene adds no default sky to it.
+    bool worldless = false;
 
     /// World bounds of every instance (empty scene → empty bounds). Cost O(vertices).
     Bounds bounds() const;

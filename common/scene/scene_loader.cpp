@@ -172,7 +172,7 @@ Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides,
             nameOrPath + ": no light and no emissive material that emits; added the default spot light (at " + at(light.position) +
             ", behind the scene, for caustics) and a key light from the camera's side (at " + at(key.position) +
             "), both aimed at the scene's centre, and a dim grey sky; see README. --no-default-light refuses such scenes");
-    } else if (overrides.defaultLight && scene.environment.empty() && !isBuiltinScene(nameOrPath) &&
+    } else if (overrides.defaultLight && scene.environment.empty() && !scene.worldless && !isBuiltinScene(nameOrPath) &&
                std::none_of(scene.lights.begin(), scene.lights.end(),
                             [](const Light& l) { return maxComponent(l.intensity) > 0.0f; })) {
         // A file lit by its emissive surfaces alone: what they do not reach would be black, where
