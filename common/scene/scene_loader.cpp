@@ -26,11 +26,13 @@ Camera defaultCamera(const Bounds& b) {
     return Camera::lookAt(eye, centre, Vec3(0, 1, 0), yfov);
 }
 
+// A light of zero intensity lights nothing.
+bool emits(const Light& l) { return maxComponent(l.intensity) > 0.0f; }
+
 // True when some light or emissive surface of `s` emits: a light of zero intensity, or an emissive
 // material whose emissive texture is black everywhere (factor × texture = 0), lights nothing.
 bool hasLightOrEmitter(const Scene& s) {
-    for (const Light& l : s.lights)
-        if (maxComponent(l.intensity) > 0.0f) return true;
+    if (std::any_of(s.lights.begin(), s.lights.end(), emits)) return true;
     for (const Instance& inst : s.instances) {
         if (inst.mesh >= s.meshes.size() || s.meshes[inst.mesh].material >= s.materials.size()) continue;
         const Material& m = s.materials[s.meshes[inst.mesh].material];
@@ -173,8 +175,7 @@ Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides,
             ", behind the scene, for caustics) and a key light from the camera's side (at " + at(key.position) +
             "), both aimed at the scene's centre, and a dim grey sky; see README. --no-default-light refuses such scenes");
     } else if (overrides.defaultLight && scene.environment.empty() && !scene.worldless && !isBuiltinScene(nameOrPath) &&
-               std::none_of(scene.lights.begin(), scene.lights.end(),
-                            [](const Light& l) { return maxComponent(l.intensity) > 0.0f; })) {
+               std::none_of(scene.lights.begin(), scene.lights.end(), emits)) {
         // A file lit by its emissive surfaces alone: what they do not reach would be black, where
         // Blender (and a glTF viewer) shows the world it always has, which glTF cannot carry.
         scene.environment = defaultSky();

@@ -4,8 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <numeric>
 #include <string>
 #include <vector>
@@ -16,13 +14,14 @@
 #include "common/scene/gltf_export.h"
 #include "common/scene/scene_loader.h"
 #include "tests/support/gltf_builder.h"
+#include "tests/support/scratch_dir.h"
 #include "tests/support/test_scenes.h"
 
 namespace rtpm {
 namespace {
 
-namespace fs = std::filesystem;
 using testgltf::GltfBuilder;
+using testsupport::ScratchDir;
 using testgltf::pngBytes;
 using testscenes::addMaterial;
 using testscenes::addMesh;
@@ -115,8 +114,7 @@ TEST(GlossyHighlight, FrostedGlassReflectsThePointLightAndShowsNothingThroughIt)
 TEST(GlossyHighlight, EmittersThatEmitNothingGetTheDefaultLightsAndEmittersAloneTheSky) {
     // A cube-like quad whose emissive factor is multiplied by an all-black emissive texture (as a
     // Blender export can write): no light at all, so the default lights and sky come in.
-    const fs::path dir = fs::temp_directory_path() / ("rtpm_black_emitter_" + std::to_string(::getpid()));
-    fs::create_directories(dir);
+    ScratchDir dir;
     GltfBuilder b;
     const int img = b.image(pngBytes(2, 2, std::vector<uint8_t>(12, 0)), "image/png");
     const float c[3] = {0, 0, 0}, u[3] = {1, 0, 0}, v[3] = {0, 0, -1};
@@ -126,9 +124,7 @@ TEST(GlossyHighlight, EmittersThatEmitNothingGetTheDefaultLightsAndEmittersAlone
             R"("scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],"meshes":[{"primitives":[)" + quadJson +
             R"(,"material":0}]}],"materials":[{"emissiveFactor":[1,1,1])" + texture +
             R"(,"pbrMetallicRoughness":{"metallicFactor":0}}],"textures":[{"source":)" + std::to_string(img) + "}]";
-        const std::string path = (dir / name).string();
-        std::ofstream(path, std::ios::binary) << b.json(json);
-        return path;
+        return dir.write(name, b.json(json));
     };
     const Scene black = loadScene(write("black.gltf", R"(,"emissiveTexture":{"index":0})"));
     EXPECT_EQ(black.lights.size(), 2u) << "the default spot and key lights";
@@ -145,18 +141,15 @@ TEST(GlossyHighlight, EmittersThatEmitNothingGetTheDefaultLightsAndEmittersAlone
     const Scene bare = loadScene(litPath, strict);
     EXPECT_TRUE(bare.lights.empty());
     EXPECT_TRUE(bare.environment.empty());
-    std::error_code ec;
-    fs::remove_all(dir, ec);
 }
 
 // A scene rtpm exports without a world light (RING: lit by its emissive lamp alone) says so in
 // the file, so loading the file back adds no default sky: the .glb renders as the scene did.
 TEST(GlossyHighlight, AnExportedSceneWithoutAWorldLoadsBackWithoutTheDefaultSky) {
-    const fs::path dir = fs::temp_directory_path() / ("rtpm_worldless_" + std::to_string(::getpid()));
-    fs::create_directories(dir);
+    ScratchDir dir;
     const Scene ring = buildBuiltinScene("RING");
     ASSERT_TRUE(ring.environment.empty());
-    const std::string path = (dir / "ring.glb").string();
+    const std::string path = dir.file("ring.glb");
     exportGlb(ring, path);
     const Scene back = loadScene(path);
     EXPECT_TRUE(back.worldless);
@@ -169,8 +162,6 @@ TEST(GlossyHighlight, AnExportedSceneWithoutAWorldLoadsBackWithoutTheDefaultSky)
     const Scene skyBack = loadScene(path);
     EXPECT_FALSE(skyBack.worldless);
     EXPECT_FALSE(skyBack.environment.empty());
-    std::error_code ec;
-    fs::remove_all(dir, ec);
 }
 
 }  // namespace

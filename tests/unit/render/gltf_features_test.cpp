@@ -23,6 +23,7 @@
 #include "common/scene/scene_loader.h"
 #include "common/trace/eye_pass.h"
 #include "tests/support/gltf_builder.h"
+#include "tests/support/scratch_dir.h"
 #include "tests/support/test_scenes.h"
 
 namespace rtpm {
@@ -35,28 +36,7 @@ using testscenes::addMaterial;
 using testscenes::addMesh;
 using testscenes::quad;
 
-// A scratch directory per test, removed afterwards.
-class ScratchDir {
-public:
-    ScratchDir() {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        path_ = fs::temp_directory_path() /
-                ("rtpm_features_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-        fs::create_directories(path_);
-    }
-    ~ScratchDir() {
-        std::error_code ec;
-        fs::remove_all(path_, ec);
-    }
-    std::string write(const std::string& name, const std::string& bytes) const {
-        const std::string p = (path_ / name).string();
-        std::ofstream(p, std::ios::binary) << bytes;
-        return p;
-    }
-
-private:
-    fs::path path_;
-};
+using testsupport::ScratchDir;
 
 // Rendered buffers of a scene (scene camera), after `frames` frames.
 struct Picture {

@@ -149,6 +149,16 @@ TEST(RenderJob, AnEditFrameShowsTheKnnEstimateAndTheNextStillFrameRestarts) {
     EXPECT_EQ(st.passes, 1u);
 }
 
+// GLASS at 48×36, M = 2 (four sets), 2000 paths per set and frame.
+RenderSettings smallGlassSettings() {
+    RenderSettings rs;
+    rs.width = 48;
+    rs.height = 36;
+    rs.interleave = 2;
+    rs.photons.photonsPerBatch = 2000;
+    return rs;
+}
+
 // An Edit frame samples the dielectric splits (one branch each) where the epoch's first frame of
 // a still view traces both: GLASS's edit frames trace far fewer secondary rays. (A light edit
 // alone makes a Relight frame instead: below.)
@@ -156,11 +166,7 @@ TEST(RenderJob, AnEditFrameSamplesTheDielectricSplits) {
     Scene scene = buildGlassScene();
     const Camera camera = *scene.camera;
     ASSERT_FALSE(scene.lights.empty());
-    RenderSettings rs;
-    rs.width = 48;
-    rs.height = 36;
-    rs.interleave = 2;
-    rs.photons.photonsPerBatch = 2000;
+    const RenderSettings rs = smallGlassSettings();
     const std::vector<uint32_t> sets{0, 1, 2, 3};
     RenderJob job(scene, rs, sets);
     std::vector<SetPixels> out;
@@ -185,11 +191,7 @@ TEST(RenderJob, ARelightFrameKeepsTheEyePathsAndOnlyRelightsThem) {
     Scene scene = buildGlassScene();
     const Camera camera = *scene.camera;
     ASSERT_FALSE(scene.lights.empty());
-    RenderSettings rs;
-    rs.width = 48;
-    rs.height = 36;
-    rs.interleave = 2;
-    rs.photons.photonsPerBatch = 2000;
+    const RenderSettings rs = smallGlassSettings();
     const std::vector<uint32_t> sets{0, 1, 2, 3};
     RenderJob kept(scene, rs, sets), fresh(scene, rs, sets);
     std::vector<SetPixels> out, ref;
