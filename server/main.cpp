@@ -9,6 +9,7 @@
 #include "common/core/output_file.h"
 #include "common/core/strings.h"
 #include "common/scene/scene_loader.h"
+#include "common/trace/light_probe.h"
 #include "server/script/script_edit.h"
 #include "common/image/image_io.h"
 #include "server/master.h"
@@ -56,6 +57,7 @@ int run(int argc, char** argv) {
     if (!o.portFile.empty()) prepareOutputFile("--port-file", o.portFile);
     flags.overrides.defaultLight = !flags.noDefaultLight;
     Scene scene = loadScene(o.sceneName, flags.overrides, flags.sceneInput);
+    addSkyWhereLightsMissTheView(scene, o.sceneName, flags.overrides.defaultLight);
     for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     if (!flags.editScript.empty()) {
         o.script = server::loadEditScript(flags.editScript);

@@ -1,0 +1,30 @@
+// How much of what the camera sees the scene's punctual lights reach, and the dim sky a file gets
+// when they reach almost none of it.
+#pragma once
+
+#include <string>
+
+#include "common/scene/scene.h"
+
+namespace rtpm {
+
+/// Share, in [0, 1], of the camera's view that some punctual light lights directly: primary rays
+/// through a columns × rows grid (the default image's 4:3), and of those that hit a surface, the
+/// share where a point, spot or directional light stands in front of the surface (facing the
+/// camera) at more than a grazing 3°, inside its spot cone, unshadowed; a hit on an emissive
+/// surface counts as lit (it shows itself), what emissive surfaces light does not. 1 when no ray
+/// hits anything (nothing to light). Builds its own Embree scene; `scene` needs a camera.
+float directlyLitShare(const Scene& scene, int columns = 64, int rows = 48);
+
+/// The share below which a file's view counts as unlit (directlyLitShare): its lights leave three
+/// quarters of what the camera sees dark.
+inline constexpr float kUnlitViewShare = 0.25f;
+
+/// A scene file (not a built-in scene) with no world light, not marked worldless by our own
+/// export, whose punctual lights reach less than kUnlitViewShare of its camera's view, gets
+/// defaultSky() as its world and a warning naming the share: Blender shows such a file under its
+/// world, which glTF cannot carry (a sun grazing the floor the camera looks down on). Nothing
+/// when `defaultLight` is false (--no-default-light). Returns true when the sky was added.
+bool addSkyWhereLightsMissTheView(Scene& scene, const std::string& nameOrPath, bool defaultLight);
+
+}  // namespace rtpm
