@@ -17,13 +17,14 @@ build=(
     libopenexr-dev libstb-dev
     libasio-dev libwebsocketpp-dev libturbojpeg0-dev
     libtinygltf-dev nlohmann-json3-dev libtinyobjloader-dev
+    libdraco-dev  # KHR_draco_mesh_compression (common/scene/gltf_draco.cpp)
     libcli11-dev
     libzstd-dev
     libssl-dev  # libcrypto: HMAC-SHA256 and nonces of the cluster handshake (proto/auth.h)
 )
 runtime=(
     libembree3-3 libtbb12 libopenexr-3-1-30 libstb0 libtinyobjloader2rc10 libzstd1
-    libturbojpeg0 libssl3
+    libturbojpeg0 libssl3 libdraco7
 )
 dev=(
     "${build[@]}" git

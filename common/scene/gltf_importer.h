@@ -3,7 +3,7 @@
 //
 // Its members live by section: gltf_accessors.cpp (accessor and byte-range checks),
 // gltf_materials.cpp (extensions, materials, textures), gltf_meshes.cpp (primitives to meshes),
-// gltf_nodes.cpp (the node hierarchy: transforms, instances, cameras, lights; run()).
+// gltf_draco.cpp (Draco-compressed primitives), gltf_nodes.cpp (the node hierarchy: transforms, instances, cameras, lights; run()).
 // gltf_loader.cpp parses the file with tinygltf and calls run().
 #pragma once
 
@@ -101,6 +101,11 @@ private:
 
     // ---- meshes (gltf_meshes.cpp)
     std::vector<uint32_t> convertMesh(int meshIndex);
+    void readAccessors(const tinygltf::Primitive& prim, const std::string& el, int material, Mesh& mesh);
+    // ---- KHR_draco_mesh_compression (gltf_draco.cpp)
+    std::pair<const char*, size_t> dracoBytes(const tinygltf::Value& ext, const std::string& element) const;
+    void decodeDraco(const tinygltf::Primitive& prim, const tinygltf::Value& ext, const std::string& element,
+                     int material, Mesh& mesh);
     void readNormals(const tinygltf::Primitive& prim, const std::string& el, size_t positionFloats,
                      Mesh& mesh);
     void readUvs(const tinygltf::Primitive& prim, const std::string& el, int material, Mesh& mesh);

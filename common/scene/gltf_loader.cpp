@@ -13,8 +13,11 @@
 #include "common/core/printable_text.h"
 #include "common/scene/scene_files.h"
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <cstring>
+#include <string_view>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -181,6 +184,46 @@ std::string trimmed(std::string s) {
 
 // Parses `bytes` (the scene file, already charged to `files`) and imports it; every external
 // file goes through `files`.
+// tinygltf refuses a primitive whose indices accessor has no bufferView, which is how every
+// Draco-compressed primitive comes (KHR_draco_mesh_compression: the triangles are in the Draco data,
+// which gltf_draco.cpp decodes). The JSON with those primitives' "indices" left out, or nothing when
+// no primitive has the extension (or the text is not JSON: tinygltf then names the error).
+std::optional<std::string> withoutDracoIndices(const unsigned char* json, size_t n) {
+    const std::string_view text(reinterpret_cast<const char*>(json), n);
+    if (text.find("KHR_draco_mesh_compression") == std::string_view::npos) return std::nullopt;
+    nlohmann::json doc = nlohmann::json::parse(text, nullptr, false);
+    if (doc.is_discarded() || !doc.is_object() || !doc.contains("meshes") || !doc["meshes"].is_array())
+        return std::nullopt;
+    bool changed = false;
+    for (nlohmann::json& mesh : doc["meshes"]) {
+        if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) continue;
+        for (nlohmann::json& prim : mesh["primitives"]) {
+            if (!prim.is_object() || !prim.contains("extensions") || !prim["extensions"].is_object() ||
+                !prim["extensions"].contains("KHR_draco_mesh_compression"))
+                continue;
+            changed = prim.erase("indices") > 0 || changed;
+        }
+    }
+    if (!changed) return std::nullopt;
+    return doc.dump();
+}
+
+// `bytes` (a GLB whose JSON chunk is `jsonBytes` long) with `json` as its JSON chunk, padded with
+// spaces to 4 bytes; the chunks after it copied as they are.
+std::vector<uint8_t> glbWithJson(const std::vector<uint8_t>& bytes, size_t jsonBytes, std::string json) {
+    while (json.size() % 4) json.push_back(' ');
+    const size_t restFrom = std::min(bytes.size(), 20 + jsonBytes);
+    std::vector<uint8_t> out(bytes.begin(), bytes.begin() + 12);
+    const uint32_t total = uint32_t(std::min<size_t>(UINT32_MAX, 20 + json.size() + (bytes.size() - restFrom)));
+    const uint32_t length = uint32_t(json.size()), kind = 0x4E4F534A;  // "JSON"
+    std::memcpy(out.data() + 8, &total, 4);
+    out.insert(out.end(), reinterpret_cast<const uint8_t*>(&length), reinterpret_cast<const uint8_t*>(&length) + 4);
+    out.insert(out.end(), reinterpret_cast<const uint8_t*>(&kind), reinterpret_cast<const uint8_t*>(&kind) + 4);
+    out.insert(out.end(), json.begin(), json.end());
+    out.insert(out.end(), bytes.begin() + std::ptrdiff_t(restFrom), bytes.end());
+    return out;
+}
+
 Scene loadGltfBytes(const std::vector<uint8_t>& bytes, SceneFiles& files, const GltfOptions& options) {
     const std::string& fileName = files.sceneFile();
     if (bytes.empty()) throw SceneError(fileName, "file", "file is empty (0 bytes)");
@@ -198,18 +241,18 @@ Scene loadGltfBytes(const std::vector<uint8_t>& bytes, SceneFiles& files, const 
     std::string err, warn;
     bool ok = false;
     const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    // The JSON text: the whole file, or a GLB's first chunk (bounds checked; tinygltf rejects a
+    // malformed header itself).
+    const unsigned char* jsonText = bytes.data();
+    size_t jsonBytes = bytes.size();
+    if (binary) {
+        uint32_t chunkLength = 0;
+        if (bytes.size() >= 20) std::memcpy(&chunkLength, bytes.data() + 12, 4);
+        jsonText = bytes.data() + std::min<size_t>(20, bytes.size());
+        jsonBytes = std::min<size_t>(chunkLength, bytes.size() - std::min<size_t>(20, bytes.size()));
+    }
     {
-        // The JSON text: the whole file, or a GLB's first chunk (bounds checked; tinygltf
-        // rejects a malformed header itself).
-        const unsigned char* json = bytes.data();
-        size_t jsonBytes = bytes.size();
-        if (binary) {
-            uint32_t chunkLength = 0;
-            if (bytes.size() >= 20) std::memcpy(&chunkLength, bytes.data() + 12, 4);
-            json = bytes.data() + std::min<size_t>(20, bytes.size());
-            jsonBytes = std::min<size_t>(chunkLength, bytes.size() - std::min<size_t>(20, bytes.size()));
-        }
-        const JsonScan scan = scanJson(json, jsonBytes);
+        const JsonScan scan = scanJson(jsonText, jsonBytes);
         if (scan.depth > kMaxJsonDepth)
             throw SceneError(fileName, "JSON", "nesting deeper than " + std::to_string(kMaxJsonDepth) + " levels");
         // Base64 decodes 4 characters into 3 bytes: charge what the data: URIs will become.
@@ -221,15 +264,20 @@ Scene loadGltfBytes(const std::vector<uint8_t>& bytes, SceneFiles& files, const 
                          printableText(member, 40) + " (" + std::to_string(objects) + " JSON objects at " +
                              std::to_string(kBytesPerJsonObject) + " bytes each once parsed)");
     }
+    std::vector<uint8_t> rewritten;  // the file without its Draco primitives' index accessors
+    if (std::optional<std::string> json = withoutDracoIndices(jsonText, jsonBytes))
+        rewritten = binary ? glbWithJson(bytes, jsonBytes, std::move(*json))
+                           : std::vector<uint8_t>(json->begin(), json->end());
+    const std::vector<uint8_t>& parsed = rewritten.empty() ? bytes : rewritten;
     try {
         if (binary) {
-            ok = loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(),
-                                             unsigned(std::min<size_t>(bytes.size(), UINT32_MAX)),
+            ok = loader.LoadBinaryFromMemory(&model, &err, &warn, parsed.data(),
+                                             unsigned(std::min<size_t>(parsed.size(), UINT32_MAX)),
                                              ctx.base);
         } else {
             ok = loader.LoadASCIIFromString(&model, &err, &warn,
-                                            reinterpret_cast<const char*>(bytes.data()),
-                                            unsigned(std::min<size_t>(bytes.size(), UINT32_MAX)),
+                                            reinterpret_cast<const char*>(parsed.data()),
+                                            unsigned(std::min<size_t>(parsed.size(), UINT32_MAX)),
                                             ctx.base);
         }
     } catch (const std::exception& e) {

@@ -20,7 +20,8 @@ const std::set<std::string>& supportedExtensions() {
         "KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior",
         "KHR_materials_volume", "KHR_materials_emissive_strength", "KHR_texture_transform",
         "KHR_materials_unlit", "EXT_mesh_gpu_instancing", "KHR_mesh_quantization",
-        "KHR_materials_variants", "KHR_materials_pbrSpecularGlossiness", "KHR_materials_specular"};
+        "KHR_materials_variants", "KHR_materials_pbrSpecularGlossiness", "KHR_materials_specular",
+        "KHR_draco_mesh_compression"};
     return kSupported;
 }
 
@@ -82,11 +83,6 @@ MetallicRoughness fromSpecularGlossiness(Vec3 diffuse, Vec3 specular, double glo
 
 void GltfImporter::checkExtensions() {
     for (const std::string& ext : model_.extensionsRequired) {
-        if (ext == "KHR_draco_mesh_compression")
-            fail("extensionsRequired",
-                 "the meshes are Draco-compressed (KHR_draco_mesh_compression), which is not supported; "
-                 "export the file without mesh compression (Blender's glTF exporter: untick "
-                 "Data > Compression)");
         if (!supportedExtensions().count(ext))
             fail("extensionsRequired", "extension " + ext + " is required but not supported");
     }

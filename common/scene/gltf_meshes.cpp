@@ -22,64 +22,19 @@ std::vector<uint32_t> GltfImporter::convertMesh(int meshIndex) {
             continue;
         }
         if (!prim.targets.empty()) warn(el + ": morph targets ignored");
-        auto posIt = prim.attributes.find("POSITION");
-        if (posIt == prim.attributes.end()) fail(el + ".attributes", "no POSITION attribute");
+        if (!prim.attributes.count("POSITION")) fail(el + ".attributes", "no POSITION attribute");
         Mesh mesh;
         mesh.name = (gmesh.name.empty() ? meshEl : gmesh.name) +
                     (gmesh.primitives.size() > 1 ? "/" + std::to_string(pi) : "");
-        // Without a bufferView (and sparse is refused) every position is the origin and every
-        // index 0: nothing to render, whatever the count claims.
-        auto noData = [&](int accessor) {
-            return accessor >= 0 && size_t(accessor) < model_.accessors.size() &&
-                   model_.accessors[size_t(accessor)].bufferView < 0;
-        };
-        if (noData(posIt->second))
-            fail(el + ".attributes.POSITION", "accessors[" + std::to_string(posIt->second) +
-                                                  "] has no bufferView (every vertex would be the origin)");
-        if (noData(prim.indices))
-            fail(el + ".indices", "accessors[" + std::to_string(prim.indices) +
-                                      "] has no bufferView (every triangle would be degenerate)");
-        std::vector<float> p = readFloats(posIt->second, el + ".attributes.POSITION", TINYGLTF_TYPE_VEC3, Attribute::Position);
-        size_t nv = p.size() / 3;
-        // Every other attribute has one element per vertex: compare counts before reading.
-        for (const char* attribute : {"NORMAL", "TEXCOORD_0"}) {
-            auto it = prim.attributes.find(attribute);
-            if (it != prim.attributes.end() && it->second >= 0 &&
-                size_t(it->second) < model_.accessors.size() &&
-                model_.accessors[size_t(it->second)].count != nv)
-                fail(el + ".attributes." + attribute, "count differs from POSITION count");
-        }
-        // The mesh's own arrays: positions, normals (read or computed), texture coordinates.
-        files_->charge(uint64_t(nv) * (2 * sizeof(Vec3) + sizeof(Vec2)), el);
-        mesh.positions.resize(nv);
-        for (size_t i = 0; i < nv; ++i) mesh.positions[i] = Vec3(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
-
-        if (prim.indices >= 0) {
-            mesh.indices = readIndices(prim.indices, el + ".indices");
-            for (size_t i = 0; i < mesh.indices.size(); ++i)
-                if (mesh.indices[i] >= nv)
-                    fail(el + ".indices", "index " + std::to_string(mesh.indices[i]) + " at position " +
-                                              std::to_string(i) + " out of range (" +
-                                              std::to_string(nv) + " vertices)");
-        } else {
-            files_->charge(uint64_t(nv) * sizeof(uint32_t), el + ".indices");
-            mesh.indices.resize(nv);
-            for (size_t i = 0; i < nv; ++i) mesh.indices[i] = uint32_t(i);
-        }
-        if (mesh.indices.size() % 3 != 0) {
-            warn(el + ": index count " + std::to_string(mesh.indices.size()) +
-                 " not a multiple of 3; trailing indices dropped");
-            mesh.indices.resize(mesh.indices.size() / 3 * 3);
-        }
+        const int material = primitiveMaterial(prim, el);
+        if (const tinygltf::Value* draco = extension(prim.extensions, "KHR_draco_mesh_compression"))
+            decodeDraco(prim, *draco, el, material, mesh);
+        else
+            readAccessors(prim, el, material, mesh);
         if (mesh.indices.empty()) {
             warn(el + ": no triangles; primitive skipped");
             continue;
         }
-
-        readNormals(prim, el, p.size(), mesh);
-
-        const int material = primitiveMaterial(prim, el);
-        readUvs(prim, el, material, mesh);
 
         if (material >= 0) {
             if (size_t(material) >= model_.materials.size())
@@ -93,6 +48,60 @@ std::vector<uint32_t> GltfImporter::convertMesh(int meshIndex) {
     }
     meshPrimitives_[meshIndex] = result;
     return result;
+}
+
+// The primitive's vertices and triangles from its accessors: positions, indices (0, 1, 2, … when
+// it has none; a trailing partial triangle dropped), normals and the uv set `material` uses.
+void GltfImporter::readAccessors(const tinygltf::Primitive& prim, const std::string& el, int material, Mesh& mesh) {
+    auto posIt = prim.attributes.find("POSITION");
+    // Without a bufferView (and sparse is refused) every position is the origin and every
+    // index 0: nothing to render, whatever the count claims.
+    auto noData = [&](int accessor) {
+        return accessor >= 0 && size_t(accessor) < model_.accessors.size() &&
+               model_.accessors[size_t(accessor)].bufferView < 0;
+    };
+    if (noData(posIt->second))
+        fail(el + ".attributes.POSITION", "accessors[" + std::to_string(posIt->second) +
+                                              "] has no bufferView (every vertex would be the origin)");
+    if (noData(prim.indices))
+        fail(el + ".indices", "accessors[" + std::to_string(prim.indices) +
+                                  "] has no bufferView (every triangle would be degenerate)");
+    std::vector<float> p = readFloats(posIt->second, el + ".attributes.POSITION", TINYGLTF_TYPE_VEC3, Attribute::Position);
+    size_t nv = p.size() / 3;
+    // Every other attribute has one element per vertex: compare counts before reading.
+    for (const char* attribute : {"NORMAL", "TEXCOORD_0"}) {
+        auto it = prim.attributes.find(attribute);
+        if (it != prim.attributes.end() && it->second >= 0 &&
+            size_t(it->second) < model_.accessors.size() &&
+            model_.accessors[size_t(it->second)].count != nv)
+            fail(el + ".attributes." + attribute, "count differs from POSITION count");
+    }
+    // The mesh's own arrays: positions, normals (read or computed), texture coordinates.
+    files_->charge(uint64_t(nv) * (2 * sizeof(Vec3) + sizeof(Vec2)), el);
+    mesh.positions.resize(nv);
+    for (size_t i = 0; i < nv; ++i) mesh.positions[i] = Vec3(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+
+    if (prim.indices >= 0) {
+        mesh.indices = readIndices(prim.indices, el + ".indices");
+        for (size_t i = 0; i < mesh.indices.size(); ++i)
+            if (mesh.indices[i] >= nv)
+                fail(el + ".indices", "index " + std::to_string(mesh.indices[i]) + " at position " +
+                                          std::to_string(i) + " out of range (" +
+                                          std::to_string(nv) + " vertices)");
+    } else {
+        files_->charge(uint64_t(nv) * sizeof(uint32_t), el + ".indices");
+        mesh.indices.resize(nv);
+        for (size_t i = 0; i < nv; ++i) mesh.indices[i] = uint32_t(i);
+    }
+    if (mesh.indices.size() % 3 != 0) {
+        warn(el + ": index count " + std::to_string(mesh.indices.size()) +
+             " not a multiple of 3; trailing indices dropped");
+        mesh.indices.resize(mesh.indices.size() / 3 * 3);
+    }
+    if (mesh.indices.empty()) return;
+
+    readNormals(prim, el, p.size(), mesh);
+    readUvs(prim, el, material, mesh);
 }
 
 // The primitive's NORMAL attribute into `mesh.normals` (unit), or smooth normals computed from the

@@ -45,13 +45,12 @@ float directlyLitShare(const Scene& scene, int columns, int rows) {
     if (!scene.camera || columns <= 0 || rows <= 0) return 1.0f;
     const EmbreeScene es(scene);
     const Camera::PixelRays rays = scene.camera->pixelRays(columns, rows);
-    int hits = 0, lit = 0;
+    int lit = 0;
     for (int j = 0; j < rows; ++j)
         for (int i = 0; i < columns; ++i) {
             const Vec3 dir = rays.direction(i, j);
             SurfaceHit hit;
             if (!es.intersect(Ray{scene.camera->position, dir}, hit)) continue;
-            ++hits;
             if (hit.material < scene.materials.size() && scene.materials[hit.material].isEmissive()) {
                 ++lit;  // a lamp shows itself
                 continue;
@@ -64,7 +63,7 @@ float directlyLitShare(const Scene& scene, int columns, int rows) {
                     break;
                 }
         }
-    return hits == 0 ? 1.0f : float(lit) / float(hits);
+    return float(lit) / float(columns * rows);
 }
 
 bool addSkyWhereLightsMissTheView(Scene& scene, const std::string& nameOrPath, bool defaultLight) {

@@ -8,12 +8,12 @@
 
 namespace rtpm {
 
-/// Share, in [0, 1], of the camera's view that some punctual light lights directly: primary rays
-/// through a columns × rows grid (the default image's 4:3), and of those that hit a surface, the
-/// share where a point, spot or directional light stands in front of the surface (facing the
-/// camera) at more than a grazing 3°, inside its spot cone, unshadowed; a hit on an emissive
-/// surface counts as lit (it shows itself), what emissive surfaces light does not. 1 when no ray
-/// hits anything (nothing to light). Builds its own Embree scene; `scene` needs a camera.
+/// Share, in [0, 1], of the camera's view that some punctual light lights directly: of the primary
+/// rays through a columns × rows grid (the default image's 4:3), the share that hits a surface a
+/// point, spot or directional light stands in front of (facing the camera) at more than a grazing
+/// 3°, inside its spot cone, unshadowed; a hit on an emissive surface counts as lit (it shows
+/// itself), what emissive surfaces light does not, and a ray that hits nothing is dark (there is
+/// no world light to show). Builds its own Embree scene; `scene` needs a camera.
 float directlyLitShare(const Scene& scene, int columns = 64, int rows = 48);
 
 /// The share below which a file's view counts as unlit (directlyLitShare): its lights leave three

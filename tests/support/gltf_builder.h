@@ -97,6 +97,15 @@ public:
                              R"(,"type":"SCALAR"})");
         return int(accessors_.size() - 1);
     }
+    /// Bytes stored in a buffer view of their own (e.g. a Draco mesh); returns the view's index.
+    int raw(const void* data, size_t bytes) { return addView(data, bytes); }
+    /// An accessor without a bufferView, as KHR_draco_mesh_compression's primitives have them:
+    /// `count` elements of `type`, FLOAT unless `componentType` says otherwise; returns its index.
+    int dataless(size_t count, const std::string& type, int componentType = 5126) {
+        accessors_.push_back(R"({"componentType":)" + std::to_string(componentType) + R"(,"count":)" +
+                             std::to_string(count) + R"(,"type":")" + type + "\"}");
+        return int(accessors_.size() - 1);
+    }
     /// An image stored in a buffer view (`mime` e.g. "image/png"); returns its index in "images".
     int image(const std::vector<uint8_t>& encoded, const std::string& mime) {
         const int view = addView(encoded.data(), encoded.size());

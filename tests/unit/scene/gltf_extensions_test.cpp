@@ -1,5 +1,5 @@
 // Tests of the glTF extensions that change what a file's data means: KHR_mesh_quantization,
-// KHR_materials_variants, KHR_materials_pbrSpecularGlossiness, and the Draco refusal.
+// KHR_materials_variants, KHR_materials_pbrSpecularGlossiness, KHR_draco_mesh_compression.
 #include "common/scene/gltf_loader.h"
 
 #include <gtest/gtest.h>
@@ -11,6 +11,9 @@
 #include <vector>
 
 #include <unistd.h>
+
+#include <draco/compression/encode.h>
+#include <draco/mesh/triangle_soup_mesh_builder.h>
 
 #include "common/scene/scene_loader.h"
 #include "tests/support/gltf_builder.h"
@@ -135,16 +138,94 @@ TEST(GltfQuantization, IntegerPositionsWithoutTheExtensionNameIt) {
 
 // ---- Draco ------------------------------------------------------------------------------------
 
-TEST(GltfDraco, RefusalSaysDracoIsUnsupportedAndHowToExportWithoutIt) {
+// kPositions / kNormals / kUvs / kIndices as Draco bytes (the library's own encoder): with
+// `quantizationBits` 0 the floats are kept exactly, else positions are quantized to that many bits.
+std::string dracoBytes(int quantizationBits) {
+    draco::TriangleSoupMeshBuilder builder;
+    builder.Start(int(kIndices.size() / 3));
+    const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
+    const int nrm = builder.AddAttribute(draco::GeometryAttribute::NORMAL, 3, draco::DT_FLOAT32);
+    const int tex = builder.AddAttribute(draco::GeometryAttribute::TEX_COORD, 2, draco::DT_FLOAT32);
+    for (size_t f = 0; f < kIndices.size() / 3; ++f) {
+        const uint32_t a = kIndices[3 * f], b = kIndices[3 * f + 1], c = kIndices[3 * f + 2];
+        const draco::FaceIndex face{uint32_t(f)};
+        builder.SetAttributeValuesForFace(pos, face, &kPositions[3 * a], &kPositions[3 * b], &kPositions[3 * c]);
+        builder.SetAttributeValuesForFace(nrm, face, &kNormals[3 * a], &kNormals[3 * b], &kNormals[3 * c]);
+        builder.SetAttributeValuesForFace(tex, face, &kUvs[2 * a], &kUvs[2 * b], &kUvs[2 * c]);
+    }
+    std::unique_ptr<draco::Mesh> mesh = builder.Finalize();
+    draco::Encoder encoder;
+    encoder.SetEncodingMethod(draco::MESH_SEQUENTIAL_ENCODING);  // keeps the faces' order
+    if (quantizationBits > 0) encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, quantizationBits);
+    draco::EncoderBuffer out;
+    EXPECT_TRUE(encoder.EncodeMeshToBuffer(*mesh, &out).ok());
+    // The unique ids the attributes got, in the order added: 0, 1, 2 (the file below names them).
+    EXPECT_EQ(mesh->attribute(pos)->unique_id(), 0u);
+    EXPECT_EQ(mesh->attribute(tex)->unique_id(), 2u);
+    return std::string(out.data(), out.size());
+}
+
+// A file whose one primitive is `bytes` as a Draco bufferView; its accessors carry counts and
+// no data, as the extension has them.
+std::string dracoFile(const std::string& bytes) {
     GltfBuilder b;
-    const std::string json = meshFile(b, b.floats(kPositions, "VEC3"), b.floats(kNormals, "VEC3"), b.floats(kUvs, "VEC2"),
-                                      R"({"mesh":0})",
-                                      R"("extensionsUsed":["KHR_draco_mesh_compression"],"extensionsRequired":["KHR_draco_mesh_compression"],)");
-    const SceneError e = loadError(json);
-    EXPECT_EQ(e.element, "extensionsRequired");
-    EXPECT_TRUE(contains(e.what(), "Draco-compressed")) << e.what();
-    EXPECT_TRUE(contains(e.what(), "not supported")) << e.what();
-    EXPECT_TRUE(contains(e.what(), "Blender")) << e.what();
+    const int view = b.raw(bytes.data(), bytes.size());
+    const int pos = b.dataless(4, "VEC3"), nrm = b.dataless(4, "VEC3"), uv = b.dataless(4, "VEC2");
+    const int idx = b.dataless(6, "SCALAR", 5125);
+    return b.json(R"("extensionsUsed":["KHR_draco_mesh_compression"],"extensionsRequired":["KHR_draco_mesh_compression"],)"
+                  R"("scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],"meshes":[{"primitives":[{"attributes":{"POSITION":)" +
+                  std::to_string(pos) + R"(,"NORMAL":)" + std::to_string(nrm) + R"(,"TEXCOORD_0":)" + std::to_string(uv) +
+                  R"(},"indices":)" + std::to_string(idx) +
+                  R"(,"extensions":{"KHR_draco_mesh_compression":{"bufferView":)" + std::to_string(view) +
+                  R"(,"attributes":{"POSITION":0,"NORMAL":1,"TEXCOORD_0":2}}}}]}])");
+}
+
+TEST(GltfDraco, ADracoMeshLoadsAsTheSameMeshUncompressed) {
+    GltfBuilder b;
+    const Scene plain = loadText(meshFile(b, b.floats(kPositions, "VEC3"), b.floats(kNormals, "VEC3"),
+                                          b.floats(kUvs, "VEC2"), R"({"mesh":0})", ""));
+    const Scene draco = loadText(dracoFile(dracoBytes(0)));
+    ASSERT_EQ(draco.meshes.size(), 1u);
+    EXPECT_EQ(worldTriangles(draco), worldTriangles(plain));
+    // Per corner, the normal and uv the uncompressed file gives (Draco may merge or reorder points).
+    const Mesh &d = draco.meshes[0], &p = plain.meshes[0];
+    ASSERT_EQ(d.indices.size(), p.indices.size());
+    ASSERT_EQ(d.normals.size(), d.positions.size());
+    ASSERT_EQ(d.uvs.size(), d.positions.size());
+    for (size_t k = 0; k < d.indices.size(); ++k) {
+        EXPECT_EQ(d.normals[d.indices[k]], p.normals[p.indices[k]]) << "corner " << k;
+        EXPECT_EQ(d.uvs[d.indices[k]], p.uvs[p.indices[k]]) << "corner " << k;
+    }
+}
+
+TEST(GltfDraco, QuantizedPositionsComeBackWithinTheirQuantizationStep) {
+    const Scene s = loadText(dracoFile(dracoBytes(11)));
+    GltfBuilder b;
+    const Scene plain = loadText(meshFile(b, b.floats(kPositions, "VEC3"), b.floats(kNormals, "VEC3"),
+                                          b.floats(kUvs, "VEC2"), R"({"mesh":0})", ""));
+    const std::vector<Vec3> got = worldTriangles(s), want = worldTriangles(plain);
+    ASSERT_EQ(got.size(), want.size());
+    const float step = 4.0f / float((1 << 11) - 1);  // the positions span 4 m on every axis
+    for (size_t i = 0; i < got.size(); ++i)
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[i][c], want[i][c], step) << "corner " << i;
+}
+
+TEST(GltfDraco, BrokenDracoDataIsRefusedNamingThePrimitive) {
+    std::string bytes = dracoBytes(0);
+    bytes.resize(bytes.size() / 2);  // a file cut short
+    const SceneError broken = loadError(dracoFile(bytes));
+    EXPECT_EQ(broken.element, "meshes[0].primitives[0].extensions.KHR_draco_mesh_compression");
+    EXPECT_TRUE(contains(broken.what(), "does not decode")) << broken.what();
+
+    std::string badId = dracoFile(dracoBytes(0));
+    badId.replace(badId.rfind(R"("TEXCOORD_0":2)"), 14, R"("TEXCOORD_0":7)");  // the extension's own map
+    const SceneError badIdError = loadError(badId);
+    EXPECT_TRUE(contains(badIdError.what(), "Draco id 7 is not in the decoded mesh")) << badIdError.what();
+
+    std::string noView = dracoFile(dracoBytes(0));
+    noView.replace(noView.find(R"("bufferView":0,"attributes")"), 14, R"("bufferView":9)");
+    const SceneError view = loadError(noView);
+    EXPECT_TRUE(contains(view.what(), "out of range")) << view.what();
 }
 
 // ---- KHR_materials_variants --------------------------------------------------------------------

@@ -210,7 +210,7 @@ TEST(GltfLoader, HandWrittenFileLoadsCameraLightsMaterialsAndInstances) {
 TEST(GltfLoader, RequiredUnsupportedExtensionIsAnError) {
     ScratchDir dir;
     std::string text = readText(kDataDir + "/gltf/handmade.gltf");
-    text.insert(text.find('{') + 1, R"("extensionsRequired":["KHR_draco_mesh_compression"],)");
+    text.insert(text.find('{') + 1, R"("extensionsRequired":["EXT_meshopt_compression"],)");
     expectSceneError(dir.write("required.gltf", text), "extensionsRequired");
 }
 

@@ -60,13 +60,18 @@ TEST(LightProbe, ASpotLightsItsConeAndABlockerShadowsIt) {
     EXPECT_NEAR(directlyLitShare(s, 256, 256), 0.25f * (16.0f / 9.0f) * share, 0.1f * share);
 }
 
-TEST(LightProbe, AnEmissiveSurfaceInViewShowsItselfAndNoHitMeansNothingToLight) {
+TEST(LightProbe, AnEmissiveSurfaceInViewShowsItselfAndWhatNoRayHitsIsDark) {
     Scene s = floorSeenFromAbove(Vec3(0.0f));
     s.materials[0].emission = Vec3(1.0f);
     EXPECT_FLOAT_EQ(directlyLitShare(s), 1.0f);
     Scene empty = floorSeenFromAbove(Vec3(0.0f, 0.0f, 1.0f));
     empty.camera = Camera::lookAt(Vec3(0, 2, 0), Vec3(0, 4, 0), Vec3(0, 0, -1), 0.8f);  // looking away
-    EXPECT_FLOAT_EQ(directlyLitShare(empty), 1.0f);
+    EXPECT_FLOAT_EQ(directlyLitShare(empty), 0.0f);
+    // Raised until the 20 m floor spans half the view's height (and 3/8 of its 4:3 width): the
+    // rest is background, dark without a world light, though the sun lights all of the floor.
+    Scene far = floorSeenFromAbove(Vec3(0.0f, -1.0f, 0.0f));
+    far.camera = Camera::lookAt(Vec3(0, 20.0f / std::tan(0.4f), 0), Vec3(0.0f), Vec3(0, 0, -1), 0.8f);
+    EXPECT_NEAR(directlyLitShare(far, 256, 192), 0.5f * (0.5f * 192.0f / 256.0f), 0.01f);
 }
 
 TEST(LightProbe, AFileWhoseLightsMissTheViewGetsTheDefaultSkyUnlessItSaysOtherwise) {
