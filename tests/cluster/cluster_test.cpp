@@ -454,6 +454,37 @@ INSTANTIATE_TEST_SUITE_P(Lights, ClusterImageGltf, ::testing::Values(false, true
                              return i.param ? std::string("EmissiveTexture") : std::string("DefaultLight");
                          });
 
+// Files the master turns into a scene before sending it: Draco-compressed meshes (our
+// glass-on-floor scene through gltf-pipeline -d), and a floor whose only light, a sun, grazes it
+// (the master adds the default sky as its world). The clients must give rtpm-render's image.
+TEST(ClusterImageGltfFiles, DracoMeshesEqualSingleProcessBitForBit) {
+    RunSettings rs;
+    rs.scene = std::string(RTPM_TEST_DATA_DIR) + "/gltf/glass_on_floor_draco.glb";
+    const ExrImage& ref = reference(rs);
+    expectNonTrivial(ref);
+    expectClusterGives(rs, 2, ref);
+}
+
+TEST(ClusterImageGltfFiles, TheSkyForLightsThatMissTheViewReachesTheClients) {
+    TempDir sceneDir;
+    testgltf::GltfBuilder b;
+    const float c[3] = {0, 0, 0}, u[3] = {3, 0, 0}, v[3] = {0, 0, -3};
+    const std::string floor = b.quadPrimitive(c, u, v) + R"(,"material":0})";
+    const std::string json = R"("scene":0,"scenes":[{"nodes":[0,1]}],"nodes":[{"mesh":0},
+{"rotation":[0,1,0,0],"extensions":{"KHR_lights_punctual":{"light":0}}}],
+"meshes":[{"primitives":[)" + floor + R"(]}],"materials":[{"pbrMetallicRoughness":{"metallicFactor":0}}],
+"extensions":{"KHR_lights_punctual":{"lights":[{"type":"directional","intensity":3}]}},
+"extensionsUsed":["KHR_lights_punctual"])";
+    RunSettings rs;
+    rs.scene = sceneDir.file("grazing_sun.gltf");
+    std::ofstream(rs.scene, std::ios::binary) << b.json(json);
+    const ExrImage& ref = reference(rs);
+    size_t lit = 0;
+    for (float x : ref.layerRgb("direct")) lit += x > 0.0f;
+    EXPECT_GT(lit, ref.layerRgb("direct").size() / 2) << "the sky lights the floor the sun misses";
+    expectClusterGives(rs, 2, ref);
+}
+
 // Glossy materials (GGX metal and glass, roughness 0.3) in a glTF the master loads and sends on:
 // photons sampling the BSDF, eye paths sampling it per frame and per progressive pass.
 struct GlossyCase {

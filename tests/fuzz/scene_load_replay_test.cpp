@@ -66,8 +66,10 @@ std::vector<std::vector<uint8_t>> seeds() {
         bytesOf("mtllib ../../etc/passwd\nmtllib /dev/zero\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
         bytesOf("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1\nf -1 -2 -3\n"),
         bytesOf(kExtensionsTriangle),
-        // handmade.gltf through gltf-pipeline -d (npm): KHR_draco_mesh_compression, quantized.
+        // handmade.gltf and gltf/corpus/glass_on_floor.gltf through gltf-pipeline -d (npm):
+        // KHR_draco_mesh_compression, quantized.
         readFile(data + "/gltf/handmade_draco.glb"),
+        readFile(data + "/gltf/glass_on_floor_draco.glb"),
     };
     for (const auto& s : out) EXPECT_FALSE(s.empty());
     return out;
