@@ -108,7 +108,7 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     for (size_t i = 0; i < sets_.size(); ++i) {
         if (moving) {
             progressive_[i].invalidate();
-            kept_[i] = KeptEyePaths{};  // of another camera: its memory back
+            kept_[i] = SetMemory{};  // of another camera: its memory back
         }
         converge[i] = progressive && mode == FrameMode::Converging && progressive_[i].valid() &&
                       sameCamera(progressive_[i].camera(), camera);
@@ -220,6 +220,28 @@ void RenderJob::knnPixels(size_t i, const Camera& camera, FrameMode mode, std::s
                           EyeStats& eye) {
     const EmbreeScene& embree = scene_->embree();
     const int set = int(sets_[i]);
+    if (mode == FrameMode::Accumulate || mode == FrameMode::Walkthrough) {
+        // A set whose map did not change since its last frame of this camera (off its turn, or
+        // capped) shows the same pixels: renderSet of a still camera draws no random number.
+        // A moving camera's pixels are not kept (the next frame's camera is another): only from
+        // a camera's second frame on.
+        ShownKnnPixels& shown = kept_[i].shown;
+        const PhotonSetStats& map = photons_->stats(sets_[i]);
+        const bool still = shown.camera && sameCamera(*shown.camera, camera);
+        if (still && shown.eyeVersion == scene_->eyeVersion() && shown.pathsTraced == map.pathsTraced &&
+            shown.photonsStored == map.photonsStored && shown.pixels.size() == out.size()) {
+            std::copy(shown.pixels.begin(), shown.pixels.end(), out.begin());
+            return;
+        }
+        renderSet(embree, camera, settings_.eye, pattern_, set, photons_.get(), out, &eye);
+        shown.camera = camera;
+        shown.eyeVersion = scene_->eyeVersion();
+        shown.pathsTraced = map.pathsTraced;
+        shown.photonsStored = map.photonsStored;
+        if (still) shown.pixels.assign(out.begin(), out.end());
+        else shown.pixels.clear();
+        return;
+    }
     if (mode != FrameMode::Relight) {
         // An Edit frame's eye paths sample the dielectric splits, as a moving camera's do: a
         // material or object dragged over GLASS paid the full split trees in every frame.
@@ -227,7 +249,7 @@ void RenderJob::knnPixels(size_t i, const Camera& camera, FrameMode mode, std::s
                   mode == FrameMode::Edit ? sampleSeedOf(camera) : 0);
         return;
     }
-    KeptEyePaths& kept = kept_[i];
+    KeptEyePaths& kept = kept_[i].relight;
     if (!kept.camera || !sameCamera(*kept.camera, camera) || kept.eyeVersion != scene_->eyeVersion()) {
         kept = KeptEyePaths{};
         std::vector<PixelRadiance> unlit(out.size());
@@ -245,6 +267,7 @@ void RenderJob::resetPhotons() {
     shots_.clear();
     epochStart_ = true;
     for (ProgressiveSet& p : progressive_) p.invalidate();
+    for (SetMemory& m : kept_) m.shown = ShownKnnPixels{};  // of the old scene or map
     irradiance_->invalidate();
     areaLights_.reset();  // emissive triangles may have changed
 }

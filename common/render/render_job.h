@@ -49,6 +49,24 @@ struct KeptEyePaths {
     std::vector<Vec3> base;
 };
 
+/// One set's last k-NN pixels of an Accumulate or Walkthrough frame and what they were made of:
+/// while the camera, the geometry and the set's map stay as they were (the set did not shoot: its
+/// turn is another frame's, or its map is capped) the next frame's pixels are these, bit for
+/// bit, and the set traces no eye ray. Cleared by every edit (RenderJob::resetPhotons).
+struct ShownKnnPixels {
+    std::optional<Camera> camera;  ///< none: nothing kept
+    uint64_t eyeVersion = 0;       ///< RenderScene::eyeVersion when traced
+    uint64_t pathsTraced = 0;      ///< the map's PhotonSetStats then
+    uint64_t photonsStored = 0;
+    std::vector<PixelRadiance> pixels;
+};
+
+/// What one owned set keeps from frame to frame of one camera.
+struct SetMemory {
+    KeptEyePaths relight;  ///< Relight frames
+    ShownKnnPixels shown;  ///< Accumulate and Walkthrough frames (k-NN estimator)
+};
+
 /// Figures of one renderFrame call.
 struct FrameStats {
     double shootSeconds = 0.0;     ///< photon shooting + kd-tree insertion, all owned sets
@@ -136,7 +154,7 @@ private:
     uint64_t pathsTraced() const;
     /// The pixels of owned set `i` at `camera` with the map's k-NN caustic: a Relight frame
     /// re-lights the set's KeptEyePaths (traced first when stale), an Edit frame samples the
-    /// dielectric splits, any other traces them all.
+    /// dielectric splits, any other traces them all, unless the set's ShownKnnPixels still hold.
     void knnPixels(size_t i, const Camera& camera, FrameMode mode, std::span<PixelRadiance> out, EyeStats& eye);
 
     std::shared_ptr<RenderScene> scene_;
@@ -145,7 +163,7 @@ private:
     std::vector<uint32_t> sets_;
     std::unique_ptr<PhotonMaps> photons_;
     std::vector<ProgressiveSet> progressive_;  ///< per owned set (progressive estimator)
-    std::vector<KeptEyePaths> kept_;           ///< per owned set (Relight frames)
+    std::vector<SetMemory> kept_;              ///< per owned set (Relight, Accumulate frames)
     /// The owned sets' shots of the last kSharedPhotonLag frames, oldest first (renderFrame
     /// without `shared`).
     std::vector<std::vector<SetPhotons>> shots_;

@@ -284,5 +284,60 @@ TEST(RenderJob, AccumulateFramesTakeTurnsByTheFrameNumber) {
     for (uint32_t s : sets) EXPECT_EQ(job.photons().stats(s).batches, 4u);
 }
 
+// A set off its turn in an Accumulate frame has the map it had: it shows the pixels of its last
+// frame, bit for bit, and traces no eye ray, so turns make a still k-NN view's frames cheaper
+// (its cost is the eye pass's gathers, not the shooting); a set on its turn, a moved camera or an
+// edit trace afresh.
+TEST(RenderJob, ASetOffItsTurnShowsItsLastPixelsWithoutTracing) {
+    testscenes::RingMirror rm;
+    Scene scene = rm.scene();
+    const Camera camera = *scene.camera;
+    RenderSettings rs;
+    rs.width = 32;
+    rs.height = 24;
+    rs.interleave = 2;
+    rs.photons.photonsPerBatch = 2000;
+    rs.photons.estimator = CausticEstimatorKind::Knn;
+    const std::vector<uint32_t> sets{0, 1, 2, 3};
+    RenderJob job(std::move(scene), rs, sets);
+    const Interleave pattern{rs.width, rs.height, rs.interleave};
+    constexpr uint32_t kPeriod = 2;
+    std::vector<SetPixels> out, last;
+    for (uint64_t frame = 1; frame <= 2; ++frame) job.renderFrame(camera, FrameMode::Accumulate, out, 1, nullptr, kPeriod, frame);
+    for (uint64_t frame = 3; frame < 7; ++frame) {
+        last = out;
+        const FrameStats st = job.renderFrame(camera, FrameMode::Accumulate, out, 1, nullptr, kPeriod, frame);
+        uint64_t traced = 0;
+        for (size_t i = 0; i < sets.size(); ++i) {
+            if (passShoots(frame, sets[i], 4, kPeriod)) {
+                traced += uint64_t(pattern.pixelCount(int(sets[i])));
+                continue;
+            }
+            ASSERT_EQ(out[i].pixels.size(), last[i].pixels.size());
+            EXPECT_EQ(std::memcmp(out[i].pixels.data(), last[i].pixels.data(),
+                                  out[i].pixels.size() * sizeof(PixelRadiance)), 0)
+                << "set " << sets[i] << ", frame " << frame;
+        }
+        EXPECT_EQ(st.eye.primaryRays, traced) << "frame " << frame << ": only the sets on their turn trace";
+    }
+    // A moved camera traces every set; its pixels are kept from its second frame on, and shown
+    // again from the third.
+    Camera moved = camera;
+    moved.position.x += 0.01f;
+    const uint64_t all = uint64_t(rs.width * rs.height);
+    for (uint64_t frame = 7; frame <= 8; ++frame)
+        EXPECT_EQ(job.renderFrame(moved, FrameMode::Accumulate, out, 1, nullptr, kPeriod, frame).eye.primaryRays, all);
+    FrameStats st = job.renderFrame(moved, FrameMode::Accumulate, out, 1, nullptr, kPeriod, 9);
+    EXPECT_LT(st.eye.primaryRays, all);
+    SceneEdit edit;
+    edit.kind = SceneEdit::Kind::Light;
+    edit.index = 0;
+    edit.light = job.scene().lights.at(0);
+    job.applyEdit(edit);
+    job.renderFrame(moved, FrameMode::Interaction, out, 1, nullptr, kPeriod, 10);
+    st = job.renderFrame(moved, FrameMode::Accumulate, out, 1, nullptr, kPeriod, 11);
+    EXPECT_EQ(st.eye.primaryRays, all) << "an edit forgets the pixels";
+}
+
 }  // namespace
 }  // namespace rtpm
