@@ -231,6 +231,10 @@ int run(int argc, char** argv) {
     FILE* csv = o.csv.empty() ? nullptr : openCsv(o.csv);
     printRunHeader(rs);
     PassBudget budget(o.convergence.frameBudgetMs * 1e-3);
+    // The knn estimator's still frames (Accumulate) take turns over the same budget, one batch per
+    // set at most, as the master's accumulation budget has them (server/convergence.h).
+    const bool knn = rs.photons.estimator == CausticEstimatorKind::Knn;
+    PassBudget accumulation(o.convergence.frameBudgetMs * 1e-3, /*growBatches=*/false);
 
     // SIGINT/SIGTERM: the frame in flight is finished and the image so far written; a second
     // signal ends the process at once (the handler restores the default action).
@@ -246,7 +250,7 @@ int run(int argc, char** argv) {
     for (int f = 0; f < o.frames && gStopSignal == 0; ++f) {
         auto tf = Clock::now();
         const uint32_t passBatches = budget.batches();
-        const uint32_t passPeriod = budget.period();
+        const uint32_t passPeriod = knn ? accumulation.period() : budget.period();
         FrameStats st = job.renderFrame(camera, pixels, passBatches, passPeriod);
         auto tfilter = Clock::now();
         for (const SetPixels& sp : pixels)
@@ -258,6 +262,7 @@ int run(int argc, char** argv) {
         double filterMs = std::chrono::duration<double, std::milli>(tend - tfilter).count();
         double totalMs = std::chrono::duration<double, std::milli>(tend - tf).count();
         budget.record(st.converging, totalMs * 1e-3);
+        accumulation.record(knn && f > 0 && !st.walkthrough, totalMs * 1e-3);
         const double estimate = causticErrorEstimate(st.error);
         uint64_t productive = 0;
         for (uint32_t s : sets) productive += job.photons().stats(s).productivePaths;
