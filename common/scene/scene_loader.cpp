@@ -151,7 +151,11 @@ Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides,
         l.intensity = overrides.light->intensity;
         scene.lights.push_back(l);
     }
-    if (scene.triangleCount() == 0) throw SceneError(nameOrPath, "meshes", "scene has no triangles");
+    // An empty scene (Blender exports one when "Selected only" selects nothing) shows its world,
+    // as Blender renders it: the default sky below, since it has no light either.
+    if (scene.triangleCount() == 0)
+        scene.warnings.push_back(nameOrPath + ": no triangles (nothing to render but the world; check the "
+                                              "exporter's selection)");
     if (overrides.environment)
         scene.environment = loadEnvironment(*overrides.environment,
                                             input.maxSceneBytes - std::min(input.maxSceneBytes, decodedBytes(scene)));

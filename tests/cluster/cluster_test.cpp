@@ -485,6 +485,19 @@ TEST(ClusterImageGltfFiles, TheSkyForLightsThatMissTheViewReachesTheClients) {
     expectClusterGives(rs, 2, ref);
 }
 
+TEST(ClusterImageGltfFiles, AnEmptyFileShowsItsWorldAsOneProcessDoes) {
+    TempDir sceneDir;
+    RunSettings rs;
+    rs.scene = sceneDir.file("empty.gltf");
+    std::ofstream(rs.scene, std::ios::binary)
+        << R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"name":"Empty"}]})";
+    const ExrImage& ref = reference(rs);
+    size_t lit = 0;
+    for (float x : ref.layerRgb("direct")) lit += x > 0.0f;
+    EXPECT_EQ(lit, ref.layerRgb("direct").size()) << "the default sky fills the view";
+    expectClusterGives(rs, 2, ref);
+}
+
 // Glossy materials (GGX metal and glass, roughness 0.3) in a glTF the master loads and sends on:
 // photons sampling the BSDF, eye paths sampling it per frame and per progressive pass.
 struct GlossyCase {

@@ -17,6 +17,7 @@
 #include "common/image/image_io.h"
 #include "common/render/render_job.h"
 #include "common/scene/scene_loader.h"
+#include "tests/support/scratch_dir.h"
 
 namespace rtpm {
 namespace {
@@ -79,6 +80,21 @@ TEST(DefaultLighting, LightlessFileGetsTheSpotLightsAndTheDefaultSky) {
     EXPECT_NE(warnings.find("sky"), std::string::npos) << warnings;
     // A scene with lights keeps its own lighting: no sky.
     EXPECT_TRUE(loadScene(RTPM_TEST_DATA_DIR "/gltf/handmade.gltf").environment.empty());
+}
+
+// An empty file (Blender's export with nothing selected: one node, no mesh) renders its world, as
+// Blender does, with a warning saying there is nothing else: not an error.
+TEST(DefaultLighting, AnEmptyFileShowsTheWorldAndSaysSo) {
+    testsupport::ScratchDir dir;
+    const std::string path = dir.write("empty.gltf", R"({"asset":{"version":"2.0"},"scene":0,
+"scenes":[{"name":"Scene","nodes":[0]},{"name":"Empty Scene"}],"nodes":[{"name":"Empty"}]})");
+    const Scene s = loadScene(path);
+    EXPECT_EQ(s.triangleCount(), 0u);
+    EXPECT_TRUE(s.environment.hasMap()) << "the default sky";
+    std::string warnings;
+    for (const std::string& w : s.warnings) warnings += w + "\n";
+    EXPECT_NE(warnings.find("no triangles"), std::string::npos) << warnings;
+    EXPECT_GE(meanToneMapped(path), 0.02) << "the sky shows";
 }
 
 }  // namespace
