@@ -149,6 +149,17 @@ TEST(RenderJob, AnEditFrameShowsTheKnnEstimateAndTheNextStillFrameRestarts) {
     EXPECT_EQ(st.passes, 1u);
 }
 
+// The ring mirror at 32×24, M = 2 (four sets), 2000 paths per set and frame, the knn estimator.
+RenderSettings smallKnnSettings() {
+    RenderSettings rs;
+    rs.width = 32;
+    rs.height = 24;
+    rs.interleave = 2;
+    rs.photons.photonsPerBatch = 2000;
+    rs.photons.estimator = CausticEstimatorKind::Knn;
+    return rs;
+}
+
 // GLASS at 48×36, M = 2 (four sets), 2000 paths per set and frame.
 RenderSettings smallGlassSettings() {
     RenderSettings rs;
@@ -258,12 +269,7 @@ TEST(RenderJob, AccumulateFramesTakeTurnsByTheFrameNumber) {
     testscenes::RingMirror rm;
     Scene scene = rm.scene();
     const Camera camera = *scene.camera;
-    RenderSettings rs;
-    rs.width = 32;
-    rs.height = 24;
-    rs.interleave = 2;
-    rs.photons.photonsPerBatch = 2000;
-    rs.photons.estimator = CausticEstimatorKind::Knn;
+    const RenderSettings rs = smallKnnSettings();
     const std::vector<uint32_t> sets{0, 1, 2, 3};
     RenderJob job(std::move(scene), rs, sets);
     std::vector<SetPixels> out;
@@ -292,12 +298,7 @@ TEST(RenderJob, ASetOffItsTurnShowsItsLastPixelsWithoutTracing) {
     testscenes::RingMirror rm;
     Scene scene = rm.scene();
     const Camera camera = *scene.camera;
-    RenderSettings rs;
-    rs.width = 32;
-    rs.height = 24;
-    rs.interleave = 2;
-    rs.photons.photonsPerBatch = 2000;
-    rs.photons.estimator = CausticEstimatorKind::Knn;
+    const RenderSettings rs = smallKnnSettings();
     const std::vector<uint32_t> sets{0, 1, 2, 3};
     RenderJob job(std::move(scene), rs, sets);
     const Interleave pattern{rs.width, rs.height, rs.interleave};
