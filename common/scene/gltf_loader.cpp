@@ -17,11 +17,11 @@
 
 #include <algorithm>
 #include <cstring>
-#include <string_view>
 #include <filesystem>
 #include <map>
 #include <optional>
 #include <regex>
+#include <string_view>
 
 namespace rtpm {
 
@@ -182,8 +182,6 @@ std::string trimmed(std::string s) {
     return s;
 }
 
-// Parses `bytes` (the scene file, already charged to `files`) and imports it; every external
-// file goes through `files`.
 // tinygltf refuses a primitive whose indices accessor has no bufferView, which is how every
 // Draco-compressed primitive comes (KHR_draco_mesh_compression: the triangles are in the Draco data,
 // which gltf_draco.cpp decodes). The JSON with those primitives' "indices" left out, or nothing when
@@ -224,6 +222,8 @@ std::vector<uint8_t> glbWithJson(const std::vector<uint8_t>& bytes, size_t jsonB
     return out;
 }
 
+// Parses `bytes` (the scene file, already charged to `files`) and imports it; every external
+// file goes through `files`.
 Scene loadGltfBytes(const std::vector<uint8_t>& bytes, SceneFiles& files, const GltfOptions& options) {
     const std::string& fileName = files.sceneFile();
     if (bytes.empty()) throw SceneError(fileName, "file", "file is empty (0 bytes)");
