@@ -129,7 +129,9 @@ TEST(ViewerServer, IdleConnectionsAreBoundedPerAddressAndInAllAndClosedAtTheDead
     for (auto* set : {&idle, &more})
         for (RawHttp& c : *set)
             if (c.valid()) EXPECT_TRUE(c.closedWithin(o.handshakeTimeout + 2s));
-    EXPECT_TRUE(slow.closedWithin(1s));
+    // Its own deadline, counted from its own connection (the others' began earlier): the same
+    // bound (a 1 s bound failed once under ASan with two tests at a time).
+    EXPECT_TRUE(slow.closedWithin(o.handshakeTimeout + 2s));
 }
 
 TEST(ViewerServer, WrongTokensAreDelayedAndLimitedPerAddressAndLogged) {
