@@ -260,9 +260,26 @@ void exportCamera(tinygltf::Model& model, const Camera& c) {
     addRootNode(model, std::move(node));
 }
 
+// The world light as rtpm_world's value: {"uniform": [r, g, b]} (W/(m²·sr)), or {"map": {"bufferView",
+// "width", "height"}} with the map's linear texels as little-endian float32 RGB, row-major from the top.
+tinygltf::Value worldValue(tinygltf::Model& model, const Environment& world) {
+    if (!world.hasMap()) {
+        const Vec3 c = world.uniformRadiance();
+        return tinygltf::Value(tinygltf::Value::Object{
+            {"uniform", tinygltf::Value(tinygltf::Value::Array{tinygltf::Value(double(c.x)), tinygltf::Value(double(c.y)),
+                                                               tinygltf::Value(double(c.z))})}});
+    }
+    const std::vector<float>& texels = world.texels();
+    const int view = addView(model, texels.data(), texels.size() * sizeof(float), 0);
+    return tinygltf::Value(tinygltf::Value::Object{
+        {"map", tinygltf::Value(tinygltf::Value::Object{{"bufferView", tinygltf::Value(view)},
+                                                        {"width", tinygltf::Value(world.width())},
+                                                        {"height", tinygltf::Value(world.height())}})}});
+}
+
 }  // namespace
 
-std::vector<uint8_t> encodeGlb(const Scene& scene) {
+std::vector<uint8_t> encodeGlb(const Scene& scene, bool withWorld) {
     scene.validate(scene.name);
     tinygltf::Model model;
     model.asset.version = "2.0";
@@ -271,10 +288,12 @@ std::vector<uint8_t> encodeGlb(const Scene& scene) {
     model.scenes.emplace_back();
     model.scenes[0].name = scene.name;
     model.defaultScene = 0;
-    // glTF has no world light. A scene without one says so, so that loading the file back adds
-    // no default sky (loadScene); a world light is not written (the wire carries it apart).
+    // glTF has no world light: the scene's extras carry it (rtpm_world), or say it has none, so
+    // that loading the file back adds no default sky (loadScene).
     if (scene.environment.empty())
         model.scenes[0].extras = tinygltf::Value(tinygltf::Value::Object{{"rtpm_world", tinygltf::Value(std::string("none"))}});
+    else if (withWorld)
+        model.scenes[0].extras = tinygltf::Value(tinygltf::Value::Object{{"rtpm_world", worldValue(model, scene.environment)}});
 
     for (size_t ti = 0; ti < scene.textures.size(); ++ti) {
         std::vector<unsigned char> png = encodePng(scene.textures[ti], scene.name);
@@ -325,7 +344,7 @@ std::vector<uint8_t> encodeGlb(const Scene& scene) {
 }
 
 void exportGlb(const Scene& scene, const std::string& path) {
-    std::vector<uint8_t> bytes = encodeGlb(scene);
+    std::vector<uint8_t> bytes = encodeGlb(scene, /*withWorld=*/true);
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
     if (!out) throw OutputError(path + ": cannot open for writing");
     out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));

@@ -17,11 +17,14 @@ namespace rtpm {
 /// (attenuationColor = exp(−σ·d) with d = 1 m); emission → emissiveFactor ×
 /// KHR_materials_emissive_strength (× emissiveTexture); unlit → KHR_materials_unlit (required);
 /// base-colour texture transforms → KHR_texture_transform (uv set 0); textures embedded as
-/// 8-bit sRGB PNG (so a texture survives the trip only up to 8-bit quantisation). Throws SceneError if the scene fails Scene::validate.
-/// Cost O(scene size).
-std::vector<uint8_t> encodeGlb(const Scene& scene);
+/// 8-bit sRGB PNG (so a texture survives the trip only up to 8-bit quantisation). The scene's
+/// extras say "rtpm_world": "none" when it has no world light; with `withWorld` a world light is
+/// written there too (a uniform radiance, or the map's float32 texels in a buffer view: bit for
+/// bit), without it left out (the cluster's wire carries it apart). Throws SceneError if the
+/// scene fails Scene::validate. Cost O(scene size).
+std::vector<uint8_t> encodeGlb(const Scene& scene, bool withWorld = false);
 
-/// Writes encodeGlb(scene) to `path`. Throws OutputError (common/core/output_file.h) when it
+/// Writes encodeGlb(scene, true) to `path`. Throws OutputError (common/core/output_file.h) when it
 /// cannot write, SceneError as encodeGlb.
 void exportGlb(const Scene& scene, const std::string& path);
 

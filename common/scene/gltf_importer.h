@@ -111,6 +111,7 @@ private:
     void readUvs(const tinygltf::Primitive& prim, const std::string& el, int material, Mesh& mesh);
 
     // ---- node hierarchy (gltf_nodes.cpp)
+    void readWorld(const tinygltf::Value& world, const std::string& element);
     void visitNode(int node, const Mat4& parent, int depth);
     Mat4 localTransform(const tinygltf::Node& node, const std::string& element) const;
     void addGpuInstances(const tinygltf::Value& ext, const std::string& element, const Mat4& world,

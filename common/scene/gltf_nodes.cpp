@@ -3,6 +3,7 @@
 #include "common/scene/gltf_importer.h"
 
 #include <algorithm>
+#include <cstring>
 #include <filesystem>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -216,6 +217,49 @@ void GltfImporter::visitNode(int nodeIndex, const Mat4& parent, int depth) {
     onPath_[size_t(nodeIndex)] = 0;
 }
 
+// The world light rtpm's own export wrote (encodeGlb with its world): a uniform radiance or an
+// equirectangular map of float32 texels in a buffer view, every bound and value checked.
+void GltfImporter::readWorld(const tinygltf::Value& world, const std::string& el) {
+    if (world.Has("uniform")) {
+        const tinygltf::Value& u = world.Get("uniform");
+        if (!u.IsArray() || u.ArrayLen() != 3) fail(el + ".uniform", "not an array of 3 numbers");
+        Vec3 c(0.0f);
+        for (int i = 0; i < 3; ++i) {
+            const tinygltf::Value& v = u.Get(i);
+            c[i] = v.IsNumber() ? float(v.GetNumberAsDouble()) : -1.0f;
+            if (!(c[i] >= 0.0f) || !std::isfinite(c[i])) fail(el + ".uniform", "values must be finite and >= 0");
+        }
+        scene_.environment = Environment::uniform(c);
+        return;
+    }
+    if (!world.Has("map")) fail(el, "neither uniform nor map");
+    const tinygltf::Value& m = world.Get("map");
+    auto integer = [&](const char* key) {
+        const tinygltf::Value& v = m.Get(key);
+        if (!v.IsInt() || v.GetNumberAsInt() < 0) fail(el + ".map." + key, "missing or not a non-negative integer");
+        return v.GetNumberAsInt();
+    };
+    const int view = integer("bufferView"), width = integer("width"), height = integer("height");
+    if (size_t(view) >= model_.bufferViews.size()) fail(el + ".map.bufferView", "out of range");
+    const tinygltf::BufferView& bv = model_.bufferViews[size_t(view)];
+    if (bv.buffer < 0 || size_t(bv.buffer) >= model_.buffers.size()) fail(el + ".map.bufferView", "its buffer is out of range");
+    const std::vector<unsigned char>& data = model_.buffers[size_t(bv.buffer)].data;
+    const uint64_t floats = uint64_t(width) * uint64_t(height) * 3;
+    if (bv.byteOffset > data.size() || bv.byteLength > data.size() - bv.byteOffset ||
+        floats * sizeof(float) != bv.byteLength)
+        fail(el + ".map", std::to_string(width) + " x " + std::to_string(height) + " RGB float texels do not fill " +
+                              "bufferViews[" + std::to_string(view) + "] within its buffer");
+    files_->charge(floats * sizeof(float) * 2, el + ".map");  // the texels and the sampling tables
+    Texture map;
+    map.name = "world";
+    map.width = width;
+    map.height = height;
+    map.rgb.resize(size_t(floats));
+    std::memcpy(map.rgb.data(), data.data() + bv.byteOffset, size_t(bv.byteLength));
+    validateEnvironmentMap(map, file_);
+    scene_.environment = Environment::fromMap(map);
+}
+
 Scene GltfImporter::run() {
     checkExtensions();
     readVariants();
@@ -232,6 +276,7 @@ Scene GltfImporter::run() {
         if (extras.IsObject() && extras.Has("rtpm_world")) {
             const tinygltf::Value& world = extras.Get("rtpm_world");
             scene_.worldless = world.IsString() && world.Get<std::string>() == "none";
+            if (world.IsObject()) readWorld(world, "scenes[" + std::to_string(s) + "].extras.rtpm_world");
         }
     } else {
         // No scenes: every node that is nobody's child is a root.

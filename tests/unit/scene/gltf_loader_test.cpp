@@ -251,6 +251,51 @@ TEST(GltfExport, PlasticAndLambertianRoundTripAsThemselves) {
     EXPECT_TRUE(sawLambert);
 }
 
+// The world light goes into an exported file and comes back: a uniform radiance, and a map's
+// texels bit for bit. The cluster's GLB (encodeGlb without the world) leaves it out; a map whose
+// texels do not fill their buffer view is refused naming it.
+TEST(GltfExport, TheWorldLightRoundTripsThroughGlb) {
+    ScratchDir dir;
+    Scene uniform = loadScene("RING");
+    uniform.environment = Environment::uniform(Vec3(0.25f, 0.5f, 1.5f));
+    const std::string u = dir.write("uniform.glb", "");
+    exportGlb(uniform, u);
+    const Scene backU = loadScene(u);
+    EXPECT_FALSE(backU.worldless);
+    ASSERT_FALSE(backU.environment.hasMap());
+    EXPECT_EQ(backU.environment.uniformRadiance(), Vec3(0.25f, 0.5f, 1.5f));
+
+    Texture map;
+    map.width = 8;
+    map.height = 4;
+    for (int i = 0; i < map.width * map.height * 3; ++i) map.rgb.push_back(0.1f * float(i % 7) + 1.0f / 3.0f);
+    Scene mapped = loadScene("RING");
+    mapped.environment = Environment::fromMap(map);
+    const std::string m = dir.write("map.glb", "");
+    exportGlb(mapped, m);
+    const Scene backM = loadScene(m);
+    ASSERT_TRUE(backM.environment.hasMap());
+    EXPECT_EQ(backM.environment.width(), 8);
+    EXPECT_EQ(backM.environment.height(), 4);
+    ASSERT_EQ(backM.environment.texels().size(), map.rgb.size());
+    EXPECT_EQ(std::memcmp(backM.environment.texels().data(), map.rgb.data(), map.rgb.size() * sizeof(float)), 0);
+    EXPECT_EQ(backM.environment.integral(), mapped.environment.integral());
+
+    const Scene fromWire = loadGltfFromMemory(encodeGlb(mapped), "wire.glb", "");
+    EXPECT_TRUE(fromWire.environment.empty());
+    EXPECT_FALSE(fromWire.worldless);
+
+    const std::string triangle = R"("asset":{"version":"2.0"},"scene":0,"nodes":[{"mesh":0}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}],
+"bufferViews":[{"buffer":0,"byteLength":36}],
+"buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}])";
+    expectSceneError(dir.write("short.gltf", "{" + triangle + R"(,"scenes":[{"nodes":[0],"extras":{"rtpm_world":
+{"map":{"bufferView":0,"width":8,"height":4}}}}]})"), "rtpm_world.map");
+    expectSceneError(dir.write("negative.gltf", "{" + triangle + R"(,"scenes":[{"nodes":[0],"extras":{"rtpm_world":
+{"uniform":[1,-1,1]}}}]})"), "rtpm_world.uniform");
+}
+
 TEST(GltfExport, RingRoundTripsThroughGlb) {
     ScratchDir dir;
     Scene ring = loadScene("RING");
