@@ -97,6 +97,9 @@ private:
     TextureTransform textureTransform(const tinygltf::Value& ext, const std::string& element,
                                       int& uvSet) const;
     int textureFor(int gltfTexture, const std::string& element);
+    std::vector<unsigned char> imageBytes(int source) const;
+    void scaleByMeanOfTexture(const tinygltf::TextureInfo& info, const std::string& element, double& roughness,
+                              double& metallic);
     uint32_t defaultMaterial();
 
     // ---- meshes (gltf_meshes.cpp)

@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
-#include <optional>
 #include <set>
 
 #include "common/core/printable_text.h"
@@ -98,6 +98,51 @@ void GltfImporter::checkExtensions() {
     if (!unsupported.empty()) warn("extensionsUsed: ignored unsupported extensions: " + unsupported);
 }
 
+// Image `source`'s encoded bytes (from its buffer view or its file), every bound checked; empty
+// when the file holds none (a missing external file).
+std::vector<unsigned char> GltfImporter::imageBytes(int source) const {
+    const tinygltf::Image& img = model_.images[size_t(source)];
+    const std::string imgEl = "images[" + std::to_string(source) + "]";
+    if (img.bufferView < 0) return img.image;
+    if (size_t(img.bufferView) >= model_.bufferViews.size())
+        fail(imgEl, "bufferView " + std::to_string(img.bufferView) + " out of range");
+    const tinygltf::BufferView& bv = model_.bufferViews[size_t(img.bufferView)];
+    if (bv.buffer < 0 || size_t(bv.buffer) >= model_.buffers.size())
+        fail(imgEl, "buffer of its bufferView out of range");
+    const auto& data = model_.buffers[size_t(bv.buffer)].data;
+    if (bv.byteOffset > data.size() || bv.byteLength > data.size() - bv.byteOffset)
+        fail(imgEl, "bufferView " + std::to_string(img.bufferView) + " exceeds its buffer");
+    return {data.begin() + std::ptrdiff_t(bv.byteOffset), data.begin() + std::ptrdiff_t(bv.byteOffset + bv.byteLength)};
+}
+
+// `roughness` and `metallic` times the mean of the metallic-roughness texture `info` over its texels
+// (green and blue, stored linear), with a warning naming the means; unchanged when it has no image.
+void GltfImporter::scaleByMeanOfTexture(const tinygltf::TextureInfo& info, const std::string& element,
+                                        double& roughness, double& metallic) {
+    if (info.index < 0 || size_t(info.index) >= model_.textures.size())
+        fail(element, "texture index " + std::to_string(info.index) + " out of range");
+    const int source = model_.textures[size_t(info.index)].source;
+    if (source < 0) return;
+    if (size_t(source) >= model_.images.size())
+        fail("textures[" + std::to_string(info.index) + "]", "image index " + std::to_string(source) + " out of range");
+    const std::vector<unsigned char> encoded = imageBytes(source);
+    if (encoded.empty()) return;
+    const Texture tex = decodeSrgbTexture(encoded, model_.images[size_t(source)].mimeType == "image/jpeg" ? "jpg" : "png",
+                                          file_, "images[" + std::to_string(source) + "]", files_, /*srgb=*/false);
+    double g = 0.0, b = 0.0;
+    for (size_t p = 0; p < tex.rgb.size(); p += 3) {
+        g += tex.rgb[p + 1];
+        b += tex.rgb[p + 2];
+    }
+    const double n = double(tex.rgb.size() / 3);
+    roughness *= g / n;
+    metallic *= b / n;
+    char text[160];
+    std::snprintf(text, sizeof text, ": its mean used (roughness x %.3f, metallic x %.3f); its variation over the "
+                  "surface is not rendered", g / n, b / n);
+    warn(element + text);
+}
+
 int GltfImporter::textureFor(int gltfTexture, const std::string& element) {
     if (gltfTexture < 0 || size_t(gltfTexture) >= model_.textures.size())
         fail(element, "texture index " + std::to_string(gltfTexture) + " out of range");
@@ -115,21 +160,7 @@ int GltfImporter::textureFor(int gltfTexture, const std::string& element) {
 
     const tinygltf::Image& img = model_.images[size_t(source)];
     const std::string imgEl = "images[" + std::to_string(source) + "]";
-    std::vector<unsigned char> encoded;
-    if (img.bufferView >= 0) {
-        if (size_t(img.bufferView) >= model_.bufferViews.size())
-            fail(imgEl, "bufferView " + std::to_string(img.bufferView) + " out of range");
-        const tinygltf::BufferView& bv = model_.bufferViews[size_t(img.bufferView)];
-        if (bv.buffer < 0 || size_t(bv.buffer) >= model_.buffers.size())
-            fail(imgEl, "buffer of its bufferView out of range");
-        const auto& data = model_.buffers[size_t(bv.buffer)].data;
-        if (bv.byteOffset > data.size() || bv.byteLength > data.size() - bv.byteOffset)
-            fail(imgEl, "bufferView " + std::to_string(img.bufferView) + " exceeds its buffer");
-        encoded.assign(data.begin() + std::ptrdiff_t(bv.byteOffset),
-                       data.begin() + std::ptrdiff_t(bv.byteOffset + bv.byteLength));
-    } else {
-        encoded = img.image;
-    }
+    const std::vector<unsigned char> encoded = imageBytes(source);
     if (encoded.empty()) {
         warn(imgEl + ": image data unavailable (missing file?); texture ignored");
         imageTextures_[source] = -1;
@@ -233,6 +264,12 @@ void GltfImporter::convertMaterials() {
             if (sg->Has("specularGlossinessTexture")) specularGlossinessTextures.push_back(el);
             ++specularGlossinessMaterials;
         }
+        // A metallic-roughness texture scales the factors per texel; the material takes its mean
+        // (one roughness and metallic per material), which keeps the look of the whole surface
+        // where the factors alone (often 1 and 1 beside a texture) would make it a rough metal.
+        if (pbr.metallicRoughnessTexture.index >= 0 && !extension(gm.extensions, "KHR_materials_pbrSpecularGlossiness"))
+            scaleByMeanOfTexture(pbr.metallicRoughnessTexture, el + ".pbrMetallicRoughness.metallicRoughnessTexture",
+                                 roughness, metallic);
         base = glm::clamp(base, Vec3(0.0f), Vec3(1.0f));
         m.baseColor = base;
         // The roughness of a metal or a transmissive material (GGX α = roughness², scene.h).
@@ -454,7 +491,6 @@ void GltfImporter::warnIgnored(const tinygltf::Material& gm, const std::string& 
     };
     note(gm.normalTexture.index >= 0, "normalTexture");
     note(gm.occlusionTexture.index >= 0, "occlusionTexture");
-    note(gm.pbrMetallicRoughness.metallicRoughnessTexture.index >= 0, "metallicRoughnessTexture");
     note(!gm.alphaMode.empty() && gm.alphaMode != "OPAQUE", "alphaMode (rendered opaque)");
     if (!ignored.empty()) warn(el + ": ignored " + ignored);
 }

@@ -21,7 +21,7 @@ float srgbToLinear(float c) {
 }  // namespace
 
 Texture decodeSrgbTexture(const std::vector<uint8_t>& encoded, const std::string& formatHint,
-                          const std::string& file, const std::string& element, SceneFiles* files) {
+                          const std::string& file, const std::string& element, SceneFiles* files, bool srgb) {
     if (encoded.empty()) throw SceneError(file, element, "image data is empty");
     // stb_image recognises the format from its signature (PNG, JPEG, BMP, TGA, GIF, …); the hint
     // only names what was expected in the error message.
@@ -57,7 +57,8 @@ Texture decodeSrgbTexture(const std::vector<uint8_t>& encoded, const std::string
     tex.rgb.resize(texels * 3);
     for (size_t p = 0; p < texels; ++p)
         for (size_t c = 0; c < 3; ++c)
-            tex.rgb[p * 3 + c] = srgbToLinear(pixels[p * size_t(nch) + (nch >= 3 ? c : 0)]);
+            tex.rgb[p * 3 + c] = srgb ? srgbToLinear(pixels[p * size_t(nch) + (nch >= 3 ? c : 0)])
+                                      : pixels[p * size_t(nch) + (nch >= 3 ? c : 0)];
     return tex;
 }
 

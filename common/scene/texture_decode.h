@@ -15,9 +15,10 @@ namespace rtpm {
 /// `formatHint` (a file name or extension) names the expected format in error messages.
 /// Throws SceneError{file, element, …} for undecodable or absurdly large (> 2^26 texels) images.
 /// When `files` is given, the decoded texture (width·height·3 floats) is charged to its budget
-/// before any pixel is decoded; the decode needs as much again while it runs.
+/// before any pixel is decoded; the decode needs as much again while it runs. `srgb` false keeps
+/// the stored values (data such as glTF's metallic-roughness texture), scaled to [0, 1].
 Texture decodeSrgbTexture(const std::vector<uint8_t>& encoded, const std::string& formatHint,
                           const std::string& file, const std::string& element,
-                          SceneFiles* files = nullptr);
+                          SceneFiles* files = nullptr, bool srgb = true);
 
 }  // namespace rtpm

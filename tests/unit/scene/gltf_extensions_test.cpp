@@ -355,5 +355,32 @@ TEST(GltfSpecularGlossiness, OutOfRangeFactorIsRefusedByName) {
     EXPECT_EQ(e.element, "materials[0].extensions.KHR_materials_pbrSpecularGlossiness.specularFactor");
 }
 
+// ---- metallicRoughnessTexture -------------------------------------------------------------------
+
+// Blender writes factors 1 and 1 beside a texture that holds the values: the material takes the
+// texture's mean (green: roughness, blue: metallic, stored linear), so a textured dielectric is not
+// read as a rough metal that would drop its base-colour texture.
+TEST(GltfMetallicRoughnessTexture, TheFactorsAreScaledByTheTexturesMean) {
+    GltfBuilder b;
+    const float centre[3] = {0, 0, 0}, u[3] = {1, 0, 0}, v[3] = {0, 1, 0};
+    const std::string prim = b.quadPrimitive(centre, u, v);
+    // Two texels: green 128 and 64 (mean 96/255), blue 0 and 51 (mean 25.5/255 = 0.1).
+    const int mr = b.image(testgltf::pngBytes(2, 1, {255, 128, 0, 255, 64, 51}), "image/png");
+    const int colour = b.image(testgltf::pngBytes(1, 1, {200, 100, 50}), "image/png");
+    const Scene s = loadText(b.json(R"("scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+"meshes":[{"primitives":[)" + prim + R"(,"material":0}]}],
+"textures":[{"source":)" + std::to_string(mr) + R"(},{"source":)" + std::to_string(colour) + R"(}],
+"materials":[{"pbrMetallicRoughness":{"metallicFactor":1,"roughnessFactor":1,
+ "metallicRoughnessTexture":{"index":0},"baseColorTexture":{"index":1}}}])"));
+    ASSERT_EQ(s.materials.size(), 1u);
+    const Material& m = s.materials[0];
+    EXPECT_EQ(m.type, MaterialType::Plastic);
+    EXPECT_NEAR(m.roughness, 96.0f / 255.0f, 1e-6f);
+    EXPECT_NEAR(m.metallic, 25.5f / 255.0f, 1e-6f);
+    EXPECT_GE(m.baseColorTexture, 0) << "a plastic shows its base-colour texture";
+    EXPECT_TRUE(contains(allWarnings(s), "metallicRoughnessTexture: its mean used (roughness x 0.376, metallic x 0.100)"))
+        << allWarnings(s);
+}
+
 }  // namespace
 }  // namespace rtpm
