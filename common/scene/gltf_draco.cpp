@@ -24,19 +24,8 @@ int dracoId(const tinygltf::Value& ext, const std::string& name) {
 std::pair<const char*, size_t> GltfImporter::dracoBytes(const tinygltf::Value& ext, const std::string& el) const {
     const tinygltf::Value& bv = ext.Get("bufferView");
     if (!bv.IsInt()) fail(el, "bufferView missing or not an integer");
-    const int view = bv.GetNumberAsInt();
-    if (view < 0 || size_t(view) >= model_.bufferViews.size())
-        fail(el + ".bufferView", "index " + std::to_string(view) + " out of range (" +
-                                     std::to_string(model_.bufferViews.size()) + " bufferViews)");
-    const tinygltf::BufferView& v = model_.bufferViews[size_t(view)];
-    const std::string viewEl = "bufferViews[" + std::to_string(view) + "]";
-    if (v.buffer < 0 || size_t(v.buffer) >= model_.buffers.size())
-        fail(viewEl + ".buffer", "index " + std::to_string(v.buffer) + " out of range");
-    const std::vector<unsigned char>& data = model_.buffers[size_t(v.buffer)].data;
-    if (v.byteOffset > data.size() || v.byteLength > data.size() - v.byteOffset)
-        fail(viewEl, "bytes " + std::to_string(v.byteOffset) + " + " + std::to_string(v.byteLength) +
-                         " beyond the buffer's " + std::to_string(data.size()));
-    return {reinterpret_cast<const char*>(data.data() + v.byteOffset), v.byteLength};
+    const std::span<const unsigned char> bytes = viewBytes(bv.GetNumberAsInt(), el + ".bufferView");
+    return {reinterpret_cast<const char*>(bytes.data()), bytes.size()};
 }
 
 void GltfImporter::decodeDraco(const tinygltf::Primitive& prim, const tinygltf::Value& ext, const std::string& primEl,

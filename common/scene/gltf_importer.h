@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <initializer_list>
 #include <map>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -98,6 +99,9 @@ private:
                                       int& uvSet) const;
     int textureFor(int gltfTexture, const std::string& element);
     std::vector<unsigned char> imageBytes(int source) const;
+    /// The bytes of bufferView `view` (byteOffset, byteLength) after its index, its buffer and its
+    /// range are checked; errors name `element` (what refers to the view).
+    std::span<const unsigned char> viewBytes(int view, const std::string& element) const;
     void scaleByMeanOfTexture(const tinygltf::TextureInfo& info, const std::string& element, double& roughness,
                               double& metallic);
     uint32_t defaultMaterial();

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <set>
 
 #include "common/core/printable_text.h"
@@ -102,17 +103,23 @@ void GltfImporter::checkExtensions() {
 // when the file holds none (a missing external file).
 std::vector<unsigned char> GltfImporter::imageBytes(int source) const {
     const tinygltf::Image& img = model_.images[size_t(source)];
-    const std::string imgEl = "images[" + std::to_string(source) + "]";
     if (img.bufferView < 0) return img.image;
-    if (size_t(img.bufferView) >= model_.bufferViews.size())
-        fail(imgEl, "bufferView " + std::to_string(img.bufferView) + " out of range");
-    const tinygltf::BufferView& bv = model_.bufferViews[size_t(img.bufferView)];
+    const std::span<const unsigned char> bytes = viewBytes(img.bufferView, "images[" + std::to_string(source) + "]");
+    return {bytes.begin(), bytes.end()};
+}
+
+std::span<const unsigned char> GltfImporter::viewBytes(int view, const std::string& element) const {
+    if (view < 0 || size_t(view) >= model_.bufferViews.size())
+        fail(element, "bufferView " + std::to_string(view) + " out of range (" +
+                          std::to_string(model_.bufferViews.size()) + " bufferViews)");
+    const tinygltf::BufferView& bv = model_.bufferViews[size_t(view)];
     if (bv.buffer < 0 || size_t(bv.buffer) >= model_.buffers.size())
-        fail(imgEl, "buffer of its bufferView out of range");
-    const auto& data = model_.buffers[size_t(bv.buffer)].data;
+        fail(element, "buffer of bufferViews[" + std::to_string(view) + "] out of range");
+    const std::vector<unsigned char>& data = model_.buffers[size_t(bv.buffer)].data;
     if (bv.byteOffset > data.size() || bv.byteLength > data.size() - bv.byteOffset)
-        fail(imgEl, "bufferView " + std::to_string(img.bufferView) + " exceeds its buffer");
-    return {data.begin() + std::ptrdiff_t(bv.byteOffset), data.begin() + std::ptrdiff_t(bv.byteOffset + bv.byteLength)};
+        fail(element, "bufferViews[" + std::to_string(view) + "]: bytes " + std::to_string(bv.byteOffset) + " + " +
+                          std::to_string(bv.byteLength) + " beyond its buffer's " + std::to_string(data.size()));
+    return {data.data() + bv.byteOffset, bv.byteLength};
 }
 
 // `roughness` and `metallic` times the mean of the metallic-roughness texture `info` over its texels

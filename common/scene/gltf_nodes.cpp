@@ -240,22 +240,18 @@ void GltfImporter::readWorld(const tinygltf::Value& world, const std::string& el
         return v.GetNumberAsInt();
     };
     const int view = integer("bufferView"), width = integer("width"), height = integer("height");
-    if (size_t(view) >= model_.bufferViews.size()) fail(el + ".map.bufferView", "out of range");
-    const tinygltf::BufferView& bv = model_.bufferViews[size_t(view)];
-    if (bv.buffer < 0 || size_t(bv.buffer) >= model_.buffers.size()) fail(el + ".map.bufferView", "its buffer is out of range");
-    const std::vector<unsigned char>& data = model_.buffers[size_t(bv.buffer)].data;
+    const std::span<const unsigned char> bytes = viewBytes(view, el + ".map.bufferView");
     const uint64_t floats = uint64_t(width) * uint64_t(height) * 3;
-    if (bv.byteOffset > data.size() || bv.byteLength > data.size() - bv.byteOffset ||
-        floats * sizeof(float) != bv.byteLength)
+    if (floats * sizeof(float) != bytes.size())
         fail(el + ".map", std::to_string(width) + " x " + std::to_string(height) + " RGB float texels do not fill " +
-                              "bufferViews[" + std::to_string(view) + "] within its buffer");
+                              "bufferViews[" + std::to_string(view) + "] (" + std::to_string(bytes.size()) + " bytes)");
     files_->charge(floats * sizeof(float) * 2, el + ".map");  // the texels and the sampling tables
     Texture map;
     map.name = "world";
     map.width = width;
     map.height = height;
     map.rgb.resize(size_t(floats));
-    std::memcpy(map.rgb.data(), data.data() + bv.byteOffset, size_t(bv.byteLength));
+    std::memcpy(map.rgb.data(), bytes.data(), bytes.size());
     validateEnvironmentMap(map, file_);
     scene_.environment = Environment::fromMap(map);
 }
