@@ -57,7 +57,7 @@ int run(int argc, char** argv) {
     if (!o.portFile.empty()) prepareOutputFile("--port-file", o.portFile);
     flags.overrides.defaultLight = !flags.noDefaultLight;
     Scene scene = loadScene(o.sceneName, flags.overrides, flags.sceneInput);
-    addSkyWhereLightsMissTheView(scene, o.sceneName, flags.overrides.defaultLight);
+    addSkyWhereLightsMissTheView(scene, o.sceneName, flags.overrides);
     for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     if (!flags.editScript.empty()) {
         o.script = server::loadEditScript(flags.editScript);

@@ -178,7 +178,8 @@ Scene loadScene(const std::string& nameOrPath, const SceneOverrides& overrides,
             nameOrPath + ": no light and no emissive material that emits; added the default spot light (at " + at(light.position) +
             ", behind the scene, for caustics) and a key light from the camera's side (at " + at(key.position) +
             "), both aimed at the scene's centre, and a dim grey sky; see README. --no-default-light refuses such scenes");
-    } else if (overrides.defaultLight && scene.environment.empty() && !scene.worldless && !isBuiltinScene(nameOrPath) &&
+    } else if (overrides.defaultLight && !overrides.environment && scene.environment.empty() && !scene.worldless &&
+               !isBuiltinScene(nameOrPath) &&
                std::none_of(scene.lights.begin(), scene.lights.end(), emits)) {
         // A file lit by its emissive surfaces alone: what they do not reach would be black, where
         // Blender (and a glTF viewer) shows the world it always has, which glTF cannot carry.

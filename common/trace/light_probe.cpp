@@ -66,8 +66,10 @@ float directlyLitShare(const Scene& scene, int columns, int rows) {
     return float(lit) / float(columns * rows);
 }
 
-bool addSkyWhereLightsMissTheView(Scene& scene, const std::string& nameOrPath, bool defaultLight) {
-    if (!defaultLight || !scene.environment.empty() || scene.worldless || isBuiltinScene(nameOrPath)) return false;
+bool addSkyWhereLightsMissTheView(Scene& scene, const std::string& nameOrPath, const SceneOverrides& overrides) {
+    if (!overrides.defaultLight || overrides.environment || !scene.environment.empty() || scene.worldless ||
+        isBuiltinScene(nameOrPath))
+        return false;
     const float share = directlyLitShare(scene);
     if (share >= kUnlitViewShare) return false;
     scene.environment = defaultSky();

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "common/scene/scene.h"
+#include "common/scene/scene_loader.h"
 
 namespace rtpm {
 
@@ -24,7 +25,9 @@ inline constexpr float kUnlitViewShare = 0.25f;
 /// export, whose punctual lights reach less than kUnlitViewShare of its camera's view, gets
 /// defaultSky() as its world and a warning naming the share: Blender shows such a file under its
 /// world, which glTF cannot carry (a sun grazing the floor the camera looks down on). Nothing
-/// when `defaultLight` is false (--no-default-light). Returns true when the sky was added.
-bool addSkyWhereLightsMissTheView(Scene& scene, const std::string& nameOrPath, bool defaultLight);
+/// when `overrides` (what loadScene was given) refuse default light (--no-default-light) or name
+/// a world light of their own (--env, --env-color, black included). Returns true when the sky
+/// was added.
+bool addSkyWhereLightsMissTheView(Scene& scene, const std::string& nameOrPath, const SceneOverrides& overrides);
 
 }  // namespace rtpm

@@ -77,7 +77,7 @@ TEST(LightProbe, AnEmissiveSurfaceInViewShowsItselfAndWhatNoRayHitsIsDark) {
 TEST(LightProbe, AFileWhoseLightsMissTheViewGetsTheDefaultSkyUnlessItSaysOtherwise) {
     const Vec3 grazing(0.0f, 0.0f, 1.0f);
     Scene file = floorSeenFromAbove(grazing);
-    ASSERT_TRUE(addSkyWhereLightsMissTheView(file, "board.gltf", true));
+    ASSERT_TRUE(addSkyWhereLightsMissTheView(file, "board.gltf", {}));
     EXPECT_FALSE(file.environment.empty());
     EXPECT_EQ(file.environment.uniformRadiance(), defaultSky().uniformRadiance());
     ASSERT_FALSE(file.warnings.empty());
@@ -85,17 +85,23 @@ TEST(LightProbe, AFileWhoseLightsMissTheViewGetsTheDefaultSkyUnlessItSaysOtherwi
         << file.warnings.back();
 
     Scene lit = floorSeenFromAbove(Vec3(0.0f, -1.0f, 0.0f));
-    EXPECT_FALSE(addSkyWhereLightsMissTheView(lit, "board.gltf", true));
+    EXPECT_FALSE(addSkyWhereLightsMissTheView(lit, "board.gltf", {}));
     EXPECT_TRUE(lit.environment.empty());
 
     Scene refused = floorSeenFromAbove(grazing);
-    EXPECT_FALSE(addSkyWhereLightsMissTheView(refused, "board.gltf", false));  // --no-default-light
+    SceneOverrides noDefault;
+    noDefault.defaultLight = false;  // --no-default-light
+    EXPECT_FALSE(addSkyWhereLightsMissTheView(refused, "board.gltf", noDefault));
+    Scene black = floorSeenFromAbove(grazing);
+    SceneOverrides blackWorld;
+    blackWorld.environment = EnvironmentOverride{};  // --env-color 0: a world of the user's own
+    EXPECT_FALSE(addSkyWhereLightsMissTheView(black, "board.gltf", blackWorld));
     Scene builtin = floorSeenFromAbove(grazing);
-    EXPECT_FALSE(addSkyWhereLightsMissTheView(builtin, "ring", true));
+    EXPECT_FALSE(addSkyWhereLightsMissTheView(builtin, "ring", {}));
     Scene exported = floorSeenFromAbove(grazing);
     exported.worldless = true;  // our own export of a scene without a world
-    EXPECT_FALSE(addSkyWhereLightsMissTheView(exported, "board.glb", true));
-    for (const Scene* s : {&refused, &builtin, &exported}) EXPECT_TRUE(s->environment.empty());
+    EXPECT_FALSE(addSkyWhereLightsMissTheView(exported, "board.glb", {}));
+    for (const Scene* s : {&refused, &black, &builtin, &exported}) EXPECT_TRUE(s->environment.empty());
 }
 
 }  // namespace
