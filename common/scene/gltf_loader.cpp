@@ -222,6 +222,25 @@ std::vector<uint8_t> glbWithJson(const std::vector<uint8_t>& bytes, size_t jsonB
     return out;
 }
 
+// tinygltf (2.7) checks a GLB's BIN chunk against the file without the chunk's own 8-byte header
+// and then copies up to 8 bytes past the end: the chunks are checked here first. Nothing for a
+// file too short to hold a JSON chunk (tinygltf refuses it).
+void checkGlbChunks(const std::vector<uint8_t>& glb, const std::string& fileName) {
+    if (glb.size() < 20) return;
+    uint32_t length = 0, jsonLength = 0;
+    std::memcpy(&length, glb.data() + 8, 4);
+    std::memcpy(&jsonLength, glb.data() + 12, 4);
+    const uint64_t end = std::min<uint64_t>(length, glb.size());
+    const uint64_t binAt = 20ull + jsonLength;
+    if (binAt >= end) return;  // no BIN chunk (or a JSON chunk tinygltf refuses)
+    uint32_t binLength = 0;
+    if (binAt + 8 <= end) std::memcpy(&binLength, glb.data() + binAt, 4);
+    if (binAt + 8 > end || binAt + 8 + binLength > end)
+        throw SceneError(fileName, "GLB", "the BIN chunk (" + std::to_string(binLength) + " bytes at byte " +
+                                              std::to_string(binAt) + ") runs past the end of the file (" +
+                                              std::to_string(end) + " bytes)");
+}
+
 // Parses `bytes` (the scene file, already charged to `files`) and imports it; every external
 // file goes through `files`.
 Scene loadGltfBytes(const std::vector<uint8_t>& bytes, SceneFiles& files, const GltfOptions& options) {
@@ -269,6 +288,7 @@ Scene loadGltfBytes(const std::vector<uint8_t>& bytes, SceneFiles& files, const 
         rewritten = binary ? glbWithJson(bytes, jsonBytes, std::move(*json))
                            : std::vector<uint8_t>(json->begin(), json->end());
     const std::vector<uint8_t>& parsed = rewritten.empty() ? bytes : rewritten;
+    if (binary) checkGlbChunks(parsed, fileName);
     try {
         if (binary) {
             ok = loader.LoadBinaryFromMemory(&model, &err, &warn, parsed.data(),

@@ -296,6 +296,25 @@ TEST(GltfExport, TheWorldLightRoundTripsThroughGlb) {
 {"uniform":[1,-1,1]}}}]})"), "rtpm_world.uniform");
 }
 
+// A GLB whose BIN chunk claims 8 bytes more than the file holds (its header counted, as tinygltf
+// does not): refused before tinygltf would copy past the end (found by the Draco fuzz seeds).
+TEST(GltfLoader, AGlbBinChunkRunningPastTheEndIsRefused) {
+    std::vector<uint8_t> glb = encodeGlb(loadScene("RING"));
+    uint32_t jsonLength = 0, binLength = 0;
+    std::memcpy(&jsonLength, glb.data() + 12, 4);
+    ASSERT_GT(glb.size(), 28u + jsonLength);
+    std::memcpy(&binLength, glb.data() + 20 + jsonLength, 4);
+    binLength += 8;
+    std::memcpy(glb.data() + 20 + jsonLength, &binLength, 4);
+    try {
+        loadGltfFromMemory(glb, "tampered.glb", "");
+        ADD_FAILURE() << "loaded";
+    } catch (const SceneError& e) {
+        EXPECT_EQ(e.element, "GLB");
+        EXPECT_NE(std::string(e.what()).find("runs past the end of the file"), std::string::npos) << e.what();
+    }
+}
+
 TEST(GltfExport, RingRoundTripsThroughGlb) {
     ScratchDir dir;
     Scene ring = loadScene("RING");
