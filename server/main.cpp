@@ -56,8 +56,7 @@ int run(int argc, char** argv) {
     if (!o.csv.empty()) prepareOutputFile("--csv", o.csv, OutputWrite::Append);
     if (!o.portFile.empty()) prepareOutputFile("--port-file", o.portFile);
     flags.overrides.defaultLight = !flags.noDefaultLight;
-    Scene scene = loadScene(o.sceneName, flags.overrides, flags.sceneInput);
-    addSkyWhereLightsMissTheView(scene, o.sceneName, flags.overrides);
+    Scene scene = loadSceneToRender(o.sceneName, flags.overrides, flags.sceneInput);
     for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     if (!flags.editScript.empty()) {
         o.script = server::loadEditScript(flags.editScript);

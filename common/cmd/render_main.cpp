@@ -136,8 +136,7 @@ Scene loadFlaggedScene(const Options& o, SceneOverrides overrides) {
 
     using Clock = std::chrono::steady_clock;
     auto t0 = Clock::now();
-    Scene scene = loadScene(o.scene, overrides, o.sceneInput);
-    addSkyWhereLightsMissTheView(scene, o.scene, overrides);
+    Scene scene = loadSceneToRender(o.scene, overrides, o.sceneInput);
     double loadSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
     for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     std::printf("scene %s: %zu triangles, %zu lights, %zu materials, loaded in %.1f ms\n", scene.name.c_str(),

@@ -4,8 +4,6 @@
 
 #include <draco/compression/decode.h>
 
-#include "common/scene/vertex_normals.h"
-
 namespace rtpm::gltf {
 
 namespace {
@@ -74,20 +72,11 @@ void GltfImporter::decodeDraco(const tinygltf::Primitive& prim, const tinygltf::
             mesh.indices[3 * f + k] = index;
         }
     }
-    bool smooth = true;
-    if (read("NORMAL", 3, values)) {
-        mesh.normals.resize(nv);
-        smooth = false;
-        for (size_t i = 0; i < nv && !smooth; ++i) {
-            const Vec3 n(values[3 * i], values[3 * i + 1], values[3 * i + 2]);
-            if (!(glm::length(n) > 1e-12f)) smooth = true;
-            else mesh.normals[i] = unitKeepingBits(n);
-        }
-        if (smooth) warn(el + ".attributes.NORMAL: zero-length normals; recomputed");
-    }
-    if (smooth) mesh.normals = smoothVertexNormals(mesh.positions, mesh.indices);
-    const int uvSet = material >= 0 && size_t(material) < materialUvSet_.size() ? materialUvSet_[size_t(material)] : 0;
-    if (read("TEXCOORD_" + std::to_string(uvSet), 2, values) || (uvSet != 0 && read("TEXCOORD_0", 2, values))) {
+    values.clear();
+    read("NORMAL", 3, values);  // none: smooth normals from the triangles
+    setNormals(values, el + ".attributes.NORMAL", mesh);
+    const std::string uvName = uvAttribute(prim, primEl, material);
+    if (!uvName.empty() && read(uvName, 2, values)) {
         mesh.uvs.resize(nv);
         for (size_t i = 0; i < nv; ++i) mesh.uvs[i] = Vec2(values[2 * i], values[2 * i + 1]);
     }

@@ -116,6 +116,12 @@ private:
     void readNormals(const tinygltf::Primitive& prim, const std::string& el, size_t positionFloats,
                      Mesh& mesh);
     void readUvs(const tinygltf::Primitive& prim, const std::string& el, int material, Mesh& mesh);
+    /// `n` (3 floats a vertex; empty: the file has none) as the mesh's unit normals, or smooth
+    /// normals from its triangles when empty or when one is zero-length (warned on `el`).
+    void setNormals(const std::vector<float>& n, const std::string& el, Mesh& mesh);
+    /// The TEXCOORD_n attribute the glTF material `material` reads (TEXCOORD_0 with a warning when
+    /// its own set is missing); empty when the primitive has neither.
+    std::string uvAttribute(const tinygltf::Primitive& prim, const std::string& el, int material);
 
     // ---- node hierarchy (gltf_nodes.cpp)
     void readWorld(const tinygltf::Value& world, const std::string& element);

@@ -108,50 +108,54 @@ void GltfImporter::readAccessors(const tinygltf::Primitive& prim, const std::str
 // triangles when it is absent or holds a zero-length normal. `positionFloats`: 3 per vertex.
 void GltfImporter::readNormals(const tinygltf::Primitive& prim, const std::string& el, size_t positionFloats,
                                Mesh& mesh) {
-    const size_t nv = mesh.positions.size();
+    std::vector<float> n;
     auto nIt = prim.attributes.find("NORMAL");
-    bool needNormals = true;
     if (nIt != prim.attributes.end()) {
-        std::vector<float> n = readFloats(nIt->second, el + ".attributes.NORMAL", TINYGLTF_TYPE_VEC3, Attribute::Normal);
+        n = readFloats(nIt->second, el + ".attributes.NORMAL", TINYGLTF_TYPE_VEC3, Attribute::Normal);
         if (n.size() != positionFloats)
             fail(el + ".attributes.NORMAL", "count differs from POSITION count");
+    }
+    setNormals(n, el + ".attributes.NORMAL", mesh);
+}
+
+void GltfImporter::setNormals(const std::vector<float>& n, const std::string& el, Mesh& mesh) {
+    const size_t nv = mesh.positions.size();
+    bool needNormals = n.empty();
+    if (!needNormals) {
         mesh.normals.resize(nv);
-        needNormals = false;
-        for (size_t i = 0; i < nv; ++i) {
-            Vec3 v(n[3 * i], n[3 * i + 1], n[3 * i + 2]);
-            float len = glm::length(v);
-            if (!(len > 1e-12f)) {
-                needNormals = true;
-                break;
-            }
-            mesh.normals[i] = unitKeepingBits(v);
+        for (size_t i = 0; i < nv && !needNormals; ++i) {
+            const Vec3 v(n[3 * i], n[3 * i + 1], n[3 * i + 2]);
+            if (!(glm::length(v) > 1e-12f)) needNormals = true;
+            else mesh.normals[i] = unitKeepingBits(v);
         }
-        if (needNormals) warn(el + ".attributes.NORMAL: zero-length normals; recomputed");
+        if (needNormals) warn(el + ": zero-length normals; recomputed");
     }
     if (needNormals) mesh.normals = smoothVertexNormals(mesh.positions, mesh.indices);
 }
 
-// One uv set per mesh: the TEXCOORD_n its glTF material's textures name (TEXCOORD_0 by default);
-// `material` is the glTF material index, -1 for none.
-void GltfImporter::readUvs(const tinygltf::Primitive& prim, const std::string& el, int material, Mesh& mesh) {
-    const size_t nv = mesh.positions.size();
+std::string GltfImporter::uvAttribute(const tinygltf::Primitive& prim, const std::string& el, int material) {
     const int uvSet = material >= 0 && size_t(material) < materialUvSet_.size()
                           ? materialUvSet_[size_t(material)]
                           : 0;
     const std::string uvName = "TEXCOORD_" + std::to_string(uvSet);
-    auto uvIt = prim.attributes.find(uvName);
-    if (uvIt == prim.attributes.end() && uvSet != 0 && prim.attributes.count("TEXCOORD_0")) {
+    if (prim.attributes.count(uvName)) return uvName;
+    if (uvSet != 0 && prim.attributes.count("TEXCOORD_0")) {
         warn(el + ": material uses " + uvName + ", which is missing; TEXCOORD_0 used instead");
-        uvIt = prim.attributes.find("TEXCOORD_0");
+        return "TEXCOORD_0";
     }
-    if (uvIt != prim.attributes.end()) {
-        const std::string uvEl = el + ".attributes." + uvIt->first;
-        std::vector<float> uv = readFloats(uvIt->second, uvEl, TINYGLTF_TYPE_VEC2, Attribute::TexCoord);
-        if (uv.size() / 2 != nv)
-            fail(uvEl, "count differs from POSITION count");
-        mesh.uvs.resize(nv);
-        for (size_t i = 0; i < nv; ++i) mesh.uvs[i] = Vec2(uv[2 * i], uv[2 * i + 1]);
-    }
+    return {};
+}
+
+void GltfImporter::readUvs(const tinygltf::Primitive& prim, const std::string& el, int material, Mesh& mesh) {
+    const size_t nv = mesh.positions.size();
+    const std::string uvName = uvAttribute(prim, el, material);
+    if (uvName.empty()) return;
+    const std::string uvEl = el + ".attributes." + uvName;
+    std::vector<float> uv = readFloats(prim.attributes.at(uvName), uvEl, TINYGLTF_TYPE_VEC2, Attribute::TexCoord);
+    if (uv.size() / 2 != nv)
+        fail(uvEl, "count differs from POSITION count");
+    mesh.uvs.resize(nv);
+    for (size_t i = 0; i < nv; ++i) mesh.uvs[i] = Vec2(uv[2 * i], uv[2 * i + 1]);
 }
 
 }  // namespace rtpm::gltf

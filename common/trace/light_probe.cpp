@@ -81,4 +81,11 @@ bool addSkyWhereLightsMissTheView(Scene& scene, const std::string& nameOrPath, c
     return true;
 }
 
+Scene loadSceneToRender(const std::string& nameOrPath, const SceneOverrides& overrides,
+                        const SceneInputPolicy& input) {
+    Scene scene = loadScene(nameOrPath, overrides, input);
+    addSkyWhereLightsMissTheView(scene, nameOrPath, overrides);
+    return scene;
+}
+
 }  // namespace rtpm

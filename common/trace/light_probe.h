@@ -30,4 +30,9 @@ inline constexpr float kUnlitViewShare = 0.25f;
 /// was added.
 bool addSkyWhereLightsMissTheView(Scene& scene, const std::string& nameOrPath, const SceneOverrides& overrides);
 
+/// loadScene, then addSkyWhereLightsMissTheView with the same overrides: the scene rtpm-render and
+/// the master render (the sky rule needs rays, which the scene library below cannot trace).
+Scene loadSceneToRender(const std::string& nameOrPath, const SceneOverrides& overrides,
+                        const SceneInputPolicy& input);
+
 }  // namespace rtpm

@@ -160,6 +160,16 @@ RenderSettings smallKnnSettings() {
     return rs;
 }
 
+// A job rendering all four sets of the ring mirror at smallKnnSettings, and the scene's camera.
+struct RingKnnJob {
+    RingKnnJob() : RingKnnJob(testscenes::RingMirror().scene()) {}
+    explicit RingKnnJob(Scene scene) : camera(*scene.camera), job(std::move(scene), rs, sets) {}
+    const RenderSettings rs = smallKnnSettings();
+    const std::vector<uint32_t> sets{0, 1, 2, 3};
+    const Camera camera;
+    RenderJob job;
+};
+
 // GLASS at 48×36, M = 2 (four sets), 2000 paths per set and frame.
 RenderSettings smallGlassSettings() {
     RenderSettings rs;
@@ -266,12 +276,8 @@ TEST(RenderJob, ARelightFrameKeepsTheEyePathsAndOnlyRelightsThem) {
 // frame number, except that a set whose map holds no batch shoots at once; a Walkthrough frame
 // shoots nothing whatever the period.
 TEST(RenderJob, AccumulateFramesTakeTurnsByTheFrameNumber) {
-    testscenes::RingMirror rm;
-    Scene scene = rm.scene();
-    const Camera camera = *scene.camera;
-    const RenderSettings rs = smallKnnSettings();
-    const std::vector<uint32_t> sets{0, 1, 2, 3};
-    RenderJob job(std::move(scene), rs, sets);
+    RingKnnJob ring;
+    auto& [rs, sets, camera, job] = ring;
     std::vector<SetPixels> out;
     constexpr uint32_t kPeriod = 2;
     // Frame 3 names group 1 (sets 2, 3), but every map is empty: all shoot.
@@ -295,12 +301,8 @@ TEST(RenderJob, AccumulateFramesTakeTurnsByTheFrameNumber) {
 // (its cost is the eye pass's gathers, not the shooting); a set on its turn, a moved camera or an
 // edit trace afresh.
 TEST(RenderJob, ASetOffItsTurnShowsItsLastPixelsWithoutTracing) {
-    testscenes::RingMirror rm;
-    Scene scene = rm.scene();
-    const Camera camera = *scene.camera;
-    const RenderSettings rs = smallKnnSettings();
-    const std::vector<uint32_t> sets{0, 1, 2, 3};
-    RenderJob job(std::move(scene), rs, sets);
+    RingKnnJob ring;
+    auto& [rs, sets, camera, job] = ring;
     const Interleave pattern{rs.width, rs.height, rs.interleave};
     constexpr uint32_t kPeriod = 2;
     std::vector<SetPixels> out, last;

@@ -16,6 +16,7 @@
 
 #include "common/scene/gltf_export.h"
 #include "common/scene/scene_loader.h"
+#include "tests/support/scratch_dir.h"
 
 namespace rtpm {
 namespace {
@@ -32,27 +33,7 @@ std::string readText(const std::string& path) {
 }
 
 // A scratch directory per test, removed afterwards.
-class ScratchDir {
-public:
-    ScratchDir() {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        path_ = fs::temp_directory_path() /
-                ("rtpm_gltf_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-        fs::create_directories(path_);
-    }
-    ~ScratchDir() {
-        std::error_code ec;
-        fs::remove_all(path_, ec);
-    }
-    std::string write(const std::string& name, const std::string& bytes) const {
-        std::string p = (path_ / name).string();
-        std::ofstream(p, std::ios::binary) << bytes;
-        return p;
-    }
-
-private:
-    fs::path path_;
-};
+using testsupport::ScratchDir;
 
 std::string base64(const std::string& bytes) {
     static const char* kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
@@ -258,7 +239,7 @@ TEST(GltfExport, TheWorldLightRoundTripsThroughGlb) {
     ScratchDir dir;
     Scene uniform = loadScene("RING");
     uniform.environment = Environment::uniform(Vec3(0.25f, 0.5f, 1.5f));
-    const std::string u = dir.write("uniform.glb", "");
+    const std::string u = dir.file("uniform.glb");
     exportGlb(uniform, u);
     const Scene backU = loadScene(u);
     EXPECT_FALSE(backU.worldless);
@@ -271,7 +252,7 @@ TEST(GltfExport, TheWorldLightRoundTripsThroughGlb) {
     for (int i = 0; i < map.width * map.height * 3; ++i) map.rgb.push_back(0.1f * float(i % 7) + 1.0f / 3.0f);
     Scene mapped = loadScene("RING");
     mapped.environment = Environment::fromMap(map);
-    const std::string m = dir.write("map.glb", "");
+    const std::string m = dir.file("map.glb");
     exportGlb(mapped, m);
     const Scene backM = loadScene(m);
     ASSERT_TRUE(backM.environment.hasMap());
