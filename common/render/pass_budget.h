@@ -85,23 +85,31 @@ public:
                 return;
             }
         }
+        // Progressive passes (growBatches_): a set off its turn defers the photons shared with it
+        // to its next turn (RenderJob), so turns cost no photon; they divide a frame's binning
+        // and composing among the turns, and a longer pass per turn spreads its fixed cost over
+        // more photons. Hence turns before smaller passes, and larger passes before fewer turns.
+        // Accumulate frames (k-NN): a set off its turn shoots nothing, so turns cost photons.
+        const bool turnsFirst = growBatches_;
+        const bool mayTurn = !turnsBlocked_ && period_ < kMaxPassPeriod &&
+                             (period_ > 1 || turnsFirst || mean > kTurnStart * budget_);
         if (mean < 0.5 * budget_) {
-            if (period_ > 1) period_ /= 2;
+            if (turnsFirst && batches_ < kMaxPassBatches) batches_ *= 2;
+            else if (period_ > 1) period_ /= 2;
             else if (growBatches_) batches_ = std::min(kMaxPassBatches, batches_ * 2);
         } else if (mean > budget_) {
-            if (batches_ > 1) {
-                batches_ = std::max(1u, batches_ / 2);
-            } else if (!turnsBlocked_ && period_ < kMaxPassPeriod &&
-                       (period_ > 1 || mean > kTurnStart * budget_)) {
+            if (mayTurn && (turnsFirst || batches_ == 1)) {
                 trialBefore_ = mean;
                 period_ *= 2;
+            } else if (batches_ > 1) {
+                batches_ = std::max(1u, batches_ / 2);
             }
         }
     }
 
     /// A doubled period stays only if its turns' mean frame time is at most this share of the
     /// mean before it.
-    static constexpr double kTurnGain = 0.8;
+    static constexpr double kTurnGain = 0.9;
     /// Turns begin only when the frames exceed the budget by this factor (once begun, the period
     /// doubles whenever a turn exceeds the budget). Turns buy frame rate with photons (a set
     /// shoots once per period while a frame gets only somewhat cheaper), so frames near the budget

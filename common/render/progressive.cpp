@@ -182,14 +182,12 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
     compose(out, nonFinite);
 }
 
-void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, bool shot,
-                          const SharedPhotons* shared, const AreaLightSampler& areaLights, std::span<PixelRadiance> out,
-                          uint64_t& shadowRays, uint64_t& nonFinite) {
+void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, const SharedPhotons* shared,
+                          const AreaLightSampler& areaLights, std::span<PixelRadiance> out, uint64_t& shadowRays,
+                          uint64_t& nonFinite) {
     RTPM_CHECK(valid_ && out.size() + 1 == records_.firstHit.size());
     ++passes_;
-    // Off its turn a pass skips the area-light samples too: the sets take turns where a pass
-    // costs more than the budget, and those samples are the other part of a pass's cost.
-    const bool sampleArea = shot && !areaLights.empty();
+    const bool sampleArea = !areaLights.empty();
     if (sampleArea) ++areaSets_;
     std::atomic<uint64_t> rays{0};
     tbb::parallel_for(tbb::blocked_range<size_t>(0, records_.hits.size()), [&](const auto& range) {
@@ -199,16 +197,22 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
             HitState& s = state_[h];
             found.clear();
             const float r2 = float(disc2(s.outer2, s.active));
-            if (shot) maps.gatherPassPhotons(scene, set, e.hit, e.normal, r2, found);
+            maps.gatherPassPhotons(scene, set, e.hit, e.normal, r2, found);
             if (shared && s.sharing) s.shared += float(maps.gatherSharedPhotons(scene, *shared, set, e.hit, e.normal, r2, found));
             bin(s.rings, s.outer2, s.active, found);
             if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, areaSets_, localRays));
         }
         rays += localRays;
     });
-    if (shot) batches_ += double(maps.passBatches(set));
+    batches_ += double(maps.passBatches(set));
     shadowRays += rays;
     compose(out, nonFinite);
+}
+
+void ProgressiveSet::skip(std::span<PixelRadiance> out) {
+    RTPM_CHECK(valid_ && out.size() == shown_.size());
+    ++passes_;
+    std::copy(shown_.begin(), shown_.end(), out.begin());
 }
 
 void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) {
@@ -305,6 +309,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
         }
     });
     nonFinite += bad;
+    shown_.assign(out.begin(), out.end());
     // The caustic region as the error metrics define it: pixels above 5 % of the 99th percentile.
     std::vector<float> lum(out.size());
     for (size_t p = 0; p < out.size(); ++p) lum[p] = float(luminance(out[p].caustic));

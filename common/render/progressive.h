@@ -187,15 +187,19 @@ public:
     /// Cost: one k-NN gather and one radius search per hit.
     void restart(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, const Camera& camera,
                  EyeRecords records, std::span<PixelRadiance> out);
-    /// One pass, after maps.shootPass(scene, set, b) when `shot` (else the set shot nothing this
-    /// frame: its turn comes later, pass_budget.h passShoots): bins the pass's photons per hit
-    /// (when `shot`), and those of every other set in `shared` (their shots of kSharedPhotonLag
-    /// frames ago; may be null), adds one area-light sample set per hit (when `shot`), and writes
-    /// every pixel's current estimate to `out`. Precondition: valid(). Adds the shadow rays cast to
-    /// `shadowRays`; counts non-finite pixel values (replaced by 0) in `nonFinite`.
-    void pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, bool shot, const SharedPhotons* shared,
+    /// One pass, after maps.shootPass(scene, set, b): bins the pass's photons per hit, and those
+    /// of every other set in `shared` (their shots of kSharedPhotonLag frames ago and of the
+    /// frames since the set's last turn; may be null), adds one area-light sample set per hit, and
+    /// writes every pixel's current estimate to `out`. Precondition: valid(). Adds the shadow
+    /// rays cast to `shadowRays`; counts non-finite pixel values (replaced by 0) in `nonFinite`.
+    void pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, const SharedPhotons* shared,
               const AreaLightSampler& areaLights, std::span<PixelRadiance> out, uint64_t& shadowRays,
               uint64_t& nonFinite);
+    /// A pass off the set's turn (pass_budget.h passShoots): counts the pass and writes the
+    /// pixels of the last composed frame to `out`, bit for bit; no photon is binned and no ray
+    /// cast (the photons the other sets shared meanwhile are binned at the set's next turn).
+    /// Precondition: valid().
+    void skip(std::span<PixelRadiance> out);
 
     /// The discs the rule chooses for one hit's rings (exposed for tests).
     struct Choice {
@@ -256,6 +260,7 @@ private:
         int m = 1, f = 1, columns = 1;
     } image_;
     std::vector<uint8_t> ownWeights_;
+    std::vector<PixelRadiance> shown_;  ///< the pixels of the last compose (skip)
     EyeRecords records_;
     std::vector<HitState> state_;     ///< per hit
     std::vector<Vec3> fixedDirect_;   ///< per pixel: direct light but the area-light term

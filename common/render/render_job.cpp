@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <map>
 #include <stdexcept>
 #include <string>
 
@@ -41,6 +42,27 @@ uint64_t sampleSeedOf(const Camera& c) {
                                 uint64_t(bits[4]) << 32 | bits[5], uint64_t(bits[6]) << 32 | bits[7],
                                 uint64_t(bits[8]) << 32 | bits[9]);
     return h != 0 ? h : 1;
+}
+
+// A set's pending frames, as PendingIndex keys them.
+std::vector<const std::vector<SetPhotons>*> pendingKey(const PendingShots& pending) {
+    std::vector<const std::vector<SetPhotons>*> key;
+    for (const auto& frame : pending) key.push_back(frame.get());
+    return key;
+}
+
+// One SetPhotons per shooting set over several frames' shots: photons end to end, batches summed.
+std::vector<SetPhotons> mergeShots(const PendingShots& frames) {
+    std::map<uint32_t, SetPhotons> bySet;
+    for (const auto& frame : frames)
+        for (const SetPhotons& shot : *frame) {
+            SetPhotons& m = bySet.try_emplace(shot.set, SetPhotons{shot.set, 0, {}}).first->second;
+            m.batches += shot.batches;
+            m.photons.insert(m.photons.end(), shot.photons.begin(), shot.photons.end());
+        }
+    std::vector<SetPhotons> merged;
+    for (auto& [set, shot] : bySet) merged.push_back(std::move(shot));
+    return merged;
 }
 
 }  // namespace
@@ -131,12 +153,13 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     });
     stats.shootSeconds = secondsSince(t0);
 
-    // The other sets' shots of kSharedPhotonLag frames ago, for this frame's passes.
-    const bool anyPass = std::find(converge.begin(), converge.end(), uint8_t(1)) != converge.end();
+    // The other sets' shots of kSharedPhotonLag frames ago, for this frame's passes. A set off
+    // its turn keeps them for its next turn (pending_), which bins everything it was shared since
+    // its last: turns shorten the frames without losing a photon.
     const std::vector<SetPhotons>* sharedIn = shared;
     if (!sharedIn && shots_.size() == kSharedPhotonLag) sharedIn = &shots_.front();
-    SharedPhotons sharedIndex;
-    if (anyPass && sharedIn) sharedIndex.build(embree.bounds(), *sharedIn);
+    PendingIndex sharedIndex;
+    indexPendingShots(sharedIn, converge, passShot, sharedIndex);
 
     const auto t1 = std::chrono::steady_clock::now();
     out.resize(sets_.size());
@@ -145,12 +168,10 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
         const int set = int(sets_[i]);
         out[i].set = set;
         out[i].pixels.resize(size_t(pattern_.pixelCount(set)));
-        if (converge[i]) {
-            if (!areaLights_) areaLights_ = std::make_unique<AreaLightSampler>(embree, settings_.eye);
-            progressive_[i].pass(embree, *photons_, sets_[i], passShot[i] != 0,
-                                 sharedIndex.empty() ? nullptr : &sharedIndex,
-                                 *areaLights_, out[i].pixels,
-                                 stats.eye.shadowRays, stats.eye.nonFinite);
+        if (converge[i] && !passShot[i]) {
+            progressive_[i].skip(out[i].pixels);
+        } else if (converge[i]) {
+            passSet(i, sharedIndex, out[i].pixels, stats.eye);
         } else if (moving) {
             irradiance_->update(embree, *photons_, sets_[i]);
             renderSet(embree, camera, settings_.eye, pattern_, set, irradiance_.get(), out[i].pixels,
@@ -262,9 +283,39 @@ void RenderJob::knnPixels(size_t i, const Camera& camera, FrameMode mode, std::s
     relightSet(embree, settings_.eye, pattern_, set, photons_.get(), kept.records, kept.base, out, &eye);
 }
 
+void RenderJob::passSet(size_t i, const PendingIndex& sharedIndex, std::span<PixelRadiance> out, EyeStats& eye) {
+    const EmbreeScene& embree = scene_->embree();
+    if (!areaLights_) areaLights_ = std::make_unique<AreaLightSampler>(embree, settings_.eye);
+    const SharedPhotons* shared = nullptr;
+    if (!kept_[i].pending.empty()) {
+        const SharedPhotons& index = sharedIndex.at(pendingKey(kept_[i].pending));
+        if (!index.empty()) shared = &index;
+        kept_[i].pending.clear();
+    }
+    progressive_[i].pass(embree, *photons_, sets_[i], shared, *areaLights_, out, eye.shadowRays, eye.nonFinite);
+}
+
+void RenderJob::indexPendingShots(const std::vector<SetPhotons>* sharedIn, const std::vector<uint8_t>& converge,
+                                  const std::vector<uint8_t>& passShot, PendingIndex& index) {
+    std::shared_ptr<const std::vector<SetPhotons>> now;
+    if (sharedIn && !sharedIn->empty()) now = std::make_shared<const std::vector<SetPhotons>>(*sharedIn);
+    for (size_t i = 0; i < sets_.size(); ++i) {
+        PendingShots& pending = kept_[i].pending;
+        if (!converge[i]) {
+            pending.clear();  // a restart bins the map; what was shared before it is in no pass
+            continue;
+        }
+        if (now) pending.push_back(now);
+        if (!passShot[i] || pending.empty()) continue;
+        auto [it, added] = index.try_emplace(pendingKey(pending));
+        if (added) it->second.build(scene_->embree().bounds(), mergeShots(pending));
+    }
+}
+
 void RenderJob::resetPhotons() {
     photons_->reset();
     shots_.clear();
+    for (SetMemory& m : kept_) m.pending.clear();
     epochStart_ = true;
     for (ProgressiveSet& p : progressive_) p.invalidate();
     for (SetMemory& m : kept_) m.shown = ShownKnnPixels{};  // of the old scene or map

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -61,10 +62,18 @@ struct ShownKnnPixels {
     std::vector<PixelRadiance> pixels;
 };
 
+/// The other sets' shots shared with one set (one entry per frame) that its progressive passes
+/// have not binned yet: those of the frames it was off its turn, and this frame's.
+using PendingShots = std::vector<std::shared_ptr<const std::vector<SetPhotons>>>;
+
+/// SharedPhotons per distinct list of pending frames (RenderJob::indexPendingShots).
+using PendingIndex = std::map<std::vector<const std::vector<SetPhotons>*>, SharedPhotons>;
+
 /// What one owned set keeps from frame to frame of one camera.
 struct SetMemory {
     KeptEyePaths relight;  ///< Relight frames
     ShownKnnPixels shown;  ///< Accumulate and Walkthrough frames (k-NN estimator)
+    PendingShots pending;  ///< Converging frames (progressive estimator)
 };
 
 /// Figures of one renderFrame call.
@@ -116,8 +125,9 @@ public:
     /// Converging shoots a batch as Accumulate does.
     /// `passBatches` (≥ 1): batches a progressive pass shoots (PassBudget); other frames shoot one.
     /// `passPeriod` (≥ 1): the sets take turns, a pass shooting only every passPeriod-th pass of
-    /// its progression (passShoots; PassBudget::period); a pass whose set does not shoot bins
-    /// only the other sets' shared photons. In an Accumulate frame a set shoots its batch only
+    /// its progression (passShoots; PassBudget::period); a pass off its set's turn shows the set's
+    /// last pixels (ProgressiveSet::skip) and keeps the other sets' shots shared meanwhile for its
+    /// next turn, so turns cost no photon. In an Accumulate frame a set shoots its batch only
     /// when passShoots(`frame`, set, M², passPeriod) (`frame`: the master's frame number) or its
     /// map holds no batch yet.
     /// A pass also bins every other set's shot of kSharedPhotonLag frames ago: `shared` when
@@ -152,6 +162,14 @@ public:
 private:
     /// Paths traced into the owned sets' maps so far.
     uint64_t pathsTraced() const;
+    /// The progressive pass of owned set `i` on its turn: binning its pending shots (indexed in
+    /// `sharedIndex`) besides its own pass's photons.
+    void passSet(size_t i, const PendingIndex& sharedIndex, std::span<PixelRadiance> out, EyeStats& eye);
+    /// Adds `sharedIn` (this frame's shared shots, may be null) to every converging set's pending
+    /// shots (dropping those of the others) and indexes, once per distinct list, the pending shots
+    /// of the sets whose turn it is.
+    void indexPendingShots(const std::vector<SetPhotons>* sharedIn, const std::vector<uint8_t>& converge,
+                           const std::vector<uint8_t>& passShot, PendingIndex& index);
     /// The pixels of owned set `i` at `camera` with the map's k-NN caustic: a Relight frame
     /// re-lights the set's KeptEyePaths (traced first when stale), an Edit frame samples the
     /// dielectric splits, any other traces them all, unless the set's ShownKnnPixels still hold.
