@@ -1,7 +1,8 @@
 // A still view's convergence on the master: how many batches a progressive pass shoots (the
-// frame-time budget) and whether the estimated caustic error reached --target-error; and the
-// same frame-time budget for Accumulate frames, whose sets take turns shooting their batch when
-// one batch per set costs more than the budget (a camera orbiting over costly photon paths).
+// frame-time budget) and whether the estimated caustic error reached --target-error; and budgets
+// for Accumulate frames, whose sets take turns shooting their batch when one batch per set costs
+// more than the budget: the frame budget for a still camera (the knn estimator's still view), and
+// kOrbitBudgetFactor × it for a moving one (a camera orbiting over costly photon paths).
 #pragma once
 
 #include <cstdint>
@@ -18,26 +19,37 @@ public:
     /// the estimated error that ends the run (0 = never).
     Convergence(double frameBudgetMs, double targetError)
         : budget_(frameBudgetMs * 1e-3), accumulate_(frameBudgetMs * 1e-3, /*growBatches=*/false),
-          targetError_(targetError) {}
+          orbit_(kOrbitBudgetFactor * frameBudgetMs * 1e-3, /*growBatches=*/false), targetError_(targetError) {}
+
+    /// An orbit's Accumulate frames take turns only beyond this many frame budgets (200 ms at the
+    /// default 50): a set off its turn shoots nothing, and a moving camera's frames are what grows
+    /// the map the moving image shows, so its frames keep every set shooting as they did when the
+    /// budget was 200 ms for every frame; a still view's frames lose nothing to turns (progressive)
+    /// or show the set's last pixels (knn) and follow the budget itself.
+    static constexpr double kOrbitBudgetFactor = 4.0;
 
     /// Batches each set shoots in a frame of `mode`: the budget's for a Converging frame, else one.
     uint32_t batchesFor(proto::FrameMode mode) const {
         return mode == proto::FrameMode::Converging ? budget_.batches() : 1u;
     }
     /// Frames between two shooting passes of a set in a frame of `mode` (PassBudget::period): the
-    /// pass budget's for a Converging frame, the accumulation budget's for an Accumulate frame
-    /// (a set then shoots its batch in the frames passShoots(frame, set, …) names), else one.
-    uint32_t periodFor(proto::FrameMode mode) const {
+    /// pass budget's for a Converging frame, an accumulation budget's for an Accumulate frame
+    /// (`still`: the camera's, else the orbit's; a set then shoots its batch in the frames
+    /// passShoots(frame, set, …) names), else one.
+    uint32_t periodFor(proto::FrameMode mode, bool still) const {
         if (mode == proto::FrameMode::Converging) return budget_.period();
-        return mode == proto::FrameMode::Accumulate ? accumulate_.period() : 1u;
+        if (mode != proto::FrameMode::Accumulate) return 1u;
+        return still ? accumulate_.period() : orbit_.period();
     }
-    /// A shown frame of `mode`, planned with `period` (FrameBegin's passPeriod), whose slowest
-    /// client worked `workMs` (shooting, eye pass, encoding; not the wait behind the frame before)
-    /// adapts the budget (PassBudget::recordFrame: frames planned before its last change of turns
-    /// are not counted).
-    void recordWork(proto::FrameMode mode, double workMs, uint32_t period) {
+    /// A shown frame of `mode` (`still`: at the previous frame's camera), planned with `period`
+    /// (FrameBegin's passPeriod), whose slowest client worked `workMs` (shooting, eye pass,
+    /// encoding; not the wait behind the frame before) adapts the budget (PassBudget::recordFrame:
+    /// frames planned before its last change of turns are not counted).
+    void recordWork(proto::FrameMode mode, bool still, double workMs, uint32_t period) {
+        const bool accumulate = mode == proto::FrameMode::Accumulate;
         budget_.recordFrame(mode == proto::FrameMode::Converging, workMs * 1e-3, period);
-        accumulate_.recordFrame(mode == proto::FrameMode::Accumulate, workMs * 1e-3, period);
+        accumulate_.recordFrame(accumulate && still, workMs * 1e-3, period);
+        orbit_.recordFrame(accumulate && !still, workMs * 1e-3, period);
     }
     /// True once, for the first Converging frame whose estimated error (> 0) is at most the target.
     bool reachesTarget(proto::FrameMode mode, double errorEstimate) {
@@ -53,7 +65,8 @@ public:
 
 private:
     PassBudget budget_;
-    PassBudget accumulate_;  ///< Accumulate frames: one batch per set at most, the period only
+    PassBudget accumulate_;  ///< still Accumulate frames: one batch per set at most, the period only
+    PassBudget orbit_;       ///< moving Accumulate frames: the same, over kOrbitBudgetFactor × the budget
     double targetError_;
     bool reached_ = false;
 };

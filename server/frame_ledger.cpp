@@ -18,10 +18,11 @@ void FrameLedger::start(TimePoint now) {
     startTime_ = now;
 }
 
-void FrameLedger::began(uint64_t frame, proto::FrameMode mode, uint32_t epoch, std::vector<ClientId> owners,
-                        uint32_t passBatches, uint32_t passPeriod) {
+void FrameLedger::began(uint64_t frame, proto::FrameMode mode, bool still, uint32_t epoch,
+                        std::vector<ClientId> owners, uint32_t passBatches, uint32_t passPeriod) {
     FrameInfo& info = frames_[frame];
     info.mode = mode;
+    info.still = still;
     info.epoch = epoch;
     info.owners = std::move(owners);
     info.passBatches = passBatches;
@@ -92,6 +93,7 @@ std::pair<OutputJob, ViewerFrame> FrameLedger::retire(const RetiredFrame& r, Tim
     job.errorEstimate = r.missing.empty() ? causticErrorEstimate(error) : 0.0;
     job.passBatches = info.passBatches;
     job.passPeriod = info.passPeriod;
+    job.cameraStill = info.still;
     job.data = std::move(info.data);
     ViewerFrame shown{r.frame,        info.epoch, info.mode,  job.fps,    job.photonsPerSet, info.slowestStats,
                       info.slowest,   job.arrived, job.owners, passes == UINT32_MAX ? 0u : passes,

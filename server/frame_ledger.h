@@ -36,8 +36,9 @@ public:
     void start(TimePoint now);
     bool started() const { return started_; }
 
-    /// Frame `frame` began in `mode` of `epoch`, set s asked of owners[s].
-    void began(uint64_t frame, proto::FrameMode mode, uint32_t epoch, std::vector<ClientId> owners,
+    /// Frame `frame` began in `mode` of `epoch` (`still`: at the previous frame's camera), set s
+    /// asked of owners[s].
+    void began(uint64_t frame, proto::FrameMode mode, bool still, uint32_t epoch, std::vector<ClientId> owners,
                uint32_t passBatches, uint32_t passPeriod);
     /// Data of a frame in flight (already checked).
     void addData(proto::FrameData&& data, size_t wireBytes);
@@ -63,6 +64,7 @@ public:
 private:
     struct FrameInfo {
         proto::FrameMode mode = proto::FrameMode::Accumulate;
+        bool still = false;
         uint32_t epoch = 0;
         uint64_t bytes = 0;
         uint64_t photonsStored = 0;

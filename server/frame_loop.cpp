@@ -241,7 +241,7 @@ void FrameLoop::beginFrame(TimePoint now) {
     }
     // A still view's passes grow to the frame-time budget; any other frame shoots one batch.
     const uint32_t passBatches = convergence_.batchesFor(plan.mode);
-    const uint32_t passPeriod = convergence_.periodFor(plan.mode);
+    const uint32_t passPeriod = convergence_.periodFor(plan.mode, start->still);
     // Every set's shot of two frames ago, for this frame's passes (photon_relay.h).
     relay_.began(f, plan.epoch, start->sceneVersion, setCount());
     const std::vector<proto::SetShot> shared = relay_.forwardFor(f, plan.mode == proto::FrameMode::Converging);
@@ -253,7 +253,7 @@ void FrameLoop::beginFrame(TimePoint now) {
     for (ClientId id : plan.probes)
         registry.find(id)->connection->send(proto::FrameBegin{f, plan.epoch, start->sceneVersion, start->camera,
                                                               plan.mode, {}, passBatches, passPeriod});
-    ledger_.began(f, plan.mode, plan.epoch, plan.owners, passBatches, passPeriod);
+    ledger_.began(f, plan.mode, start->still, plan.epoch, plan.owners, passBatches, passPeriod);
     // A frame whose cost the last ones do not predict waits the ceiling, and so does the last
     // frame of a finite run (it is the image written: nothing rendered may be cut short).
     const bool last = opt_.frames > 0 && f + 1 == static_cast<uint64_t>(opt_.frames);
@@ -283,7 +283,7 @@ void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
     // from FrameBegin to its last FrameData: with frames in flight that also holds the wait behind
     // the frame before, about twice the work, and the passes never grew.
     const double workMs = double(job.slowestPhotonMs) + double(job.slowestEyeMs) + double(job.slowestEncodeMs);
-    convergence_.recordWork(shown.mode, workMs, job.passPeriod);
+    convergence_.recordWork(shown.mode, job.cameraStill, workMs, job.passPeriod);
     if (state_ == State::Running && convergence_.reachesTarget(shown.mode, job.errorEstimate)) {
         // No new frame begins; the frames in flight finish and the last one shown is written
         // (finishStopped), as after a signal, but the run counts as complete.

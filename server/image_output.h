@@ -57,6 +57,7 @@ struct OutputJob {
     double errorEstimate = 0.0;  ///< progressive: the caustic's estimated relative error (0 = none)
     uint32_t passBatches = 1;    ///< batches per set this frame's progressive passes shot
     uint32_t passPeriod = 1;     ///< the sets took turns: one pass in this many shot (pass_budget.h)
+    bool cameraStill = false;    ///< the frame's camera was the previous frame's (Convergence)
     uint64_t shown = 0;  ///< frames shown so far, this one included
     double elapsedSeconds = 0.0;  ///< since the first frame began
     RenderSettings settings;      ///< the settings this frame was rendered with (image metadata)

@@ -11,9 +11,10 @@ namespace {
 
 using proto::FrameMode;
 
-/// A frame of `mode` planned with what `c` says now (no other frame in flight) took `ms`.
-void record(Convergence& c, FrameMode mode, double ms) {
-    c.recordWork(mode, ms, c.periodFor(mode));
+/// A frame of `mode` at a still camera planned with what `c` says now (no other frame in
+/// flight) took `ms`.
+void record(Convergence& c, FrameMode mode, double ms, bool still = true) {
+    c.recordWork(mode, still, ms, c.periodFor(mode, still));
 }
 
 TEST(Convergence, OnlyConvergingFramesShootTheBudgetsBatches) {
@@ -27,8 +28,8 @@ TEST(Convergence, OnlyConvergingFramesShootTheBudgetsBatches) {
     EXPECT_EQ(c.batchesFor(FrameMode::Converging), 1u);
     // One batch per set costs more than the budget: the sets take turns (a trial period).
     record(c, FrameMode::Converging, 500.0);
-    EXPECT_EQ(c.periodFor(FrameMode::Converging), 2u);
-    EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 1u);
+    EXPECT_EQ(c.periodFor(FrameMode::Converging, true), 2u);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 1u);
 }
 
 // Accumulate frames have a budget of their own: over it the sets take turns shooting their one
@@ -38,36 +39,52 @@ TEST(Convergence, AccumulateFramesTakeTurnsOverTheBudgetWithOneBatch) {
     Convergence c(200.0, 0.0);
     for (int i = 0; i < 4; ++i) record(c, FrameMode::Accumulate, 10.0);  // fast: no growth
     EXPECT_EQ(c.batchesFor(FrameMode::Accumulate), 1u);
-    EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 1u);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 1u);
     record(c, FrameMode::Accumulate, 900.0);
-    EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 2u);
-    EXPECT_EQ(c.periodFor(FrameMode::Converging), 1u) << "the passes' budget is another";
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 2u);
+    EXPECT_EQ(c.periodFor(FrameMode::Converging, true), 1u) << "the passes' budget is another";
     for (FrameMode m : {FrameMode::Walkthrough, FrameMode::Interaction, FrameMode::Edit})
-        EXPECT_EQ(c.periodFor(m), 1u);
+        EXPECT_EQ(c.periodFor(m, true), 1u);
     record(c, FrameMode::Accumulate, 400.0);
     record(c, FrameMode::Accumulate, 400.0);  // a turn of 2 paid (0.4 s ≤ 0.8 × 0.9 s): over, doubled
-    EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 4u);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 4u);
     EXPECT_EQ(c.batchesFor(FrameMode::Accumulate), 1u);
     record(c, FrameMode::Walkthrough, 10.0);  // the camera moved without shooting
-    EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 1u);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 1u);
+}
+
+// An orbit's Accumulate frames grow the map the moving image shows: they take turns only beyond
+// kOrbitBudgetFactor × the budget, while a still camera's (the knn estimator's still view, whose
+// sets off their turn show their last pixels) follow the budget itself.
+TEST(Convergence, AnOrbitKeepsEverySetShootingUpToFourBudgets) {
+    Convergence c(50.0, 0.0);
+    for (int i = 0; i < 4; ++i) record(c, FrameMode::Accumulate, 150.0, /*still=*/false);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, false), 1u);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 1u) << "the still camera's budget is another";
+    record(c, FrameMode::Accumulate, 300.0, /*still=*/false);  // beyond 1.25 × 200 ms
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, false), 2u);
+    Convergence d(50.0, 0.0);
+    record(d, FrameMode::Accumulate, 150.0, /*still=*/true);  // beyond 1.25 × 50 ms
+    EXPECT_EQ(d.periodFor(FrameMode::Accumulate, true), 2u);
+    EXPECT_EQ(d.periodFor(FrameMode::Accumulate, false), 1u);
 }
 
 // Frames are planned before the ones in flight are measured: a frame planned before the budget's
 // last change of turns (another period than the budget's now) is not counted.
 TEST(Convergence, FramesPlannedBeforeAChangeAreNotCounted) {
     Convergence c(200.0, 0.0);
-    c.recordWork(FrameMode::Converging, 600.0, 1);
-    ASSERT_EQ(c.periodFor(FrameMode::Converging), 2u) << "a trial of turns";
-    c.recordWork(FrameMode::Converging, 650.0, 1);  // planned before: would fail the trial
-    c.recordWork(FrameMode::Converging, 300.0, 2);
-    c.recordWork(FrameMode::Converging, 380.0, 2);  // the turn: 340 ms ≤ 0.8 × 600 ms, paid
-    EXPECT_EQ(c.periodFor(FrameMode::Converging), 4u) << "over the budget still: doubled again";
-    c.recordWork(FrameMode::Accumulate, 900.0, 1);
-    EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 2u);
-    c.recordWork(FrameMode::Accumulate, 950.0, 1);
-    c.recordWork(FrameMode::Accumulate, 400.0, 2);
-    c.recordWork(FrameMode::Accumulate, 400.0, 2);
-    EXPECT_EQ(c.periodFor(FrameMode::Accumulate), 4u);
+    c.recordWork(FrameMode::Converging, true, 600.0, 1);
+    ASSERT_EQ(c.periodFor(FrameMode::Converging, true), 2u) << "a trial of turns";
+    c.recordWork(FrameMode::Converging, true, 650.0, 1);  // planned before: would fail the trial
+    c.recordWork(FrameMode::Converging, true, 300.0, 2);
+    c.recordWork(FrameMode::Converging, true, 380.0, 2);  // the turn: 340 ms ≤ 0.8 × 600 ms, paid
+    EXPECT_EQ(c.periodFor(FrameMode::Converging, true), 4u) << "over the budget still: doubled again";
+    c.recordWork(FrameMode::Accumulate, true, 900.0, 1);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 2u);
+    c.recordWork(FrameMode::Accumulate, true, 950.0, 1);
+    c.recordWork(FrameMode::Accumulate, true, 400.0, 2);
+    c.recordWork(FrameMode::Accumulate, true, 400.0, 2);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 4u);
 }
 
 TEST(Convergence, TheTargetIsReachedOnceByAConvergingFrameAtOrBelowIt) {
