@@ -1,5 +1,5 @@
-// How much a still frame shoots: passes grow while the view stays still, up to a frame-time
-// budget, and shrink below one batch per set when one batch per set costs more than the budget.
+// How much a still frame does: passes grow while the view stays still, and the sets take turns
+// where a frame would exceed the frame-time budget.
 #pragma once
 
 #include <algorithm>
@@ -15,7 +15,8 @@ namespace rtpm {
 /// shoots in the passes with (pass + g) mod period = 0 — each set once per period. Neighbouring
 /// ids, not every period-th one: clients get sets round robin, so a group of neighbours spreads
 /// a frame's shooting over the clients where a residue class would give it all to one.
-/// The other sets' passes bin only the photons the others shared (progressive.h).
+/// A progressive pass off its set's turn shows the set's last pixels (ProgressiveSet::skip); an
+/// Accumulate frame's set off its turn shoots nothing.
 inline bool passShoots(uint64_t pass, uint32_t set, uint32_t sets, uint32_t period) {
     if (period <= 1 || sets == 0) return true;
     const uint64_t group = uint64_t(set) * period / sets;
@@ -23,20 +24,21 @@ inline bool passShoots(uint64_t pass, uint32_t set, uint32_t sets, uint32_t peri
 }
 
 /// Work of the next frame's progressive passes: `batches` per set and pass, and the sets taking
-/// turns every `period` frames (a pass off its set's turn neither shoots nor samples the area
-/// lights: it bins the photons the other sets shared). A frame that moves (camera, edit, restart)
-/// resets both to 1, so motion stays as cheap as the settings make it. While frames converge the
-/// work doubles whenever a frame took less than half the budget (first the period halves, then the
-/// batches double) and halves when one took more than the budget (first the batches, then the
-/// period doubles; the first doubling only beyond kTurnStart × the budget). While the sets take
-/// turns, the mean over a whole turn decides. A doubled period is a trial: unless its first whole
-/// turn is at least 1 − kTurnGain faster than the turn before, it is undone and the period grows no
-/// more until the view moves (a pass whose cost is its binning gains nothing by turns, and would
-/// only shoot fewer photons). So a still view does ever more work per frame while the viewer still
-/// gets 1/budget updates a second, and a scene whose single batch per set costs more than the
-/// budget (costly photon paths, many area-light samples) still updates at about that rate, not
-/// slower than a frame that moves. A budget of 0 keeps one batch per set and pass (deterministic:
-/// the frame sequence does not depend on the machine's speed). Pure: the caller measures time.
+/// turns every `period` frames (a pass off its set's turn shows the set's last pixels; the photons
+/// the other sets shared meanwhile are binned at its next turn, RenderJob). A frame that moves
+/// (camera, edit, restart) resets both to 1, so motion stays as cheap as the settings make it.
+/// While frames converge, each decision takes the mean frame time over one whole turn (a frame's
+/// cost depends on whose turn it is): above the budget the period doubles (a trial: unless its
+/// first whole turn is at least 1 − kTurnGain faster than the turn before, it is undone and the
+/// period grows no more until the view moves), and once it may not, the batches halve; below half
+/// the budget the batches double (a longer pass spreads a pass's fixed cost, its binning and
+/// composing, over more photons). So a still view does ever more work per turn while the viewer
+/// gets about 1/budget updates a second, and a scene whose single batch per set costs more than
+/// the budget still updates at about that rate. With `growBatches` false (Accumulate frames,
+/// whose batch is the map's growth step and whose sets off their turn shoot nothing) the batches
+/// stay 1, turns begin only beyond kTurnStart × the budget and halve again below half of it.
+/// A budget of 0 keeps one batch per set and no turns (deterministic: the frame sequence does not
+/// depend on the machine's speed). Pure: the caller measures time.
 class PassBudget {
 public:
     /// `growBatches` false: the work never grows above one batch per set (only the period
@@ -46,8 +48,7 @@ public:
 
     /// Batches the next frame's passes shoot, in [1, kMaxPassBatches].
     uint32_t batches() const { return batches_; }
-    /// Frames between two shooting passes of a set, in [1, kMaxPassPeriod] (passShoots); > 1
-    /// only while batches() is 1.
+    /// Frames between two passes of a set, in [1, kMaxPassPeriod] (passShoots).
     uint32_t period() const { return period_; }
     /// After a frame of a pipelined loop (the master: frames are planned before the ones in
     /// flight are measured): `period` is what the frame was planned with. A frame of the budget's
@@ -110,13 +111,13 @@ public:
     /// A doubled period stays only if its turns' mean frame time is at most this share of the
     /// mean before it.
     static constexpr double kTurnGain = 0.9;
-    /// Turns begin only when the frames exceed the budget by this factor (once begun, the period
-    /// doubles whenever a turn exceeds the budget). Turns buy frame rate with photons (a set
-    /// shoots once per period while a frame gets only somewhat cheaper), so frames near the budget
-    /// keep every set shooting: on the curved mirror, whose one-batch frames straddle 200 ms,
-    /// turns that came and went cost the cluster photons in its first frames (rel. MAE 0.0469
-    /// against 0.0434 after 8 frames). Applied to every doubling it also held
-    /// HEADLIGHT's still view at turns of 4 and 4.8 fps, below its light edits (6.3).
+    /// Accumulate frames' turns begin only when the frames exceed the budget by this factor (once
+    /// begun, the period doubles whenever a turn exceeds the budget). There turns buy frame rate
+    /// with photons (a set off its turn shoots nothing), so frames near the budget keep every set
+    /// shooting. (It applied to progressive passes too while their turns only saved the shooting:
+    /// on the curved mirror, whose one-batch frames straddled a 200 ms budget, turns that came and
+    /// went cost the cluster photons in its first frames, rel. MAE 0.0469 against 0.0434 after 8
+    /// frames. Since a pass off its turn defers the shared photons, they begin at the budget.)
     static constexpr double kTurnStart = 1.25;
 
 private:

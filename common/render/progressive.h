@@ -30,7 +30,9 @@
 // them, a few hundred kB a frame), so after a few passes a pixel's estimate holds M² × the
 // photons its own set shot. Before that the box filter of the master averages the M² sets'
 // estimates; Γ's noise term counts that averaging (setFilterShare), so the rule balances blur
-// against the shown image's noise, not one set's.
+// against the shown image's noise, not one set's. Where the sets take turns (pass_budget.h) a
+// pass off its set's turn only shows the last pixels (skip); its next pass bins every shot
+// shared since.
 #pragma once
 
 #include <algorithm>

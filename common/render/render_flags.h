@@ -78,10 +78,12 @@ struct ConvergenceFlags {
 /// Adds --frame-budget-ms and --target-error, bound to `flags`.
 inline void addConvergenceFlags(CLI::App& app, ConvergenceFlags& flags) {
     app.add_option("--frame-budget-ms", flags.frameBudgetMs,
-                   "progressive: a still view's passes grow (more photon batches per frame) while a "
-                   "frame takes less than half this, and the sets take turns shooting while one batch "
-                   "per set takes more, so the view keeps about 1000/budget updates a second; "
-                   "0 = one batch per pass (the frames then do not depend on the machine's speed)")
+                   "a still view's frame time: its passes grow (more photon batches per turn) while a "
+                   "frame takes less than half this, and the sets take turns while a frame takes more (a "
+                   "set off its turn shows its last pixels and bins the photons shared meanwhile at its "
+                   "next turn), so the view keeps about 1000/budget updates a second; an orbit over a "
+                   "growing map takes turns beyond four budgets; 0 = one batch per pass, no turns (the "
+                   "frames then do not depend on the machine's speed)")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 60000.0))
         ->group("estimator");

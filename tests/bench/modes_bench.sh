@@ -9,7 +9,7 @@
 # walk — the camera orbits over the first frame's photons (--animate orbit --walkthrough);
 # orbit — the camera orbits while photons accumulate (--animate orbit); still knn — the view
 # stands, k-NN estimator (--estimator knn); still — the view stands, the defaults (progressive,
-# passes growing or the sets taking turns to the 200 ms frame budget).
+# passes growing or the sets taking turns to the 50 ms frame budget).
 # fps: the server's rate over its last 8 frames (the CSV's fps of the last frame), so start-up
 # and the first frames of a still view are left out. Beside the still view: the estimator's own
 # caustic error estimate after the last frame, and the last frame's pass work (batches per set,

@@ -116,7 +116,7 @@ def main():
                     help="POV-Ray gather MIN:MAX settings, comma-separated (20:100 is its default)")
     ap.add_argument("--rtpm", default="progressive:3:20000:50,knn:3:20000:50",
                     help="rtpm runs ESTIMATOR:M:P:BUDGET_MS, comma-separated (the defaults: M 3, "
-                         "P 20 000, still passes grown to a 200 ms frame)")
+                         "P 20 000, still frames held to the 50 ms budget)")
     ap.add_argument("--seconds", type=float, default=60.0, help="rtpm wall-time budget per run")
     ap.add_argument("--out", default="tests/bench", help="folder for pov_compare.csv and .png")
     a = ap.parse_args()

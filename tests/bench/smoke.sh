@@ -93,7 +93,7 @@ pov_compare)
     run "$work/out.log" /usr/bin/python3 "$root/tests/bench/pov_compare.py" --build "$build" --pov-photons 20000 \
         --pov-gather 20:100 --seconds 1 --width 64 --height 48 --out "$work/out"
     expectRows 1 "^\"POV-Ray gather 20,100\",20000 photons,$num,$num,$num,-?$num" "$work/out/pov_compare.csv"
-    expectRows 2 "^rtpm (progressive|knn) M=3 P=20000 budget 200 ms,1 frames," "$work/out/pov_compare.csv"
+    expectRows 2 "^rtpm (progressive|knn) M=3 P=20000 budget 50 ms,1 frames," "$work/out/pov_compare.csv"
     [[ -s $work/out/pov_compare.png ]] || { echo "smoke: no pov_compare.png" >&2; exit 1; }
     ;;
 cluster_bench)
