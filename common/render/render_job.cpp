@@ -44,17 +44,10 @@ uint64_t sampleSeedOf(const Camera& c) {
     return h != 0 ? h : 1;
 }
 
-// A set's pending frames, as PendingIndex keys them.
-std::vector<const std::vector<SetPhotons>*> pendingKey(const PendingShots& pending) {
-    std::vector<const std::vector<SetPhotons>*> key;
-    for (const auto& frame : pending) key.push_back(frame.get());
-    return key;
-}
-
 // One SetPhotons per shooting set over several frames' shots: photons end to end, batches summed.
-std::vector<SetPhotons> mergeShots(const PendingShots& frames) {
+std::vector<SetPhotons> mergeShots(std::span<const std::vector<SetPhotons>* const> frames) {
     std::map<uint32_t, SetPhotons> bySet;
-    for (const auto& frame : frames)
+    for (const std::vector<SetPhotons>* frame : frames)
         for (const SetPhotons& shot : *frame) {
             SetPhotons& m = bySet.try_emplace(shot.set, SetPhotons{shot.set, 0, {}}).first->second;
             m.batches += shot.batches;
@@ -153,13 +146,12 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     });
     stats.shootSeconds = secondsSince(t0);
 
-    // The other sets' shots of kSharedPhotonLag frames ago, for this frame's passes. A set off
-    // its turn keeps them for its next turn (pending_), which bins everything it was shared since
-    // its last: turns shorten the frames without losing a photon.
-    const std::vector<SetPhotons>* sharedIn = shared;
-    if (!sharedIn && shots_.size() == kSharedPhotonLag) sharedIn = &shots_.front();
+    // The other sets' shots of kSharedPhotonLag frames ago, for this frame's passes; a set off its
+    // turn keeps them for its next (SetMemory::pending): turns cost no photon.
+    const std::vector<SetPhotons>* sharedIn = !shared && shots_.size() == kSharedPhotonLag ? &shots_.front() : shared;
     PendingIndex sharedIndex;
-    indexPendingShots(sharedIn, converge, passShot, sharedIndex);
+    std::vector<const SharedPhotons*> sharedFor;
+    indexPendingShots(sharedIn, converge, passShot, sharedIndex, sharedFor);
 
     const auto t1 = std::chrono::steady_clock::now();
     out.resize(sets_.size());
@@ -171,7 +163,9 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
         if (converge[i] && !passShot[i]) {
             progressive_[i].skip(out[i].pixels);
         } else if (converge[i]) {
-            passSet(i, sharedIndex, out[i].pixels, stats.eye);
+            if (!areaLights_) areaLights_ = std::make_unique<AreaLightSampler>(embree, settings_.eye);
+            progressive_[i].pass(embree, *photons_, sets_[i], sharedFor[i], *areaLights_, out[i].pixels,
+                                 stats.eye.shadowRays, stats.eye.nonFinite);
         } else if (moving) {
             irradiance_->update(embree, *photons_, sets_[i]);
             renderSet(embree, camera, settings_.eye, pattern_, set, irradiance_.get(), out[i].pixels,
@@ -283,32 +277,35 @@ void RenderJob::knnPixels(size_t i, const Camera& camera, FrameMode mode, std::s
     relightSet(embree, settings_.eye, pattern_, set, photons_.get(), kept.records, kept.base, out, &eye);
 }
 
-void RenderJob::passSet(size_t i, const PendingIndex& sharedIndex, std::span<PixelRadiance> out, EyeStats& eye) {
-    const EmbreeScene& embree = scene_->embree();
-    if (!areaLights_) areaLights_ = std::make_unique<AreaLightSampler>(embree, settings_.eye);
-    const SharedPhotons* shared = nullptr;
-    if (!kept_[i].pending.empty()) {
-        const SharedPhotons& index = sharedIndex.at(pendingKey(kept_[i].pending));
-        if (!index.empty()) shared = &index;
-        kept_[i].pending.clear();
-    }
-    progressive_[i].pass(embree, *photons_, sets_[i], shared, *areaLights_, out, eye.shadowRays, eye.nonFinite);
-}
-
 void RenderJob::indexPendingShots(const std::vector<SetPhotons>* sharedIn, const std::vector<uint8_t>& converge,
-                                  const std::vector<uint8_t>& passShot, PendingIndex& index) {
-    std::shared_ptr<const std::vector<SetPhotons>> now;
-    if (sharedIn && !sharedIn->empty()) now = std::make_shared<const std::vector<SetPhotons>>(*sharedIn);
+                                  const std::vector<uint8_t>& passShot, PendingIndex& index,
+                                  std::vector<const SharedPhotons*>& sharedFor) {
+    const bool any = sharedIn && !sharedIn->empty();
+    std::shared_ptr<const std::vector<SetPhotons>> kept;  // copied once, if a set off its turn keeps it
+    sharedFor.assign(sets_.size(), nullptr);
     for (size_t i = 0; i < sets_.size(); ++i) {
         PendingShots& pending = kept_[i].pending;
         if (!converge[i]) {
             pending.clear();  // a restart bins the map; what was shared before it is in no pass
             continue;
         }
-        if (now) pending.push_back(now);
-        if (!passShot[i] || pending.empty()) continue;
-        auto [it, added] = index.try_emplace(pendingKey(pending));
-        if (added) it->second.build(scene_->embree().bounds(), mergeShots(pending));
+        if (!passShot[i]) {
+            if (!any) continue;
+            if (!kept) kept = std::make_shared<const std::vector<SetPhotons>>(*sharedIn);
+            pending.push_back(kept);
+            continue;
+        }
+        std::vector<const std::vector<SetPhotons>*> frames;
+        for (const auto& frame : pending) frames.push_back(frame.get());
+        if (any) frames.push_back(sharedIn);
+        if (frames.empty()) continue;
+        auto [it, added] = index.try_emplace(frames);
+        if (added) {
+            if (frames.size() == 1) it->second.build(scene_->embree().bounds(), *frames[0]);
+            else it->second.build(scene_->embree().bounds(), mergeShots(frames));
+        }
+        if (!it->second.empty()) sharedFor[i] = &it->second;
+        pending.clear();  // indexed: this frame's pass bins them (the index holds its own copy)
     }
 }
 

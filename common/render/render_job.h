@@ -62,8 +62,8 @@ struct ShownKnnPixels {
     std::vector<PixelRadiance> pixels;
 };
 
-/// The other sets' shots shared with one set (one entry per frame) that its progressive passes
-/// have not binned yet: those of the frames it was off its turn, and this frame's.
+/// The other sets' shots shared with one set (one entry per frame) while it was off its turn,
+/// which its next progressive pass bins.
 using PendingShots = std::vector<std::shared_ptr<const std::vector<SetPhotons>>>;
 
 /// SharedPhotons per distinct list of pending frames (RenderJob::indexPendingShots).
@@ -162,14 +162,13 @@ public:
 private:
     /// Paths traced into the owned sets' maps so far.
     uint64_t pathsTraced() const;
-    /// The progressive pass of owned set `i` on its turn: binning its pending shots (indexed in
-    /// `sharedIndex`) besides its own pass's photons.
-    void passSet(size_t i, const PendingIndex& sharedIndex, std::span<PixelRadiance> out, EyeStats& eye);
-    /// Adds `sharedIn` (this frame's shared shots, may be null) to every converging set's pending
-    /// shots (dropping those of the others) and indexes, once per distinct list, the pending shots
-    /// of the sets whose turn it is.
+    /// Adds this frame's shared shots `sharedIn` (may be null) to the pending shots of every
+    /// converging set off its turn (dropping those of the sets that do not converge), and indexes,
+    /// once per distinct list of frames, what the sets on their turn bin: their pending shots and
+    /// `sharedIn`. `sharedFor[i]`: owned set i's index, null when it has none.
     void indexPendingShots(const std::vector<SetPhotons>* sharedIn, const std::vector<uint8_t>& converge,
-                           const std::vector<uint8_t>& passShot, PendingIndex& index);
+                           const std::vector<uint8_t>& passShot, PendingIndex& index,
+                           std::vector<const SharedPhotons*>& sharedFor);
     /// The pixels of owned set `i` at `camera` with the map's k-NN caustic: a Relight frame
     /// re-lights the set's KeptEyePaths (traced first when stale), an Edit frame samples the
     /// dielectric splits, any other traces them all, unless the set's ShownKnnPixels still hold.
