@@ -100,7 +100,10 @@ void FrameLoop::onStats(ClientInfo& client, const proto::Stats& st) {
     if (v == Verdict::Accept) {
         const FrameLedger::StatsOf of = ledger_.addStats(client.id, client.name, st);
         policy_.stats(client.id, of.mode, st.photonsShot, of.passPeriod);
-        policy_.balance().measured(client.id, of.sets, double(st.photonMs) + double(st.renderMs) + double(st.encodeMs));
+        // While the sets take turns a frame's work depends on whose turn it was (a set off its
+        // turn shows its last pixels): such frames say nothing of a set's cost.
+        if (of.passPeriod <= 1)
+            policy_.balance().measured(client.id, of.sets, double(st.photonMs) + double(st.renderMs) + double(st.encodeMs));
     }
     pump();
 }
