@@ -5,7 +5,9 @@
 // kOrbitBudgetFactor × it for a moving one (a camera orbiting over costly photon paths).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
+#include <vector>
 
 #include "common/render/pass_budget.h"
 #include "proto/messages.h"
@@ -18,7 +20,8 @@ public:
     /// `frameBudgetMs`: the frame time passes grow to (0 = one batch per pass); `targetError`:
     /// the estimated error that ends the run (0 = never).
     Convergence(double frameBudgetMs, double targetError)
-        : budget_(frameBudgetMs * 1e-3), accumulate_(frameBudgetMs * 1e-3, /*growBatches=*/false),
+        : frameBudgetMs_(frameBudgetMs), budget_(frameBudgetMs * 1e-3),
+          accumulate_(frameBudgetMs * 1e-3, /*growBatches=*/false),
           orbit_(kOrbitBudgetFactor * frameBudgetMs * 1e-3, /*growBatches=*/false), targetError_(targetError) {}
 
     /// An orbit's Accumulate frames take turns only beyond this many frame budgets (200 ms at the
@@ -47,6 +50,7 @@ public:
     /// frames planned before its last change of turns are not counted).
     void recordWork(proto::FrameMode mode, bool still, double workMs, uint32_t period) {
         const bool accumulate = mode == proto::FrameMode::Accumulate;
+        noteMotion(mode, still, workMs);
         budget_.recordFrame(mode == proto::FrameMode::Converging, workMs * 1e-3, period);
         accumulate_.recordFrame(accumulate && still, workMs * 1e-3, period);
         orbit_.recordFrame(accumulate && !still, workMs * 1e-3, period);
@@ -63,7 +67,33 @@ public:
     bool reached() const { return reached_; }
     double targetError() const { return targetError_; }
 
+    /// The frame time a still view is held to now: the frame budget, or less where the view
+    /// moved faster just before it stood still (the median work of the last kMotionFrames moving
+    /// frames, at least kMinStillMs): a still frame costs no more than a moving one.
+    double stillBudgetMs() const { return budget_.budget() * 1e3; }
+
+    static constexpr size_t kMotionFrames = 5;
+    static constexpr double kMinStillMs = 10.0;
+
 private:
+    /// A frame that moved (an orbit's Accumulate or Walkthrough frame, an Edit or Relight frame;
+    /// not an epoch's first, which builds maps) sets the still budgets to its recent work.
+    void noteMotion(proto::FrameMode mode, bool still, double workMs) {
+        using M = proto::FrameMode;
+        const bool moved = mode == M::Edit || mode == M::Relight ||
+                           ((mode == M::Accumulate || mode == M::Walkthrough) && !still);
+        if (!moved || !(workMs > 0.0) || !(frameBudgetMs_ > 0.0)) return;
+        motionMs_.push_back(workMs);
+        if (motionMs_.size() > kMotionFrames) motionMs_.erase(motionMs_.begin());
+        std::vector<double> sorted = motionMs_;
+        std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(sorted.size() / 2), sorted.end());
+        const double ms = std::clamp(sorted[sorted.size() / 2], kMinStillMs, frameBudgetMs_);
+        budget_.setBudget(ms * 1e-3);
+        accumulate_.setBudget(ms * 1e-3);
+    }
+
+    double frameBudgetMs_;
+    std::vector<double> motionMs_;  ///< work of the last moving frames, oldest first
     PassBudget budget_;
     PassBudget accumulate_;  ///< still Accumulate frames: one batch per set at most, the period only
     PassBudget orbit_;       ///< moving Accumulate frames: the same, over kOrbitBudgetFactor × the budget

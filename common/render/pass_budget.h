@@ -46,6 +46,13 @@ public:
     explicit PassBudget(double budgetSeconds = 0.0, bool growBatches = true)
         : budget_(budgetSeconds), growBatches_(growBatches) {}
 
+    /// The frame time the budget holds frames to (seconds; 0: one batch, no turns).
+    double budget() const { return budget_; }
+    /// Holds the frames to `seconds` from the next decision on, keeping the passes and turns
+    /// reached so far (a budget of 0 stays 0: its frames must not depend on the machine's speed).
+    void setBudget(double seconds) {
+        if (budget_ > 0.0 && seconds > 0.0) budget_ = seconds;
+    }
     /// Batches the next frame's passes shoot, in [1, kMaxPassBatches].
     uint32_t batches() const { return batches_; }
     /// Frames between two passes of a set, in [1, kMaxPassPeriod] (passShoots).

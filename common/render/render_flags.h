@@ -81,9 +81,10 @@ inline void addConvergenceFlags(CLI::App& app, ConvergenceFlags& flags) {
                    "a still view's frame time: its passes grow (more photon batches per turn) while a "
                    "frame takes less than half this, and the sets take turns while a frame takes more (a "
                    "set off its turn shows its last pixels and bins the photons shared meanwhile at its "
-                   "next turn), so the view keeps about 1000/budget updates a second; an orbit over a "
-                   "growing map takes turns beyond four budgets; 0 = one batch per pass, no turns (the "
-                   "frames then do not depend on the machine's speed)")
+                   "next turn), so the view keeps about 1000/budget updates a second (and the master "
+                   "keeps a faster motion's frame time after it); an orbit over a growing map takes turns "
+                   "beyond four budgets; 0 = one batch per pass, no turns (the frames then do not depend "
+                   "on the machine's speed)")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 60000.0))
         ->group("estimator");

@@ -69,6 +69,31 @@ TEST(Convergence, AnOrbitKeepsEverySetShootingUpToFourBudgets) {
     EXPECT_EQ(d.periodFor(FrameMode::Accumulate, false), 1u);
 }
 
+// A still frame costs no more than a moving one: after the camera moved at 20 ms a frame, a
+// still view's 40 ms passes (within the 50 ms budget of a view that never moved) take turns.
+// Epoch starts (Interaction) do not count as motion; a slower motion restores the budget.
+TEST(Convergence, AStillViewIsHeldToTheMotionBeforeIt) {
+    Convergence cold(50.0, 0.0);
+    for (int i = 0; i < 3; ++i) record(cold, FrameMode::Converging, 40.0);
+    EXPECT_EQ(cold.periodFor(FrameMode::Converging, true), 1u);
+    EXPECT_DOUBLE_EQ(cold.stillBudgetMs(), 50.0);
+
+    Convergence c(50.0, 0.0);
+    record(c, FrameMode::Interaction, 5.0);
+    EXPECT_DOUBLE_EQ(c.stillBudgetMs(), 50.0) << "an epoch's first frame is no motion";
+    for (int i = 0; i < 5; ++i) record(c, FrameMode::Accumulate, 20.0, /*still=*/false);
+    EXPECT_DOUBLE_EQ(c.stillBudgetMs(), 20.0);
+    record(c, FrameMode::Converging, 40.0);
+    EXPECT_EQ(c.periodFor(FrameMode::Converging, true), 2u) << "over the motion's 20 ms: turns";
+    for (int i = 0; i < 5; ++i) record(c, FrameMode::Edit, 300.0, /*still=*/true);
+    EXPECT_DOUBLE_EQ(c.stillBudgetMs(), 50.0) << "slower motion: the frame budget again";
+    for (int i = 0; i < 5; ++i) record(c, FrameMode::Walkthrough, 2.0, /*still=*/false);
+    EXPECT_DOUBLE_EQ(c.stillBudgetMs(), Convergence::kMinStillMs);
+    Convergence fixed(0.0, 0.0);  // one batch per pass, whatever the machine
+    for (int i = 0; i < 5; ++i) record(fixed, FrameMode::Accumulate, 20.0, /*still=*/false);
+    EXPECT_DOUBLE_EQ(fixed.stillBudgetMs(), 0.0);
+}
+
 // Frames are planned before the ones in flight are measured: a frame planned before the budget's
 // last change of turns (another period than the budget's now) is not counted.
 TEST(Convergence, FramesPlannedBeforeAChangeAreNotCounted) {
