@@ -87,7 +87,8 @@ private:
         if (motionMs_.size() > kMotionFrames) motionMs_.erase(motionMs_.begin());
         std::vector<double> sorted = motionMs_;
         std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(sorted.size() / 2), sorted.end());
-        const double ms = std::clamp(sorted[sorted.size() / 2], kMinStillMs, frameBudgetMs_);
+        // Never above the budget, and not below kMinStillMs unless the budget itself is.
+        const double ms = std::min(frameBudgetMs_, std::max(kMinStillMs, sorted[sorted.size() / 2]));
         budget_.setBudget(ms * 1e-3);
         accumulate_.setBudget(ms * 1e-3);
     }

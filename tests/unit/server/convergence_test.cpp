@@ -89,6 +89,9 @@ TEST(Convergence, AStillViewIsHeldToTheMotionBeforeIt) {
     EXPECT_DOUBLE_EQ(c.stillBudgetMs(), 50.0) << "slower motion: the frame budget again";
     for (int i = 0; i < 5; ++i) record(c, FrameMode::Walkthrough, 2.0, /*still=*/false);
     EXPECT_DOUBLE_EQ(c.stillBudgetMs(), Convergence::kMinStillMs);
+    Convergence tight(5.0, 0.0);  // a budget below kMinStillMs stays the budget
+    for (int i = 0; i < 5; ++i) record(tight, FrameMode::Walkthrough, 2.0, /*still=*/false);
+    EXPECT_DOUBLE_EQ(tight.stillBudgetMs(), 5.0);
     Convergence fixed(0.0, 0.0);  // one batch per pass, whatever the machine
     for (int i = 0; i < 5; ++i) record(fixed, FrameMode::Accumulate, 20.0, /*still=*/false);
     EXPECT_DOUBLE_EQ(fixed.stillBudgetMs(), 0.0);
