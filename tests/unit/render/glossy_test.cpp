@@ -13,6 +13,7 @@
 #include "common/image/frame_image.h"
 #include "common/render/render_job.h"
 #include "common/scene/builtin_scenes.h"
+#include "tests/support/small_settings.h"
 
 namespace rtpm {
 namespace {
@@ -47,13 +48,7 @@ Frame render(Scene scene, const RenderSettings& rs, int frames) {
     return Frame{image.direct(), image.causticFiltered(), image.final()};
 }
 
-RenderSettings smallSettings() {
-    RenderSettings rs;
-    rs.width = 96;
-    rs.height = 72;
-    rs.photons.photonsPerBatch = 4000;
-    return rs;
-}
+RenderSettings smallSettings() { return testsupport::smallSettings(96, 72, 4000, 3); }
 
 /// Plain shooting: a photon is then its Halton index's alone. With Selective Photon Tracing a
 /// deflection of 10⁻⁴ rad that turns one path productive changes the next batch's refine set, and

@@ -30,6 +30,7 @@
 #include "common/photon/shared_photons.h"
 #include "common/render/render_job.h"
 #include "common/scene/scene_loader.h"
+#include "tests/support/small_settings.h"
 #include "tests/support/test_scenes.h"
 
 namespace rtpm {
@@ -46,13 +47,7 @@ bool finite3(Vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::i
 CausticEstimatorKind gEstimator = CausticEstimatorKind::Progressive;
 
 RenderSettings smallSettings(int w, int h, int m, uint32_t paths) {
-    RenderSettings rs;
-    rs.photons.estimator = gEstimator;
-    rs.width = w;
-    rs.height = h;
-    rs.interleave = m;
-    rs.photons.photonsPerBatch = paths;
-    return rs;
+    return testsupport::smallSettings(w, h, paths, m, gEstimator);
 }
 
 std::unique_ptr<RenderJob> makeJob(Scene scene, const RenderSettings& rs) {

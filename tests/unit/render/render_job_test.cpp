@@ -12,6 +12,7 @@
 #include "common/render/render_job.h"
 #include "common/scene/builtin_scenes.h"
 #include "tests/support/ring_mirror.h"
+#include "tests/support/small_settings.h"
 
 namespace rtpm {
 namespace {
@@ -150,15 +151,7 @@ TEST(RenderJob, AnEditFrameShowsTheKnnEstimateAndTheNextStillFrameRestarts) {
 }
 
 // The ring mirror at 32×24, M = 2 (four sets), 2000 paths per set and frame, the knn estimator.
-RenderSettings smallKnnSettings() {
-    RenderSettings rs;
-    rs.width = 32;
-    rs.height = 24;
-    rs.interleave = 2;
-    rs.photons.photonsPerBatch = 2000;
-    rs.photons.estimator = CausticEstimatorKind::Knn;
-    return rs;
-}
+RenderSettings smallKnnSettings() { return testsupport::smallSettings(32, 24, 2000, 2, CausticEstimatorKind::Knn); }
 
 // A job rendering all four sets of the ring mirror at smallKnnSettings, and the scene's camera.
 struct RingKnnJob {
@@ -171,14 +164,7 @@ struct RingKnnJob {
 };
 
 // GLASS at 48×36, M = 2 (four sets), 2000 paths per set and frame.
-RenderSettings smallGlassSettings() {
-    RenderSettings rs;
-    rs.width = 48;
-    rs.height = 36;
-    rs.interleave = 2;
-    rs.photons.photonsPerBatch = 2000;
-    return rs;
-}
+RenderSettings smallGlassSettings() { return testsupport::smallSettings(48, 36, 2000, 2); }
 
 // An Edit frame samples the dielectric splits (one branch each) where the epoch's first frame of
 // a still view traces both: GLASS's edit frames trace far fewer secondary rays. (A light edit

@@ -13,19 +13,12 @@
 #include "common/render/pass_budget.h"
 #include "common/render/render_job.h"
 #include "common/scene/builtin_scenes.h"
+#include "tests/support/small_settings.h"
 
 namespace rtpm {
 namespace {
 
-RenderSettings smallRing() {
-    RenderSettings rs;
-    rs.width = 48;
-    rs.height = 36;
-    rs.interleave = 2;
-    rs.photons.photonsPerBatch = 4000;
-    rs.photons.estimator = CausticEstimatorKind::Progressive;
-    return rs;
-}
+RenderSettings smallRing() { return testsupport::smallSettings(48, 36, 4000, 2); }
 
 // Byte equality of two arrays; an empty one has no data pointer to hand to memcmp.
 template <class T>
