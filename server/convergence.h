@@ -48,9 +48,15 @@ public:
     /// (FrameBegin's passPeriod), whose slowest client worked `workMs` (shooting, eye pass,
     /// encoding; not the wait behind the frame before) adapts the budget (PassBudget::recordFrame:
     /// frames planned before its last change of turns are not counted).
-    void recordWork(proto::FrameMode mode, bool still, double workMs, uint32_t period) {
-        const bool accumulate = mode == proto::FrameMode::Accumulate;
+    /// `shootMs`: the slowest client's shooting in that frame; a frame in which every set shot
+    /// one batch (an epoch's first, an edit, an Accumulate frame without turns) predicts the
+    /// next still view's first period (PassBudget::expectShooting).
+    void recordWork(proto::FrameMode mode, bool still, double workMs, uint32_t period, double shootMs = 0.0) {
+        using M = proto::FrameMode;
+        const bool accumulate = mode == M::Accumulate;
         noteMotion(mode, still, workMs);
+        if (mode == M::Interaction || mode == M::Edit || mode == M::Relight || (accumulate && period == 1))
+            budget_.expectShooting(shootMs * 1e-3);
         budget_.recordFrame(mode == proto::FrameMode::Converging, workMs * 1e-3, period);
         accumulate_.recordFrame(accumulate && still, workMs * 1e-3, period);
         orbit_.recordFrame(accumulate && !still, workMs * 1e-3, period);

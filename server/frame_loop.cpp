@@ -286,7 +286,7 @@ void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
     // from FrameBegin to its last FrameData: with frames in flight that also holds the wait behind
     // the frame before, about twice the work, and the passes never grew.
     const double workMs = double(job.slowestPhotonMs) + double(job.slowestEyeMs) + double(job.slowestEncodeMs);
-    convergence_.recordWork(shown.mode, job.cameraStill, workMs, job.passPeriod);
+    convergence_.recordWork(shown.mode, job.cameraStill, workMs, job.passPeriod, double(job.slowestPhotonMs));
     if (state_ == State::Running && convergence_.reachesTarget(shown.mode, job.errorEstimate)) {
         // No new frame begins; the frames in flight finish and the last one shown is written
         // (finishStopped), as after a signal, but the run counts as complete.

@@ -260,6 +260,8 @@ int run(int argc, char** argv) {
         last = st;
         double filterMs = std::chrono::duration<double, std::milli>(tend - tfilter).count();
         double totalMs = std::chrono::duration<double, std::milli>(tend - tf).count();
+        // A frame in which every set shot one batch predicts a still view's first period.
+        if (!st.converging && !st.walkthrough && passPeriod == 1) budget.expectShooting(st.shootSeconds);
         budget.record(st.converging, totalMs * 1e-3);
         accumulation.record(knn && f > 0 && !st.walkthrough, totalMs * 1e-3);
         const double estimate = causticErrorEstimate(st.error);

@@ -26,7 +26,8 @@ inline bool passShoots(uint64_t pass, uint32_t set, uint32_t sets, uint32_t peri
 /// Work of the next frame's progressive passes: `batches` per set and pass, and the sets taking
 /// turns every `period` frames (a pass off its set's turn shows the set's last pixels; the photons
 /// the other sets shared meanwhile are binned at its next turn, RenderJob). A frame that moves
-/// (camera, edit, restart) resets both to 1, so motion stays as cheap as the settings make it.
+/// (camera, edit, restart) resets both: the batches to 1, the period to the one the last batch
+/// per set predicts (expectShooting; 1 without a prediction).
 /// While frames converge, each decision takes the mean frame time over one whole turn (a frame's
 /// cost depends on whose turn it is): above the budget the period doubles (a trial: unless its
 /// first whole turn is at least 1 − kTurnGain faster than the turn before, it is undone and the
@@ -53,6 +54,19 @@ public:
     void setBudget(double seconds) {
         if (budget_ > 0.0 && seconds > 0.0) budget_ = seconds;
     }
+    /// The work of one batch per set in a frame that shot that (an epoch's first frame, an edit,
+    /// an accumulating orbit): it predicts a pass's shooting, so a still view begun after it
+    /// starts at the period that holds that to the budget (the power of two at or above
+    /// seconds / budget, at most kMaxPassPeriod) instead of doubling from 1 turn by turn: on
+    /// HEADLIGHT, whose batch per set costs 5 budgets, the first ten still frames ran at 2–8
+    /// fps while the period doubled to 8. Takes effect at the next frame that starts the budget
+    /// afresh. Only for progressive passes (growBatches): Accumulate frames' turns cost photons.
+    void expectShooting(double seconds) {
+        if (!growBatches_ || !(budget_ > 0.0) || !(seconds > 0.0)) return;
+        uint32_t p = 1;
+        while (p < kMaxPassPeriod && double(p) * budget_ < seconds) p *= 2;
+        startPeriod_ = p;
+    }
     /// Batches the next frame's passes shoot, in [1, kMaxPassBatches].
     uint32_t batches() const { return batches_; }
     /// Frames between two passes of a set, in [1, kMaxPassPeriod] (passShoots).
@@ -74,7 +88,9 @@ public:
     /// starts the budget afresh. For a loop that plans each frame after measuring the last one.
     void record(bool converging, double frameSeconds) {
         if (!converging || !(budget_ > 0.0)) {
+            const uint32_t start = startPeriod_;
             *this = PassBudget(budget_, growBatches_);
+            startPeriod_ = period_ = start;
             return;
         }
         // While the sets take turns a frame's cost depends on whose turn it is: decide on the
@@ -136,6 +152,7 @@ private:
     uint32_t turnFrames_ = 0;    ///< frames of the current turn recorded
     double trialBefore_ = 0.0;   ///< > 0 while a doubled period is on trial: the mean before it
     bool turnsBlocked_ = false;  ///< a trial did not pay: no more turns until the view moves
+    uint32_t startPeriod_ = 1;   ///< the period a still view starts at (expectShooting)
 };
 
 }  // namespace rtpm

@@ -179,6 +179,37 @@ TEST(PassBudget, GrowsWhileStillAndFastAndResetsOnMotion) {
     EXPECT_EQ(b.batches(), kMaxPassBatches);
 }
 
+// A frame in which every set shot one batch predicts a pass's shooting: the next still view
+// starts at the period that holds it to the budget instead of doubling from 1 turn by turn.
+TEST(PassBudget, AStillViewStartsAtThePeriodItsLastBatchPerSetPredicts) {
+    PassBudget b(0.05);
+    b.expectShooting(0.26);  // 5.2 budgets: the power of two at or above
+    EXPECT_EQ(b.period(), 1u) << "takes effect when the budget starts afresh";
+    b.record(false, 0.4);  // the epoch's first frame
+    EXPECT_EQ(b.period(), 8u);
+    EXPECT_EQ(b.batches(), 1u);
+    b.record(true, 0.3);  // the turn's frames decide from there (a whole turn of 8)
+    EXPECT_EQ(b.period(), 8u);
+    for (int i = 0; i < 7; ++i) b.record(true, 0.04);
+    EXPECT_EQ(b.period(), 16u) << "mean 72 ms over the turn: over the budget";
+    b.record(false, 0.1);  // the view moved: the prediction stays
+    EXPECT_EQ(b.period(), 8u);
+    b.expectShooting(0.03);  // within the budget: no turns
+    b.record(false, 0.1);
+    EXPECT_EQ(b.period(), 1u);
+    b.expectShooting(100.0);
+    b.record(false, 0.1);
+    EXPECT_EQ(b.period(), kMaxPassPeriod);
+    PassBudget fixed(0.0);  // one batch per pass, whatever the machine
+    fixed.expectShooting(10.0);
+    fixed.record(false, 0.1);
+    EXPECT_EQ(fixed.period(), 1u);
+    PassBudget accumulate(0.05, /*growBatches=*/false);  // there turns cost photons
+    accumulate.expectShooting(10.0);
+    accumulate.record(false, 0.1);
+    EXPECT_EQ(accumulate.period(), 1u);
+}
+
 TEST(PassBudget, ZeroBudgetKeepsOneBatch) {
     PassBudget b(0.0);
     for (int i = 0; i < 10; ++i) b.record(true, 0.0);

@@ -97,6 +97,24 @@ TEST(Convergence, AStillViewIsHeldToTheMotionBeforeIt) {
     EXPECT_DOUBLE_EQ(fixed.stillBudgetMs(), 0.0);
 }
 
+// The slowest client's shooting in a frame where every set shot one batch (an epoch's first, an
+// edit, an orbit's Accumulate frame without turns) sets the period the next still view starts at.
+TEST(Convergence, AStillViewStartsAtThePeriodTheLastBatchPerSetPredicts) {
+    Convergence c(50.0, 0.0);
+    c.recordWork(FrameMode::Interaction, true, 390.0, 1, 260.0);
+    EXPECT_EQ(c.periodFor(FrameMode::Converging, true), 8u);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 1u) << "the accumulation budgets keep theirs";
+    c.recordWork(FrameMode::Converging, true, 300.0, 1);  // planned before: not counted
+    EXPECT_EQ(c.periodFor(FrameMode::Converging, true), 8u);
+    c.recordWork(FrameMode::Accumulate, false, 60.0, 1, 20.0);  // the camera orbits, cheap batches
+    EXPECT_EQ(c.periodFor(FrameMode::Converging, true), 1u);
+    c.recordWork(FrameMode::Accumulate, false, 600.0, 2, 500.0);  // with turns: half the sets shot
+    c.recordWork(FrameMode::Walkthrough, false, 10.0, 1, 0.0);     // shot nothing
+    EXPECT_EQ(c.periodFor(FrameMode::Converging, true), 1u) << "neither predicts a pass";
+    c.recordWork(FrameMode::Edit, true, 300.0, 1, 100.0);  // 100 ms against the 50 ms budget
+    EXPECT_EQ(c.periodFor(FrameMode::Converging, true), 2u);
+}
+
 // Frames are planned before the ones in flight are measured: a frame planned before the budget's
 // last change of turns (another period than the budget's now) is not counted.
 TEST(Convergence, FramesPlannedBeforeAChangeAreNotCounted) {
