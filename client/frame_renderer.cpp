@@ -80,9 +80,32 @@ std::optional<SceneEdit> applyWireEdit(Scene& scene, const proto::SceneEdit& wir
     return edit;
 }
 
+/// One set's last sent pixels: the encoding `requested` gave them.
+struct SentPixels {
+    bool valid = false;
+    proto::PixelEncoding requested = proto::PixelEncoding::Rgb9e5;
+    proto::EncodedPixels encoded;
+};
+
+namespace {
+
+/// `pixels` encoded as `requested` asks, straight from the renderer's buffer (no intermediate
+/// copy); pixels unchanged since the set's last frame (a pass off its turn) as encoded then.
+proto::EncodedPixels encodeOrResend(const SetPixels& pixels, SentPixels& sent, proto::PixelEncoding requested) {
+    if (!(pixels.unchanged && sent.valid && sent.requested == requested)) {
+        sent.encoded = proto::encodePixels(bridge::pixelView(std::span(pixels.pixels)), requested);
+        sent.requested = requested;
+        sent.valid = true;
+    }
+    return sent.encoded;
+}
+
+}  // namespace
+
 struct FrameRenderer::Group {
     std::vector<uint32_t> sets;
     std::unique_ptr<RenderJob> job;
+    std::vector<SentPixels> sent;  ///< per set of `sets`, what its last frame sent
 };
 
 FrameRenderer::FrameRenderer(uint32_t threads, double slowdown) : threads_(threads), slowdown_(slowdown) {}
@@ -160,6 +183,7 @@ void FrameRenderer::adoptSets(const std::vector<uint32_t>& sets) {
         auto g = std::make_unique<Group>();
         g->sets = missing;
         g->job = std::make_unique<RenderJob>(scene_, settings_, missing);
+        g->sent.resize(missing.size());
         groups_.push_back(std::move(g));
     }
 }
@@ -208,6 +232,7 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
     uint64_t shot = 0, stored = 0;
     // Pixels by set id, in the order of FrameBegin.sets.
     std::vector<const SetPixels*> bySet(setCount, nullptr);
+    std::vector<SentPixels*> sentBySet(setCount, nullptr);
     std::vector<std::vector<SetPixels>> results(groups_.size());
     // Every set's shot of two frames ago, as the master forwarded it (the passes bin it).
     const std::vector<SetPhotons> shared = bridge::fromWire(fb.shared);
@@ -225,7 +250,10 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
         renderMs += st.eyeSeconds * 1e3;
         shot += st.pathsThisFrame;
         stored += st.photonsStored;
-        for (const SetPixels& sp : results[gi]) bySet[size_t(sp.set)] = &sp;
+        for (size_t i = 0; i < results[gi].size(); ++i) {
+            bySet[size_t(results[gi][i].set)] = &results[gi][i];
+            sentBySet[size_t(results[gi][i].set)] = &groups_[gi]->sent[i];
+        }
     }
 
     if (slowdown_ > 1.0) {
@@ -241,8 +269,7 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
         const uint32_t s = fb.sets[i];
         const SetPixels* sp = bySet[s];
         RTPM_CHECK(sp != nullptr && sp->pixels.size() == size_t(pattern.pixelCount(int(s))));
-        // Encoded straight from the renderer's buffer (no intermediate copy).
-        proto::EncodedPixels enc = proto::encodePixels(bridge::pixelView(std::span(sp->pixels)), wire_->encoding);
+        proto::EncodedPixels enc = encodeOrResend(*sp, *sentBySet[s], wire_->encoding);
         proto::FrameData& fd = out.data[i];
         fd.frame = fb.frame;
         fd.set = s;

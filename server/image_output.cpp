@@ -23,7 +23,8 @@ ImageOutput::ImageOutput(ImageOutputOptions options)
     : opt_(std::move(options)),
       pattern_{opt_.width, opt_.height, opt_.interleave},
       image_(opt_.width, opt_.height),
-      radiance_(size_t(opt_.interleave) * size_t(opt_.interleave)) {
+      radiance_(size_t(opt_.interleave) * size_t(opt_.interleave)),
+      scattered_(radiance_.size()) {
     settings_.width = opt_.width;
     settings_.height = opt_.height;
     settings_.interleave = opt_.interleave;
@@ -59,6 +60,7 @@ void ImageOutput::reconfigure(int interleave, int filter) {
         opt_.filter = filter;
         pattern_ = Interleave{opt_.width, opt_.height, interleave};
         radiance_.assign(size_t(interleave) * size_t(interleave), {});
+        scattered_.assign(radiance_.size(), {});
     });
 }
 
@@ -79,9 +81,17 @@ OutputResult ImageOutput::process(OutputJob& job) {
     OutputResult result;
     std::vector<std::string> errors(job.data.size());
     std::vector<uint64_t> clamped(job.data.size(), 0);
+    std::vector<uint8_t> repeated(job.data.size(), 0);
+    for (size_t i = 0; i < job.data.size(); ++i) {
+        const proto::FrameData& d = job.data[i];
+        const Scattered& last = scattered_[d.set];
+        repeated[i] = last.valid && last.encoding == d.encoding && last.pixels == d.pixels &&
+                      last.ownWeights == d.ownWeights;
+    }
     // Decoding is the master's heaviest step: sets decode in parallel, each straight into its
     // own radiance buffer (a set appears once per frame); scatter stays serial (FrameImage contract).
     tbb::parallel_for(size_t(0), job.data.size(), [&](size_t i) {
+        if (repeated[i]) return;
         const proto::FrameData& d = job.data[i];
         std::vector<PixelRadiance>& rad = radiance_[d.set];
         rad.resize(d.pixelCount);
@@ -106,6 +116,9 @@ OutputResult ImageOutput::process(OutputJob& job) {
         }
     for (size_t i = 0; i < job.data.size(); ++i) {
         const proto::FrameData& d = job.data[i];
+        if (repeated[i]) continue;
+        Scattered& last = scattered_[d.set];
+        last.valid = false;
         if (!errors[i].empty()) {
             result.badPayloads.emplace_back(job.owners[d.set], "frame " + std::to_string(d.frame) + " set " +
                                                                    std::to_string(d.set) +
@@ -116,6 +129,7 @@ OutputResult ImageOutput::process(OutputJob& job) {
         // (progressive.h); none for knn (the decoder checked the count).
         if (d.ownWeights.empty()) image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set]);
         else image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set], d.ownWeights);
+        last = Scattered{true, d.encoding, d.pixels, d.ownWeights};
     }
     image_.filterAndCompose(opt_.filter);
     result.masterMs = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();

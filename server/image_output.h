@@ -110,6 +110,16 @@ private:
     Interleave pattern_;
     FrameImage image_;
     std::vector<std::vector<PixelRadiance>> radiance_;  ///< per set, reused
+    /// Per set, the payload last scattered into the image: a FrameData that repeats it byte for
+    /// byte (a set off its turn sends its last pixels as encoded then) is neither decoded nor
+    /// scattered again; the image holds those pixels already.
+    struct Scattered {
+        bool valid = false;
+        proto::PixelEncoding encoding = proto::PixelEncoding::Rgb9e5;
+        std::vector<uint8_t> pixels;
+        std::vector<uint8_t> ownWeights;
+    };
+    std::vector<Scattered> scattered_;
     FILE* csv_ = nullptr;
     ProgressLine progress_{stderr, isTerminal(stderr)};
     uint64_t shown_ = 0;             ///< of the last processed job

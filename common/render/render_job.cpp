@@ -160,7 +160,8 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
         const int set = int(sets_[i]);
         out[i].set = set;
         out[i].pixels.resize(size_t(pattern_.pixelCount(set)));
-        if (converge[i] && !passShot[i]) {
+        out[i].unchanged = converge[i] && !passShot[i];
+        if (out[i].unchanged) {
             progressive_[i].skip(out[i].pixels);
         } else if (converge[i]) {
             if (!areaLights_) areaLights_ = std::make_unique<AreaLightSampler>(embree, settings_.eye);
@@ -177,10 +178,9 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
             const double f = double(settings_.filterSize());
             progressive_[i].setFilterShare(1.0 / (f * f));
             progressive_[i].setImage(pattern_.m, settings_.filterSize(), pattern_.setColumns(set));
-            progressive_[i].restart(embree, *photons_, sets_[i], camera, std::move(records),
-                                    out[i].pixels);
+            progressive_[i].restart(embree, *photons_, sets_[i], camera, std::move(records), out[i].pixels);
         } else {
-            knnPixels(i, camera, mode, out[i].pixels, stats.eye);
+            out[i].unchanged = knnPixels(i, camera, mode, out[i].pixels, stats.eye);
         }
         const bool progression = progressive && !moving && !edit;
         out[i].passes = progression ? progressive_[i].passes() : 0;
@@ -231,7 +231,7 @@ void RenderJob::applyEdit(const SceneEdit& edit) {
     edited_ = true;
 }
 
-void RenderJob::knnPixels(size_t i, const Camera& camera, FrameMode mode, std::span<PixelRadiance> out,
+bool RenderJob::knnPixels(size_t i, const Camera& camera, FrameMode mode, std::span<PixelRadiance> out,
                           EyeStats& eye) {
     const EmbreeScene& embree = scene_->embree();
     const int set = int(sets_[i]);
@@ -246,7 +246,7 @@ void RenderJob::knnPixels(size_t i, const Camera& camera, FrameMode mode, std::s
         if (still && shown.eyeVersion == scene_->eyeVersion() && shown.pathsTraced == map.pathsTraced &&
             shown.photonsStored == map.photonsStored && shown.pixels.size() == out.size()) {
             std::copy(shown.pixels.begin(), shown.pixels.end(), out.begin());
-            return;
+            return true;
         }
         renderSet(embree, camera, settings_.eye, pattern_, set, photons_.get(), out, &eye);
         shown.camera = camera;
@@ -255,14 +255,14 @@ void RenderJob::knnPixels(size_t i, const Camera& camera, FrameMode mode, std::s
         shown.photonsStored = map.photonsStored;
         if (still) shown.pixels.assign(out.begin(), out.end());
         else shown.pixels.clear();
-        return;
+        return false;
     }
     if (mode != FrameMode::Relight) {
         // An Edit frame's eye paths sample the dielectric splits, as a moving camera's do: a
         // material or object dragged over GLASS paid the full split trees in every frame.
         renderSet(embree, camera, settings_.eye, pattern_, set, photons_.get(), out, &eye, nullptr,
                   mode == FrameMode::Edit ? sampleSeedOf(camera) : 0);
-        return;
+        return false;
     }
     KeptEyePaths& kept = kept_[i].relight;
     if (!kept.camera || !sameCamera(*kept.camera, camera) || kept.eyeVersion != scene_->eyeVersion()) {
@@ -275,6 +275,7 @@ void RenderJob::knnPixels(size_t i, const Camera& camera, FrameMode mode, std::s
         kept.eyeVersion = scene_->eyeVersion();
     }
     relightSet(embree, settings_.eye, pattern_, set, photons_.get(), kept.records, kept.base, out, &eye);
+    return false;
 }
 
 void RenderJob::indexPendingShots(const std::vector<SetPhotons>* sharedIn, const std::vector<uint8_t>& converge,

@@ -34,6 +34,10 @@ struct SetPixels {
     /// Progressive estimator: the photons the set shot this frame, for the other sets' passes
     /// kSharedPhotonLag frames later (batches 0: none).
     SetPhotons shot;
+    /// The pixels and own weights are this job's previous ones for the set, bit for bit (a pass
+    /// off the set's turn, or a still knn view's set whose map did not change): a client sends
+    /// the encoding it made of them then.
+    bool unchanged = false;
 };
 
 /// Writes one set's pixels into `image` with their own weights (scatterSet is what rtpm-render,
@@ -172,7 +176,8 @@ private:
     /// The pixels of owned set `i` at `camera` with the map's k-NN caustic: a Relight frame
     /// re-lights the set's KeptEyePaths (traced first when stale), an Edit frame samples the
     /// dielectric splits, any other traces them all, unless the set's ShownKnnPixels still hold.
-    void knnPixels(size_t i, const Camera& camera, FrameMode mode, std::span<PixelRadiance> out, EyeStats& eye);
+    /// Returns true when the pixels are the set's kept ShownKnnPixels.
+    bool knnPixels(size_t i, const Camera& camera, FrameMode mode, std::span<PixelRadiance> out, EyeStats& eye);
 
     std::shared_ptr<RenderScene> scene_;
     RenderSettings settings_;

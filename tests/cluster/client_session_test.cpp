@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <map>
 #include <numeric>
 
 #include "client/frame_renderer.h"
@@ -636,6 +637,43 @@ TEST(FrameRenderer, RendersByTheFrameModeTheMasterSends) {
             if (d.shotBatches > 0) sent.push_back({d.set, d.shotBatches, d.shot});
     }
     EXPECT_FALSE(shots[0].empty()) << "frame 2's passes were handed no photons";
+}
+
+// A set off its turn sends the payload of its last frame again (not re-encoded): the bytes
+// repeat exactly while the set waits, and every frame's pixels still equal rtpm-render's.
+TEST(FrameRenderer, ASetOffItsTurnResendsItsLastPayload) {
+    const proto::Settings s = smallSettings();
+    RenderJob ref(loadScene("RING"), client::toRenderSettings(s), {0, 1, 2, 3});
+    std::vector<SetPixels> refPixels;
+    const Camera cam = client::toCamera(ringCamera());
+    client::FrameRenderer r(1);
+    r.setSettings(s);
+    r.setScene(ringScene());
+    const auto now = std::chrono::steady_clock::now();
+    constexpr uint32_t kPeriod = 2;
+    std::vector<std::vector<proto::SetShot>> shots;
+    std::map<uint32_t, std::vector<uint8_t>> last;
+    int repeats = 0;
+    for (uint64_t frame = 0; frame < 6; ++frame) {
+        ref.renderFrame(cam, refPixels, 1, frame == 0 ? 1 : kPeriod);
+        proto::FrameBegin fb = frameBegin(frame, 0, 1, {0, 1, 2, 3},
+                                          frame == 0 ? proto::FrameMode::Interaction : proto::FrameMode::Converging);
+        if (frame > 0) fb.passPeriod = kPeriod;
+        if (frame >= kSharedPhotonLag) fb.shared = shots[frame - kSharedPhotonLag];
+        const client::RenderedFrame f = r.render(fb, now);
+        for (const proto::FrameData& d : f.data) {
+            expectSamePixels(d, refPixels);
+            if (frame > 0 && d.shotBatches == 0) {
+                EXPECT_EQ(d.pixels, last[d.set]) << "set " << d.set << " off its turn, frame " << frame;
+                ++repeats;
+            }
+            last[d.set] = d.pixels;
+        }
+        std::vector<proto::SetShot>& sent = shots.emplace_back();
+        for (const proto::FrameData& d : f.data)
+            if (d.shotBatches > 0) sent.push_back({d.set, d.shotBatches, d.shot});
+    }
+    EXPECT_GE(repeats, 8) << "half the sets wait in each of frames 1-5";
 }
 
 // A client holds one scene and one BVH for all its set groups; an edit applied once to it reaches

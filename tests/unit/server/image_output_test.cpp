@@ -52,5 +52,47 @@ TEST(ImageOutputStage, OverflowingRadianceIsClampedAndCountedNeverInf) {
     EXPECT_EQ(output.image().direct()[0], 0.5f);
 }
 
+// A set off its turn sends the payload of its last frame again: the master shows the pixels it
+// scattered then, and any other payload (a new pass, or bytes that fail to decode) is not mistaken
+// for a repeat.
+TEST(ImageOutputStage, ARepeatedPayloadShowsThePixelsScatteredBefore) {
+    ImageOutputOptions o;
+    o.width = 12;
+    o.height = 8;
+    o.interleave = 2;
+    o.filter = 1;
+    o.quiet = true;
+    ImageOutput output(o);
+    const Interleave pattern{o.width, o.height, o.interleave};
+    auto frame = [&](float set0, std::vector<uint8_t> weights0 = {}) {
+        OutputJob job;
+        job.setCount = 4;
+        job.owners = {1, 1, 2, 2};
+        for (uint32_t s = 0; s < 4; ++s) job.data.push_back(setData(pattern, s, s == 0 ? set0 : 0.25f));
+        job.data[0].ownWeights = std::move(weights0);
+        return job;
+    };
+    auto set0Direct = [&] { return output.image().direct()[0]; };  // pixel (0, 0) is set 0's
+    OutputJob first = frame(0.5f);
+    EXPECT_TRUE(output.process(first).badPayloads.empty());
+    EXPECT_EQ(set0Direct(), 0.5f);
+    OutputJob repeat = frame(0.5f);
+    EXPECT_TRUE(output.process(repeat).badPayloads.empty());
+    EXPECT_EQ(set0Direct(), 0.5f);
+    OutputJob next = frame(0.75f);
+    output.process(next);
+    EXPECT_EQ(set0Direct(), 0.75f) << "new bytes are decoded";
+    const size_t n = size_t(pattern.pixelCount(0));
+    OutputJob weighted = frame(0.75f, std::vector<uint8_t>(n, 255));
+    output.process(weighted);
+    EXPECT_EQ(output.image().causticFiltered()[0], 0.75f) << "the same pixels with other weights are new";
+    OutputJob broken = frame(0.75f);
+    broken.data[0].pixels.pop_back();
+    EXPECT_EQ(output.process(broken).badPayloads.size(), 1u);
+    OutputJob again = frame(0.75f);
+    EXPECT_TRUE(output.process(again).badPayloads.empty());
+    EXPECT_EQ(set0Direct(), 0.75f);
+}
+
 }  // namespace
 }  // namespace rtpm::server
