@@ -85,8 +85,8 @@ OutputResult ImageOutput::process(OutputJob& job) {
     for (size_t i = 0; i < job.data.size(); ++i) {
         const proto::FrameData& d = job.data[i];
         const Scattered& last = scattered_[d.set];
-        repeated[i] = last.valid && last.encoding == d.encoding && last.pixels == d.pixels &&
-                      last.ownWeights == d.ownWeights;
+        repeated[i] = last.valid && last.encoding == d.encoding && last.pixelCount == d.pixelCount &&
+                      last.pixels == d.pixels && last.ownWeights == d.ownWeights;
     }
     // Decoding is the master's heaviest step: sets decode in parallel, each straight into its
     // own radiance buffer (a set appears once per frame); scatter stays serial (FrameImage contract).
@@ -129,7 +129,7 @@ OutputResult ImageOutput::process(OutputJob& job) {
         // (progressive.h); none for knn (the decoder checked the count).
         if (d.ownWeights.empty()) image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set]);
         else image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set], d.ownWeights);
-        last = Scattered{true, d.encoding, d.pixels, d.ownWeights};
+        last = Scattered{true, d.encoding, d.pixelCount, d.pixels, d.ownWeights};
     }
     image_.filterAndCompose(opt_.filter);
     result.masterMs = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();

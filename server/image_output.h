@@ -116,6 +116,7 @@ private:
     struct Scattered {
         bool valid = false;
         proto::PixelEncoding encoding = proto::PixelEncoding::Rgb9e5;
+        uint32_t pixelCount = 0;
         std::vector<uint8_t> pixels;
         std::vector<uint8_t> ownWeights;
     };
