@@ -25,13 +25,19 @@ proto::FrameData setData(const Interleave& pattern, uint32_t set, float value) {
     return d;
 }
 
-TEST(ImageOutputStage, OverflowingRadianceIsClampedAndCountedNeverInf) {
+/// A quiet output stage of `width`×`height` pixels, M = 2, box filter `filter`.
+ImageOutputOptions smallOutput(int width, int height, int filter) {
     ImageOutputOptions o;
-    o.width = 24;
-    o.height = 16;
+    o.width = width;
+    o.height = height;
     o.interleave = 2;
-    o.filter = 2;
+    o.filter = filter;
     o.quiet = true;
+    return o;
+}
+
+TEST(ImageOutputStage, OverflowingRadianceIsClampedAndCountedNeverInf) {
+    const ImageOutputOptions o = smallOutput(24, 16, 2);
     ImageOutput output(o);
     const Interleave pattern{o.width, o.height, o.interleave};
     OutputJob job;
@@ -56,12 +62,7 @@ TEST(ImageOutputStage, OverflowingRadianceIsClampedAndCountedNeverInf) {
 // scattered then, and any other payload (a new pass, or bytes that fail to decode) is not mistaken
 // for a repeat.
 TEST(ImageOutputStage, ARepeatedPayloadShowsThePixelsScatteredBefore) {
-    ImageOutputOptions o;
-    o.width = 12;
-    o.height = 8;
-    o.interleave = 2;
-    o.filter = 1;
-    o.quiet = true;
+    const ImageOutputOptions o = smallOutput(12, 8, 1);
     ImageOutput output(o);
     const Interleave pattern{o.width, o.height, o.interleave};
     auto frame = [&](float set0, std::vector<uint8_t> weights0 = {}) {
