@@ -114,19 +114,18 @@ public:
         // and composing among the turns, and a longer pass per turn spreads its fixed cost over
         // more photons. Hence turns before smaller passes, and larger passes before fewer turns.
         // Accumulate frames (k-NN): a set off its turn shoots nothing, so turns cost photons.
-        const bool turnsFirst = growBatches_;
+        // (Without growBatches_ the batches stay 1.)
         const bool mayTurn = !turnsBlocked_ && period_ < kMaxPassPeriod &&
-                             (period_ > 1 || turnsFirst || mean > kTurnStart * budget_);
+                             (period_ > 1 || growBatches_ || mean > kTurnStart * budget_);
         if (mean < 0.5 * budget_) {
-            if (turnsFirst && batches_ < kMaxPassBatches) batches_ *= 2;
+            if (growBatches_ && batches_ < kMaxPassBatches) batches_ *= 2;
             else if (period_ > 1) period_ /= 2;
-            else if (growBatches_) batches_ = std::min(kMaxPassBatches, batches_ * 2);
         } else if (mean > budget_) {
-            if (mayTurn && (turnsFirst || batches_ == 1)) {
+            if (mayTurn) {
                 trialBefore_ = mean;
                 period_ *= 2;
             } else if (batches_ > 1) {
-                batches_ = std::max(1u, batches_ / 2);
+                batches_ /= 2;
             }
         }
     }
