@@ -68,8 +68,8 @@ inline constexpr int kActiveMargin = 3;
 /// disc's. Its discs shrink steadily with M² × the photons, and each ring kept costs M² × the
 /// photons per pass: on the curved mirror (defaults, 320×240, one process, one batch per pass)
 /// 3 rings took 2.29 s for 16 frames (rel. MAE 0.0258), 2 rings 1.97 s (0.0261), 1 ring 1.68 s
-/// (0.0273); at 160×120, frame 24, 3 / 2 rings: glass slab 0.0058 / 0.0063, flat mirror 0.0197
-/// / 0.0200 (0.0062 and 0.0294 before hits shared where their filtered choice refused a disc).
+/// (0.0273); the glass slab (160×120) read 0.0058 with 3 rings and 0.0063 with 2 at frame 24
+/// (0.0062 before hits shared where their filtered choice refused a disc).
 inline constexpr int kSharingMargin = 2;
 /// The ladder's outer disc has this many times the area of the restart map's k-NN disc, so a
 /// restart from a large first batch (the map's k photons in a small disc) leaves the rule the
@@ -109,23 +109,27 @@ inline double maxDiscPhotons(uint32_t k, double paths) {
 /// F = 3; at 320×240 the box alone puts 0.045 rel. MAE into the curved mirror's exact image). So
 /// the pixel's own rule (Γ without the filter's share) also names the disc it refused, the scale
 /// at which the density visibly changes (Choice::refused), and the own weight is full once the
-/// filter's disc (r² + boxDisc2) reaches it, none while that stays a ring (kBinRatio2) inside.
+/// filter's disc (r² + boxDisc2) reaches it, none while that stays a ring (kBinRatio2) inside —
+/// where the own disc holds at least 2k photons: below, RING's floor at the wall's foot showed
+/// single bright pixels (9 pixels 25 grey levels above all 8 neighbours at 40 frames, none with
+/// 2k; the old picture none).
 /// And a hit whose filtered choice refused a disc bins every set's photons from then on
 /// (HitState::sharing): its disc narrows with them, where the filter's neighbours would
 /// otherwise each keep the wide disc of one set's photons. Elsewhere (a smooth caustic) the
 /// neighbours' own photons stay independent, which the filter's average needs: sharing there
 /// too gave the glass slab 0.0144 against 0.0125 at frame 3 (the first with shared photons).
 /// Defaults, 160×120, rel. MAE at frames 3 / 4 / 8 / 16 / 24 before → after (knn at 24):
-///   curved mirror 0.0652 / 0.0599 / 0.0423 / 0.0291 / 0.0240 → 0.0601 / 0.0534 / 0.0382 / 0.0273 /
-///     0.0228 (0.0582); flat mirror 0.0610 / 0.0532 / 0.0414 / 0.0348 / 0.0294 → 0.0621 / 0.0517 /
-///     0.0360 / 0.0257 / 0.0200 (0.0343); glass slab 0.0125 / 0.0137 / 0.0101 / 0.0070 / 0.0062 →
+///   curved mirror 0.0652 / 0.0599 / 0.0423 / 0.0291 / 0.0240 → 0.0614 / 0.0536 / 0.0382 / 0.0273 /
+///     0.0228 (0.0582); flat mirror 0.0610 / 0.0532 / 0.0414 / 0.0348 / 0.0294 → 0.0625 / 0.0522 /
+///     0.0366 / 0.0262 / 0.0202 (0.0343); glass slab 0.0125 / 0.0137 / 0.0101 / 0.0070 / 0.0062 →
 ///     0.0118 / 0.0125 / 0.0085 / 0.0068 / 0.0063 (0.0150); glass ball (frames to 16) 0.0185 /
 ///     0.0162 / 0.0122 / 0.0100 → 0.0183 / 0.0156 / 0.0125 / 0.0102.
 /// GLASS (a scene not used to choose this), 320×240, one batch per pass, against 8 passes of
-/// 2 M paths at M = 1 (no filter): 0.264 / 0.157 at 16 / 64 frames → 0.170 / 0.098. Each sharing
-/// hit bins M² × the photons (kSharingMargin), so frames cost more; per second of one process:
-/// curved mirror 0.0249 after 2.09 s → 0.0261 after 1.97 s and 0.0205 after 3.69 s; GLASS 0.205
-/// after 1.58 s → 0.170 after 1.29 s and 0.129 after 2.42 s.
+/// 2 M paths at M = 1 (no filter): 0.264 / 0.157 at 16 / 64 frames → 0.189 / 0.109 (the spot
+/// sharp where the filter drew rings around it). Each sharing hit bins M² × the photons
+/// (kSharingMargin), so frames cost more; per second of one process (2 threads): curved mirror
+/// 0.0249 after 2.09 s → 0.0261 after 1.99 s and 0.0206 after 3.74 s; GLASS 0.205 after 1.58 s
+/// → 0.189 after 1.26 s and 0.146 after 2.44 s.
 inline constexpr double kOwnFull = 0.5, kOwnNone = 1.0;
 /// r² of the disc whose blur equals that of an F×F box filter over pixel centres f apart: a disc
 /// of radius r averages a smooth density with bias ΔE·r²/8, the box with ΔE·f²(F²−1)/24.

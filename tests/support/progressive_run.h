@@ -130,8 +130,9 @@ std::pair<Convergence, Convergence> againstKnn(MakeScene makeScene, RenderSettin
     rs.photons.estimator = CausticEstimatorKind::Knn;
     const Convergence knn = renderConvergence(makeScene(), rs, ref, frames);
     for (size_t f = 0; f < progressive.relMae.size(); ++f)
-        std::printf("%s, frame %2zu: rel. MAE %.4f (knn %.4f), energy %.4f (knn %.4f)\n", label, f + 1,
-                    progressive.relMae[f], knn.relMae[f], progressive.energy[f], knn.energy[f]);
+        std::printf("%s, frame %2zu: rel. MAE %.4f (knn %.4f), energy %.4f (knn %.4f), estimate %.4f\n", label,
+                    f + 1, progressive.relMae[f], knn.relMae[f], progressive.energy[f], knn.energy[f],
+                    progressive.estimate[f]);
     // To look at: RTPM_TEST_IMAGES=DIR writes the reference and both last frames, one exposure.
     if (const char* dir = std::getenv("RTPM_TEST_IMAGES")) {
         const std::string base = std::string(dir) + "/" + label;
