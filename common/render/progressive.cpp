@@ -75,10 +75,8 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             const double sd = e / std::sqrt(maxCount);
             for (int i = 0; i < 2 && a > 0.0; ++i) {
                 if (!open[i]) continue;
-                if (std::max(lo[i], e - gamma * noiseScale[i] * sd) > std::min(hi[i], e + gamma * noiseScale[i] * sd)) {
-                    out[i].refused = scaleA;
+                if (std::max(lo[i], e - gamma * noiseScale[i] * sd) > std::min(hi[i], e + gamma * noiseScale[i] * sd))
                     continue;
-                }
                 // Its blur: the inner disc's, grown with the area (a kernel's bias grows as r²).
                 out[i] = Choice{j + 1, scaleA, p, maxCount, previousDrift * scaleA / inner};
             }
@@ -96,7 +94,6 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             const double hi2 = std::min(hi[i], e + gamma * noiseScale[i] * sd);
             if (any && lo2 > hi2) {
                 open[i] = false;
-                out[i].refused = kDiscScale[size_t(j)];
                 continue;
             }
             lo[i] = lo2;
@@ -218,45 +215,31 @@ void ProgressiveSet::skip(std::span<PixelRadiance> out) {
     std::copy(shown_.begin(), shown_.end(), out.begin());
 }
 
-double ProgressiveSet::footprint(size_t p) const {
-    const size_t cols = size_t(std::max(image_.columns, 1));
-    double best = std::numeric_limits<double>::infinity();
-    if (records_.firstHit[p] == records_.firstHit[p + 1]) return best;
-    const Vec3 x = records_.hits[records_.firstHit[p]].hit.position;
-    for (size_t q : {p + 1, p + cols}) {
-        if (q + 1 >= records_.firstHit.size() || (q == p + 1 && q % cols == 0)) continue;
-        if (records_.firstHit[q] == records_.firstHit[q + 1]) continue;
-        best = std::min(best, double(glm::length(records_.hits[records_.firstHit[q]].hit.position - x)));
-    }
-    return best / double(image_.m);
-}
-
-uint8_t ProgressiveSet::ownWeight(size_t p, double radius, double refused2) const {
-    const double pixel = footprint(p);
-    const double t = radius / (0.5 * double(image_.f) * pixel);
-    double own = std::clamp((kOwnNone - t) / (kOwnNone - kOwnFull), 0.0, 1.0);
-    // The filter's blur (its disc's and the box's, boxDisc2) against the disc the pixel's own
-    // rule refused: full own weight once the filter reaches it, none while it stays a ring inside.
-    if (refused2 > 0.0) {
-        const double filter2 = radius * radius + boxDisc2(pixel, image_.f);
-        own = std::max(own, std::clamp((filter2 / refused2 - kBinRatio2) / (1.0 - kBinRatio2), 0.0, 1.0));
-    }
-    // In 255ths, as the wire carries it, so one process and a cluster agree.
-    return uint8_t(std::lround(own * 255.0));
-}
-
 void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) {
     const double samples = double(areaSets_) + 1.0;  // area-light sample sets per hit
     const double filterNoise = std::sqrt(rule_.filterShare);
     std::atomic<uint64_t> bad{0};
     std::vector<float> sigma(out.size(), 0.0f);
     ownWeights_.assign(out.size(), 0);
+    const size_t cols = size_t(std::max(image_.columns, 1));
+    // The world distance between neighbouring pixels of the image (set neighbours are M apart).
+    auto footprint = [&](size_t p) {
+        double best = std::numeric_limits<double>::infinity();
+        if (records_.firstHit[p] == records_.firstHit[p + 1]) return best;
+        const Vec3 x = records_.hits[records_.firstHit[p]].hit.position;
+        for (size_t q : {p + 1, p + cols}) {
+            if (q >= out.size() || (q == p + 1 && q % cols == 0)) continue;
+            if (records_.firstHit[q] == records_.firstHit[q + 1]) continue;
+            best = std::min(best, double(glm::length(records_.hits[records_.firstHit[q]].hit.position - x)));
+        }
+        return best / double(image_.m);
+    };
     tbb::parallel_for(tbb::blocked_range<size_t>(0, out.size()), [&](const auto& range) {
         for (size_t p = range.begin(); p < range.end(); ++p) {
             glm::dvec3 direct(fixedDirect_[p]);
             glm::dvec3 caustic(0.0), own(0.0);
             double sd = 0.0, ownSd = 0.0;
-            double radius = 0.0, refused2 = 0.0;
+            double radius = 0.0;
             for (uint32_t h = records_.firstHit[p]; h < records_.firstHit[p + 1]; ++h) {
                 const EyeHit& e = records_.hits[h];
                 HitState& s = state_[h];
@@ -289,29 +272,24 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                         ownSd += sdv;
                     }
                 }
-                if (h == records_.firstHit[p]) {
-                    radius = std::sqrt(double(s.outer2) * c[0].scale);
-                    // Only an own estimate of at least 2k photons (≤ 9 % Poisson noise at the
-                    // defaults) is shown for structure: fewer showed as single bright pixels.
-                    if (c[1].count >= 2.0 * double(rule_.k)) refused2 = double(s.outer2) * c[1].refused;
-                }
-                // Where the filtered image's disc met a change of density, the hit bins the
-                // other sets' photons from the next pass on: its disc then narrows as every
-                // set's photons come in (see kOwnFull).
-                if (c[0].refused > 0.0) s.sharing = true;
+                if (h == records_.firstHit[p]) radius = std::sqrt(double(s.outer2) * c[0].scale);
                 const Choice& shown = c[0];
                 // Rings far outside the shown disc are no longer gathered.
-                s.active = std::max(s.active, shown.disc - (s.sharing ? kSharingMargin : kActiveMargin));
+                s.active = std::max(s.active, shown.disc - kActiveMargin);
             }
             if (image_.f > 1 && radius > 0.0) {
-                const uint8_t w255 = ownWeight(p, radius, refused2);
+                const double half = 0.5 * double(image_.f) * footprint(p);
+                const double t = radius / half;
+                // In 255ths, as the wire carries it, so one process and a cluster agree.
+                const uint8_t w255 = uint8_t(std::lround(std::clamp((kOwnNone - t) / (kOwnNone - kOwnFull), 0.0, 1.0) * 255.0));
                 const double w = double(w255) / 255.0;
                 ownWeights_[p] = w255;
                 caustic = w * own + (1.0 - w) * caustic;
                 sd = w * ownSd + (1.0 - w) * sd;
             }
-            // A pixel that shows (some of) its own estimate bins the other sets' photons from
-            // the next pass on (as does a hit whose filtered choice refused a disc, above).
+            // A pixel whose disc is narrower than the filter's window shows (some of) its own
+            // estimate: from the next pass on its hits bin the other sets' photons too. One
+            // that the filter alone shows has every set's photons through it already.
             const bool share = image_.f <= 1 || ownWeights_[p] > 0;
             for (uint32_t h = records_.firstHit[p]; h < records_.firstHit[p + 1]; ++h)
                 state_[h].sharing = state_[h].sharing || share;

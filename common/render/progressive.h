@@ -64,13 +64,6 @@ inline constexpr float kMinPhotons = 16.0f;
 /// 320×240): 2 gave 0.0287 rel. MAE in 4.6 s, 3 0.0279 in 4.9 s, 4 0.0285 in 5.7 s; keeping every
 /// ring was worse (0.038 at 48 frames): the rule alone takes discs somewhat too wide at fold lines.
 inline constexpr int kActiveMargin = 3;
-/// The same for a hit that bins every set's photons (HitState::sharing): r² 3.0 × the shown
-/// disc's. Its discs shrink steadily with M² × the photons, and each ring kept costs M² × the
-/// photons per pass: on the curved mirror (defaults, 320×240, one process, one batch per pass)
-/// 3 rings took 2.29 s for 16 frames (rel. MAE 0.0258), 2 rings 1.97 s (0.0261), 1 ring 1.68 s
-/// (0.0273); the glass slab (160×120) read 0.0058 with 3 rings and 0.0063 with 2 at frame 24
-/// (0.0062 before hits shared where their filtered choice refused a disc).
-inline constexpr int kSharingMargin = 2;
 /// The ladder's outer disc has this many times the area of the restart map's k-NN disc, so a
 /// restart from a large first batch (the map's k photons in a small disc) leaves the rule the
 /// discs the same photons would offer after many small passes (maxDiscPhotons decides instead).
@@ -104,36 +97,7 @@ inline double maxDiscPhotons(uint32_t k, double paths) {
 /// the window sees detail the window would blur, so the pixel shows its own set's estimate
 /// (from its own, noisier choice: Γ without the filter's share). On the curved mirror (defaults,
 /// 16 frames) this gave 0.044 rel. MAE against 0.051 with the filter everywhere.
-/// The window's size alone misjudges a disc about as wide as the window: the box's blur adds to
-/// the disc's (an F×F box over pixels f apart blurs as a disc of r² = boxDisc2(f, F), 8/3 f² for
-/// F = 3; at 320×240 the box alone puts 0.045 rel. MAE into the curved mirror's exact image). So
-/// the pixel's own rule (Γ without the filter's share) also names the disc it refused, the scale
-/// at which the density visibly changes (Choice::refused), and the own weight is full once the
-/// filter's disc (r² + boxDisc2) reaches it, none while that stays a ring (kBinRatio2) inside —
-/// where the own disc holds at least 2k photons: below, RING's floor at the wall's foot showed
-/// single bright pixels (9 pixels 25 grey levels above all 8 neighbours at 40 frames, none with
-/// 2k; the old picture none).
-/// And a hit whose filtered choice refused a disc bins every set's photons from then on
-/// (HitState::sharing): its disc narrows with them, where the filter's neighbours would
-/// otherwise each keep the wide disc of one set's photons. Elsewhere (a smooth caustic) the
-/// neighbours' own photons stay independent, which the filter's average needs: sharing there
-/// too gave the glass slab 0.0144 against 0.0125 at frame 3 (the first with shared photons).
-/// Defaults, 160×120, rel. MAE at frames 3 / 4 / 8 / 16 / 24 before → after (knn at 24):
-///   curved mirror 0.0652 / 0.0599 / 0.0423 / 0.0291 / 0.0240 → 0.0614 / 0.0536 / 0.0382 / 0.0273 /
-///     0.0228 (0.0582); flat mirror 0.0610 / 0.0532 / 0.0414 / 0.0348 / 0.0294 → 0.0625 / 0.0522 /
-///     0.0366 / 0.0262 / 0.0202 (0.0343); glass slab 0.0125 / 0.0137 / 0.0101 / 0.0070 / 0.0062 →
-///     0.0118 / 0.0125 / 0.0085 / 0.0068 / 0.0063 (0.0150); glass ball (frames to 16) 0.0185 /
-///     0.0162 / 0.0122 / 0.0100 → 0.0183 / 0.0156 / 0.0125 / 0.0102.
-/// GLASS (a scene not used to choose this), 320×240, one batch per pass, against 8 passes of
-/// 2 M paths at M = 1 (no filter): 0.264 / 0.157 at 16 / 64 frames → 0.189 / 0.109 (the spot
-/// sharp where the filter drew rings around it). Each sharing hit bins M² × the photons
-/// (kSharingMargin), so frames cost more; per second of one process (2 threads): curved mirror
-/// 0.0249 after 2.09 s → 0.0261 after 1.99 s and 0.0206 after 3.74 s; GLASS 0.205 after 1.58 s
-/// → 0.189 after 1.26 s and 0.146 after 2.44 s.
 inline constexpr double kOwnFull = 0.5, kOwnNone = 1.0;
-/// r² of the disc whose blur equals that of an F×F box filter over pixel centres f apart: a disc
-/// of radius r averages a smooth density with bias ΔE·r²/8, the box with ΔE·f²(F²−1)/24.
-inline double boxDisc2(double f, int filter) { return f * f * double(filter * filter - 1) / 3.0; }
 
 /// The confidence width the rule uses while few photons are in: Γ × (1 + kEarlyGamma × (1 − x /
 /// kEarlyPaths)) with x = N / kDiscCapPaths − 1 for N paths (as maxDiscPhotons counts them), Γ
@@ -253,10 +217,6 @@ public:
         /// Poisson noise taken out. A kernel's bias grows as r², so the step from
         /// r'² = kBinRatio2 r² to r² shows 1 − kBinRatio2 of disc j's own bias.
         double drift = 0.0;
-        /// r² (relative, as scale) of the first disc outside the shown one whose interval the
-        /// rule refused: the scale at which the density visibly changes. 0 when the walk ended at
-        /// the cap or the ladder's end without a conflict.
-        double refused = 0.0;
     };
     struct Rings {
         std::array<float, kRadiusBins * 3> power{};  ///< Σ power per ring (W summed over batches)
@@ -281,17 +241,9 @@ private:
         int active = 0;            ///< outermost ring still gathered
         glm::dvec3 areaSum{0.0};   ///< Σ area-light samples over passes 0 … t
         float shared = 0.0f;       ///< other sets' batches binned (SharedPhotons)
-        /// bins the other sets' photons (its pixel shows its own estimate, or its filtered
-        /// choice refused a disc: kOwnFull)
-        bool sharing = false;
+        bool sharing = false;      ///< bins the other sets' photons (its pixel shows its own estimate)
     };
     void compose(std::span<PixelRadiance> out, uint64_t& nonFinite);
-    /// The world distance between neighbouring pixels of the image at pixel p of the set (set
-    /// neighbours are M apart); infinite where no neighbour has a hit.
-    double footprint(size_t p) const;
-    /// Pixel p's own weight against the box filter (kOwnFull), in 255ths: `radius` of its
-    /// filtered disc, `refused2` the r² of the disc its own rule refused (0: none).
-    uint8_t ownWeight(size_t p, double radius, double refused2) const;
 
     bool valid_ = false;
     Camera camera_;

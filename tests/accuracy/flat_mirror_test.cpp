@@ -140,11 +140,7 @@ TEST(FlatMirrorProgressive, ErrorDoesNotDependOnHowPhotonsAreSplitIntoPasses) {
 }
 
 // At the defaults (M = 3, SPT, the box filter and own weights; the scene's own L S D paths) the
-// progressive estimate is no worse than knn's from the same photons at any of 24 frames. And the
-// box filter does not blur what the disc rule resolved: pixels whose own rule refused a disc the
-// filter's blur reaches show their own estimate (progressive.h kOwnFull), so by frame 24 the
-// caustic's sharp edges make the error well below knn's: 0.0202 against knn's 0.0343 (0.0294
-// when the window's size alone decided).
+// progressive estimate is no worse than knn's from the same photons at any of 24 frames.
 TEST(FlatMirrorProgressive, AtTheDefaultsNoWorseThanKnnAtAnyFrame) {
     const FlatMirror fm;
     const CausticReference ref = fm.reference(kWidth, kHeight);
@@ -152,7 +148,6 @@ TEST(FlatMirrorProgressive, AtTheDefaultsNoWorseThanKnnAtAnyFrame) {
     const auto [progressive, knn] = againstKnn([&] { return fm.scene(); }, rs, ref, 24, "flat mirror, defaults");
     for (size_t f = 0; f < progressive.relMae.size(); ++f)
         EXPECT_LE(progressive.relMae[f], knn.relMae[f]) << "frame " << f + 1;
-    EXPECT_LT(progressive.relMae.back(), 0.7 * knn.relMae.back());
 }
 
 }  // namespace

@@ -52,24 +52,6 @@ TEST(ProgressiveChoose, AStepStopsTheDiscBeforeItReachesTheStep) {
     EXPECT_GT(radius, 0.3 * kBinRatio2) << "but as wide as the step allows";
 }
 
-TEST(ProgressiveChoose, ItNamesTheDiscItRefused) {
-    // The step above: the disc just outside the shown one is the one whose interval no longer
-    // overlapped, and it reaches past the step.
-    const auto step = ringsOf([](double r) { return r < 0.3 ? 20000.0 : 0.0; });
-    ProgressiveSet::Choice c[2];
-    ProgressiveSet::choose(step, 0, 2.0, kScales, 1e30, c);
-    ASSERT_GT(c[0].disc, 0);
-    EXPECT_DOUBLE_EQ(c[0].refused, std::pow(kBinRatio2, double(c[0].disc - 1)));
-    EXPECT_GT(std::sqrt(c[0].refused), 0.3 * std::sqrt(kBinRatio2));
-    // A flat density, whole or cut by the cap, refuses nothing.
-    const auto flat = ringsOf([](double) { return 4000.0; });
-    for (double cap : {1e30, 500.0}) {
-        ProgressiveSet::choose(flat, 0, 2.0, kScales, cap, c);
-        EXPECT_EQ(c[0].refused, 0.0) << "cap " << cap;
-        EXPECT_EQ(c[1].refused, 0.0) << "cap " << cap;
-    }
-}
-
 TEST(ProgressiveChoose, AWiderNoiseScaleNeverTakesANarrowerDisc) {
     // Choice 1 with the full noise (a pixel's own set), choice 0 with a ninth of the variance (the
     // box filter's average): less noise allowed means a disc at most as wide.
