@@ -287,13 +287,6 @@ void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
     // the frame before, about twice the work, and the passes never grew.
     const double workMs = double(job.slowestPhotonMs) + double(job.slowestEyeMs) + double(job.slowestEncodeMs);
     convergence_.recordWork(shown.mode, job.cameraStill, workMs, job.passPeriod, double(job.slowestPhotonMs));
-    if (state_ == State::Running && convergence_.reachesTarget(shown.mode, job.errorEstimate)) {
-        // No new frame begins; the frames in flight finish and the last one shown is written
-        // (finishStopped), as after a signal, but the run counts as complete.
-        state_ = State::Stopping;
-        std::fprintf(stderr, "rtpm-server: frame %llu reached the target error (estimated %.4f <= %g)\n",
-                     (unsigned long long)r.frame, job.errorEstimate, opt_.targetError);
-    }
     if (r.deadlineHit) {
         std::string late;
         for (ClientId c : r.late) late += " " + std::to_string(c);
@@ -304,9 +297,18 @@ void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
     }
     ++outputsQueued_;
     output_.post(std::move(job), [this, shown = std::move(shown)](OutputResult result) {
-        asio::post(clock_.executor(), [this, shown, result = std::move(result)] {
+        asio::post(clock_.executor(), [this, shown, result = std::move(result)]() mutable {
             --outputsQueued_;
             ledger_.counts().imageWriteFailed |= result.writeFailed;
+            // The error figure comes from the composed image (ImageOutput, shown_change.h).
+            shown.errorEstimate = result.errorEstimate;
+            if (state_ == State::Running && convergence_.reachesTarget(shown.mode, shown.errorEstimate)) {
+                // No new frame begins; the frames in flight finish and the last one shown is
+                // written (finishStopped), as after a signal, but the run counts as complete.
+                state_ = State::Stopping;
+                std::fprintf(stderr, "rtpm-server: frame %llu reached the target error (estimated %.4f <= %g)\n",
+                             (unsigned long long)shown.frame, shown.errorEstimate, opt_.targetError);
+            }
             listener_.frameShown(shown, result.masterMs);
             for (const auto& [id, why] : result.badPayloads)
                 if (ClientInfo* c = peers_.registry().find(id)) peers_.protocolError(*c->connection, why);

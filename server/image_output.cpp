@@ -132,6 +132,9 @@ OutputResult ImageOutput::process(OutputJob& job) {
         last = Scattered{true, d.encoding, d.pixelCount, d.pixels, d.ownWeights};
     }
     image_.filterAndCompose(opt_.filter);
+    const double change = change_.add(job.mode == proto::FrameMode::Converging, job.passPeriod,
+                                      image_.causticFiltered(), image_.width(), image_.height());
+    result.errorEstimate = job.errorEstimate > 0.0 && change > 0.0 ? change : job.errorEstimate;
     result.masterMs = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     shown_ = job.shown;
     photonsStored_ = uint64_t(std::llround(job.photonsPerSet * double(job.setCount)));
@@ -148,8 +151,8 @@ OutputResult ImageOutput::process(OutputJob& job) {
         progress_.clear();
         // The estimator's own error and the pass size, when they say something.
         char extra[64] = "";
-        if (job.errorEstimate > 0.0)
-            std::snprintf(extra, sizeof extra, "  est. error %.4f", job.errorEstimate);
+        if (result.errorEstimate > 0.0)
+            std::snprintf(extra, sizeof extra, "  est. error %.4f", result.errorEstimate);
         if (job.passBatches > 1)
             std::snprintf(extra + std::strlen(extra), sizeof extra - std::strlen(extra), "  batches %u",
                           job.passBatches);
@@ -174,7 +177,7 @@ OutputResult ImageOutput::process(OutputJob& job) {
                      (unsigned long long)job.frame, job.fps, job.photonsPerSet, proto::frameModeName(job.mode),
                      (unsigned long long)job.bytes, job.slowest.c_str(), job.slowestMs, job.arrived,
                      job.setCount, job.deadlineHit ? 1 : 0, result.masterMs, job.slowestPhotonMs,
-                     job.slowestEyeMs, job.slowestEncodeMs, job.errorEstimate, job.passBatches,
+                     job.slowestEyeMs, job.slowestEncodeMs, result.errorEstimate, job.passBatches,
                      job.passPeriod);
         std::fflush(csv_);
     }

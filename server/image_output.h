@@ -18,6 +18,7 @@
 #include "common/image/image_io.h"
 #include "common/render/image_metadata.h"
 #include "common/image/frame_image.h"
+#include "common/image/shown_change.h"
 #include "proto/messages.h"
 #include "server/assignment.h"
 
@@ -69,6 +70,10 @@ struct OutputResult {
     double masterMs = 0.0;  ///< decode + scatter + filter + compose
     bool writeFailed = false;
     uint64_t clampedValues = 0;  ///< decoded radiance values above kMaxPixelRadiance, clamped
+    /// The caustic's estimated relative error as shown and written: the shown caustic's change
+    /// since half the progression's frames (shown_change.h) where the job's own figure
+    /// (OutputJob::errorEstimate) is known; that figure until then; 0 = none.
+    double errorEstimate = 0.0;
 };
 
 /// Largest radiance (W/(m²·sr)) the master accepts from a client; larger values are clamped and
@@ -121,6 +126,7 @@ private:
         std::vector<uint8_t> ownWeights;
     };
     std::vector<Scattered> scattered_;
+    ShownChange change_;  ///< the still view's error figure from the shown caustic
     FILE* csv_ = nullptr;
     ProgressLine progress_{stderr, isTerminal(stderr)};
     uint64_t shown_ = 0;             ///< of the last processed job

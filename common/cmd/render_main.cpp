@@ -22,6 +22,7 @@
 #include "common/image/frame_image.h"
 #include "common/scene/gltf_export.h"
 #include "common/image/image_io.h"
+#include "common/image/shown_change.h"
 #include "common/render/image_metadata.h"
 #include "common/render/render_flags.h"
 #include "common/render/pass_budget.h"
@@ -234,6 +235,7 @@ int run(int argc, char** argv) {
     // set at most, as the master's accumulation budget has them (server/convergence.h).
     const bool knn = rs.photons.estimator == CausticEstimatorKind::Knn;
     PassBudget accumulation(o.convergence.frameBudgetMs * 1e-3, /*growBatches=*/false);
+    ShownChange shownChange;
 
     // SIGINT/SIGTERM: the frame in flight is finished and the image so far written; a second
     // signal ends the process at once (the handler restores the default action).
@@ -264,7 +266,12 @@ int run(int argc, char** argv) {
         if (!st.converging && !st.walkthrough && passPeriod == 1) budget.expectShooting(st.shootSeconds);
         budget.record(st.converging, totalMs * 1e-3);
         accumulation.record(knn && f > 0 && !st.walkthrough, totalMs * 1e-3);
-        const double estimate = causticErrorEstimate(st.error);
+        // The shown caustic's change since half the progression's frames (shown_change.h), where
+        // the progressive estimator composed this frame; its own figure until that is known.
+        const double own = causticErrorEstimate(st.error);
+        const double change = shownChange.add(st.converging, passPeriod, image.causticFiltered(), image.width(),
+                                              image.height());
+        const double estimate = own > 0.0 && change > 0.0 ? change : own;
         uint64_t productive = 0;
         for (uint32_t s : sets) productive += job.photons().stats(s).productivePaths;
         double yield = st.pathsTraced ? double(productive) / double(st.pathsTraced) : 0.0;

@@ -148,6 +148,7 @@ TEST(FlatMirrorProgressive, AtTheDefaultsNoWorseThanKnnAtAnyFrame) {
     const auto [progressive, knn] = againstKnn([&] { return fm.scene(); }, rs, ref, 24, "flat mirror, defaults");
     for (size_t f = 0; f < progressive.relMae.size(); ++f)
         EXPECT_LE(progressive.relMae[f], knn.relMae[f]) << "frame " << f + 1;
+    testscenes::expectErrorFigureTracks(progressive, "flat mirror");
 }
 
 }  // namespace

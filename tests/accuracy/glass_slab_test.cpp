@@ -120,6 +120,7 @@ TEST(GlassSlabProgressive, AtTheDefaultsNoWorseThanKnnAtAnyFrame) {
     for (size_t f = 0; f < progressive.relMae.size(); ++f)
         EXPECT_LE(progressive.relMae[f], knn.relMae[f]) << "frame " << f + 1;
     EXPECT_LT(progressive.relMae.back(), 0.7 * knn.relMae.back());
+    testscenes::expectErrorFigureTracks(progressive, "glass slab");
 }
 
 }  // namespace

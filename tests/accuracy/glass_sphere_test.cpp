@@ -85,6 +85,7 @@ TEST(GlassSphereProgressive, AtTheDefaultsNoWorseThanKnnAtAnyFrame) {
         EXPECT_LE(progressive.relMae[f], knn.relMae[f]) << "frame " << f + 1;
         EXPECT_NEAR(progressive.energy[f], 1.0, 0.03) << "frame " << f + 1;
     }
+    testscenes::expectErrorFigureTracks(progressive, "glass ball");
 }
 
 }  // namespace
