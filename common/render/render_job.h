@@ -91,8 +91,9 @@ struct FrameStats {
     bool converging = false;       ///< a progressive pass (no eye pass), for every owned set
     bool moving = false;           ///< progressive: the camera moved, caustics from irradiance points
     uint32_t passes = 0;           ///< progressive passes since the restart (largest over sets)
-    /// Progressive: Σ over owned sets of the caustic error figures (progressive.h); the estimated
-    /// relative error of the shown caustic is causticErrorEstimate(error).
+    /// Progressive: Σ over owned sets of the caustic error figures (progressive.h):
+    /// causticErrorEstimate(error) is the estimator's own figure, shown until the shown caustic's
+    /// change since half the progression's frames is known (common/image/shown_change.h).
     CausticErrorSums error;
     EyeStats eye;
 };
