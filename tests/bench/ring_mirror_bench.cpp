@@ -39,6 +39,7 @@
 #include "common/image/error_metrics.h"
 #include "common/image/frame_image.h"
 #include "common/image/image_io.h"
+#include "common/image/shown_change.h"
 #include "common/render/pass_budget.h"
 #include "common/render/render_job.h"
 #include "common/scene/gltf_export.h"
@@ -139,6 +140,7 @@ int converge(const Options& o) {
     std::printf("%6s %9s %9s %9s %8s %10s %9s %7s\n", "frame", "wall_s", "cpu_s", "rel_mae", "energy", "stored",
                 "estimate", "batches");
     PassBudget budget(o.budgetMs * 1e-3);
+    ShownChange change;
     double batchesShot = 0.0;  ///< per set: a pass taking turns shoots 1 / period of a batch on average
     const bool moving = o.estimator == "moving";
     Camera nudged = camera;
@@ -156,12 +158,15 @@ int converge(const Options& o) {
         for (const SetPixels& sp : pixels)
             scatterSet(image, pattern, sp);
         image.filterAndCompose(rs.filterSize());
+        // The error figure rtpm-render prints (render_main.cpp, common/image/shown_change.h).
+        const double own = causticErrorEstimate(st.error);
+        const double changed = change.add(st.converging, passPeriod, image.causticFiltered(), rs.width, rs.height);
+        const double estimate = own > 0.0 && changed > 0.0 ? changed : own;
         const bool report = (f & (f - 1)) == 0 || f % 16 == 0 || last;
         if (!report) continue;
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const double cpu = cpuSeconds() - cpu0;
         const Score s = score(image.causticFiltered(), ref, mask, rs.width, rs.height);
-        const double estimate = causticErrorEstimate(st.error);
         std::printf("%6d %9.2f %9.2f %9.4f %8.4f %10llu %9.4f %7.1f\n", f, wall, cpu, s.relMae, s.energy,
                     (unsigned long long)st.photonsStored, estimate, batchesShot);
         std::fflush(stdout);
