@@ -134,7 +134,7 @@ OutputResult ImageOutput::process(OutputJob& job) {
     image_.filterAndCompose(opt_.filter);
     const double change = change_.add(job.mode == proto::FrameMode::Converging, job.passPeriod,
                                       image_.causticFiltered(), image_.width(), image_.height());
-    result.errorEstimate = job.errorEstimate > 0.0 && change > 0.0 ? change : job.errorEstimate;
+    result.errorEstimate = shownErrorFigure(job.errorEstimate, change);
     result.masterMs = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     shown_ = job.shown;
     photonsStored_ = uint64_t(std::llround(job.photonsPerSet * double(job.setCount)));

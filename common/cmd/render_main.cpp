@@ -271,7 +271,7 @@ int run(int argc, char** argv) {
         const double own = causticErrorEstimate(st.error);
         const double change = shownChange.add(st.converging, passPeriod, image.causticFiltered(), image.width(),
                                               image.height());
-        const double estimate = own > 0.0 && change > 0.0 ? change : own;
+        const double estimate = shownErrorFigure(own, change);
         uint64_t productive = 0;
         for (uint32_t s : sets) productive += job.photons().stats(s).productivePaths;
         double yield = st.pathsTraced ? double(productive) / double(st.pathsTraced) : 0.0;

@@ -5,8 +5,8 @@
 // one at frame n/2 the caustic changes by about its error at n: the noise of the frames in
 // between (the noise at n/2 is √2 × that at n, the two share half their photons) and the blur the
 // shrinking discs have shed (at r² ∝ 1/√N a doubling sheds 1 − 2^(−½) of it). Measured on the four
-// analytic scenes at the defaults (tests/accuracy/progressive_estimator_test.cpp), this change
-// reads 0.5–1.7 × the true caustic-region rel. MAE from frame 2 on, where the estimator's own
+// analytic scenes at the defaults (tests/support/progressive_run.h), this change reads 0.56–1.76 ×
+// the true caustic-region rel. MAE from frame 2 on, where the estimator's own
 // figure (progressive.h causticErrorEstimate: Poisson noise and a blur step per pixel) read
 // 0.43–3.3 ×: its Poisson noise over-counts QMC photons two to three times on smooth glass
 // caustics, and it misses the box filter's blur on a mirror's fold lines.
@@ -18,7 +18,8 @@
 // turns, pass_budget.h: a set off its turn shows its last pixels, so fewer frames between would
 // hide change), the figure is rel. MAE(image n, image n/2) over image n's caustic region
 // (error_metrics.h); between such frames the last figure holds. rtpm-render and the master both
-// feed it their composed image, so the figure is the same in one process and in a cluster.
+// feed it their composed image, so the same frames give the same figure in one process and in a
+// cluster.
 #pragma once
 
 #include <cstdint>
@@ -48,5 +49,12 @@ private:
     double figure_ = 0.0;
     std::vector<std::pair<uint64_t, std::vector<float>>> images_;  ///< kept frames, oldest first
 };
+
+/// The error figure printed, shown and compared with --target-error: the change (ShownChange::add)
+/// where the progressive estimator's own figure says it composed the frame (> 0) and a change is
+/// known, that own figure otherwise (0 = none: knn, moving frames).
+inline double shownErrorFigure(double estimatorFigure, double change) {
+    return estimatorFigure > 0.0 && change > 0.0 ? change : estimatorFigure;
+}
 
 }  // namespace rtpm

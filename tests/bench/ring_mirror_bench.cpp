@@ -161,7 +161,7 @@ int converge(const Options& o) {
         // The error figure rtpm-render prints (render_main.cpp, common/image/shown_change.h).
         const double own = causticErrorEstimate(st.error);
         const double changed = change.add(st.converging, passPeriod, image.causticFiltered(), rs.width, rs.height);
-        const double estimate = own > 0.0 && changed > 0.0 ? changed : own;
+        const double estimate = shownErrorFigure(own, changed);
         const bool report = (f & (f - 1)) == 0 || f % 16 == 0 || last;
         if (!report) continue;
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

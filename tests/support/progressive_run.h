@@ -78,7 +78,7 @@ inline Convergence renderConvergence(Scene scene, const RenderSettings& rs, cons
         run.relMae.push_back(em.caustic.relMae);
         run.energy.push_back(total / totalRef);
         run.spill.push_back(dark / totalRef);
-        run.estimate.push_back(own > 0.0 && changed > 0.0 ? changed : own);
+        run.estimate.push_back(shownErrorFigure(own, changed));
         if (f == frames) run.last = std::move(shown);
     }
     return run;

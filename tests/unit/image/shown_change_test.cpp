@@ -77,5 +77,11 @@ TEST(ShownChange, NoCausticNoFigure) {
     EXPECT_EQ(change.add(true, 1, dark, kW, kH), 0.0);
 }
 
+TEST(ShownChange, TheFigureShownIsTheChangeWhereTheEstimatorComposedAndAChangeIsKnown) {
+    EXPECT_EQ(shownErrorFigure(0.05, 0.03), 0.03);
+    EXPECT_EQ(shownErrorFigure(0.05, 0.0), 0.05) << "no change known yet: the estimator's own figure";
+    EXPECT_EQ(shownErrorFigure(0.0, 0.03), 0.0) << "knn or a moving frame: none";
+}
+
 }  // namespace
 }  // namespace rtpm
