@@ -147,13 +147,14 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     stats.shootSeconds = secondsSince(t0);
 
     // The other sets' shots of kSharedPhotonLag frames ago, for this frame's passes; a set off its
-    // turn keeps them for its next (SetMemory::pending): turns cost no photon.
+    // turn keeps them for its next (SetMemory::pending): turns cost no photon. Indexing them is
+    // the passes' work: it counts in the eye pass's time (the still view's budget sees it).
+    const auto t1 = std::chrono::steady_clock::now();
     const std::vector<SetPhotons>* sharedIn = !shared && shots_.size() == kSharedPhotonLag ? &shots_.front() : shared;
     PendingIndex sharedIndex;
     std::vector<const SharedPhotons*> sharedFor;
     indexPendingShots(sharedIn, converge, passShot, sharedIndex, sharedFor);
 
-    const auto t1 = std::chrono::steady_clock::now();
     out.resize(sets_.size());
     stats.converging = !sets_.empty();
     for (size_t i = 0; i < sets_.size(); ++i) {
