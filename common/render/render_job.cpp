@@ -146,9 +146,8 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     });
     stats.shootSeconds = secondsSince(t0);
 
-    // The other sets' shots of kSharedPhotonLag frames ago, for this frame's passes; a set off its
-    // turn keeps them for its next (SetMemory::pending): turns cost no photon. Indexing them is
-    // the passes' work: it counts in the eye pass's time (the still view's budget sees it).
+    // The other sets' shots of kSharedPhotonLag frames ago, for this frame's passes (indexing them
+    // counts in the eye pass's time); a set off its turn keeps them for its next: turns cost no photon.
     const auto t1 = std::chrono::steady_clock::now();
     const std::vector<SetPhotons>* sharedIn = !shared && shots_.size() == kSharedPhotonLag ? &shots_.front() : shared;
     PendingIndex sharedIndex;
