@@ -17,7 +17,9 @@ bool ShownChange::kept(uint64_t n) {
 
 double ShownChange::add(bool converging, uint32_t period, std::span<const float> caustic, int width, int height) {
     RTPM_CHECK(caustic.size() == size_t(width) * size_t(height) * 3);
-    if (!converging || frame_ == 0) {
+    if (!converging || frame_ == 0 || width != width_ || height != height_) {
+        width_ = width;
+        height_ = height;
         frame_ = 0;
         figure_ = 0.0;
         images_.clear();

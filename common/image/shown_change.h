@@ -31,7 +31,8 @@ namespace rtpm {
 
 class ShownChange {
 public:
-    /// One composed frame: `converging` false restarts the count (a progression's first frame),
+    /// One composed frame: `converging` false (or another image size) restarts the count (a
+    /// progression's first frame),
     /// `period` is the frame's pass period (1 without turns). `caustic` is the shown caustic,
     /// width·height·3 floats. Returns the figure (0 while none is known yet).
     /// Cost: a copy of the image at the kept frames, one comparison at those frames.
@@ -46,6 +47,7 @@ public:
 
 private:
     uint64_t frame_ = 0;
+    int width_ = 0, height_ = 0;  ///< of the kept images
     double figure_ = 0.0;
     std::vector<std::pair<uint64_t, std::vector<float>>> images_;  ///< kept frames, oldest first
 };

@@ -70,6 +70,15 @@ TEST(ShownChange, WaitsUntilEverySetTookATurnSinceTheHalf) {
     EXPECT_DOUBLE_EQ(change.add(true, 4, frame(8), kW, kH), changeBetween(8, 4));
 }
 
+TEST(ShownChange, AnotherImageSizeStartsAgain) {
+    ShownChange change;
+    change.add(false, 1, frame(1), kW, kH);
+    change.add(true, 1, frame(2), kW, kH);
+    const std::vector<float> other(size_t(kW) * 2 * kH * 3, 1.0f);
+    EXPECT_EQ(change.add(true, 1, other, kW * 2, kH), 0.0);
+    EXPECT_EQ(change.frame(), 1u);
+}
+
 TEST(ShownChange, NoCausticNoFigure) {
     ShownChange change;
     const std::vector<float> dark(size_t(kW) * kH * 3, 0.0f);
