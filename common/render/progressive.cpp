@@ -182,7 +182,8 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
     compose(out, nonFinite);
 }
 
-void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, const SharedPhotons* shared,
+void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set,
+                          std::span<const SharedPhotons* const> shared,
                           const AreaLightSampler& areaLights, std::span<PixelRadiance> out, uint64_t& shadowRays,
                           uint64_t& nonFinite) {
     RTPM_CHECK(valid_ && out.size() + 1 == records_.firstHit.size());
@@ -198,7 +199,9 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
             found.clear();
             const float r2 = float(disc2(s.outer2, s.active));
             maps.gatherPassPhotons(scene, set, e.hit, e.normal, r2, found);
-            if (shared && s.sharing) s.shared += float(maps.gatherSharedPhotons(scene, *shared, set, e.hit, e.normal, r2, found));
+            if (s.sharing)
+                for (const SharedPhotons* frame : shared)
+                    s.shared += float(maps.gatherSharedPhotons(scene, *frame, set, e.hit, e.normal, r2, found));
             bin(s.rings, s.outer2, s.active, found);
             if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, areaSets_, localRays));
         }

@@ -194,10 +194,12 @@ public:
                  EyeRecords records, std::span<PixelRadiance> out);
     /// One pass, after maps.shootPass(scene, set, b): bins the pass's photons per hit, and those
     /// of every other set in `shared` (their shots of kSharedPhotonLag frames ago and of the
-    /// frames since the set's last turn; may be null), adds one area-light sample set per hit, and
+    /// frames since the set's last turn, one index per frame; may be empty), adds one area-light
+    /// sample set per hit, and
     /// writes every pixel's current estimate to `out`. Precondition: valid(). Adds the shadow
     /// rays cast to `shadowRays`; counts non-finite pixel values (replaced by 0) in `nonFinite`.
-    void pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set, const SharedPhotons* shared,
+    void pass(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set,
+              std::span<const SharedPhotons* const> shared,
               const AreaLightSampler& areaLights, std::span<PixelRadiance> out, uint64_t& shadowRays,
               uint64_t& nonFinite);
     /// A pass off the set's turn (pass_budget.h passShoots): counts the pass and writes the

@@ -45,18 +45,6 @@ uint64_t sampleSeedOf(const Camera& c) {
 }
 
 // One SetPhotons per shooting set over several frames' shots: photons end to end, batches summed.
-std::vector<SetPhotons> mergeShots(std::span<const std::vector<SetPhotons>* const> frames) {
-    std::map<uint32_t, SetPhotons> bySet;
-    for (const std::vector<SetPhotons>* frame : frames)
-        for (const SetPhotons& shot : *frame) {
-            SetPhotons& m = bySet.try_emplace(shot.set, SetPhotons{shot.set, 0, {}}).first->second;
-            m.batches += shot.batches;
-            m.photons.insert(m.photons.end(), shot.photons.begin(), shot.photons.end());
-        }
-    std::vector<SetPhotons> merged;
-    for (auto& [set, shot] : bySet) merged.push_back(std::move(shot));
-    return merged;
-}
 
 }  // namespace
 
@@ -150,9 +138,9 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
     // counts in the eye pass's time); a set off its turn keeps them for its next: turns cost no photon.
     const auto t1 = std::chrono::steady_clock::now();
     const std::vector<SetPhotons>* sharedIn = !shared && shots_.size() == kSharedPhotonLag ? &shots_.front() : shared;
-    PendingIndex sharedIndex;
-    std::vector<const SharedPhotons*> sharedFor;
-    indexPendingShots(sharedIn, converge, passShot, sharedIndex, sharedFor);
+    PendingShots sharedHeld;
+    std::vector<std::vector<const SharedPhotons*>> sharedFor;
+    indexPendingShots(sharedIn, converge, passShot, sharedHeld, sharedFor);
 
     out.resize(sets_.size());
     stats.converging = !sets_.empty();
@@ -279,34 +267,33 @@ bool RenderJob::knnPixels(size_t i, const Camera& camera, FrameMode mode, std::s
 }
 
 void RenderJob::indexPendingShots(const std::vector<SetPhotons>* sharedIn, const std::vector<uint8_t>& converge,
-                                  const std::vector<uint8_t>& passShot, PendingIndex& index,
-                                  std::vector<const SharedPhotons*>& sharedFor) {
+                                  const std::vector<uint8_t>& passShot, PendingShots& held,
+                                  std::vector<std::vector<const SharedPhotons*>>& sharedFor) {
+    std::shared_ptr<const SharedPhotons> current;  // this frame's index, built once if any set needs it
     const bool any = sharedIn && !sharedIn->empty();
-    std::shared_ptr<const std::vector<SetPhotons>> kept;  // copied once, if a set off its turn keeps it
-    sharedFor.assign(sets_.size(), nullptr);
+    auto index = [&]() -> const std::shared_ptr<const SharedPhotons>& {
+        if (!current) {
+            auto built = std::make_shared<SharedPhotons>();
+            built->build(scene_->embree().bounds(), *sharedIn);
+            current = std::move(built);
+            held.push_back(current);
+        }
+        return current;
+    };
+    sharedFor.assign(sets_.size(), {});
     for (size_t i = 0; i < sets_.size(); ++i) {
         PendingShots& pending = kept_[i].pending;
         if (!converge[i]) {
             pending.clear();  // a restart bins the map; what was shared before it is in no pass
             continue;
         }
-        if (!passShot[i]) {
-            if (!any) continue;
-            if (!kept) kept = std::make_shared<const std::vector<SetPhotons>>(*sharedIn);
-            pending.push_back(kept);
-            continue;
+        if (any && !index()->empty()) pending.push_back(index());
+        if (!passShot[i]) continue;
+        for (const auto& frame : pending) {
+            sharedFor[i].push_back(frame.get());
+            held.push_back(frame);
         }
-        std::vector<const std::vector<SetPhotons>*> frames;
-        for (const auto& frame : pending) frames.push_back(frame.get());
-        if (any) frames.push_back(sharedIn);
-        if (frames.empty()) continue;
-        auto [it, added] = index.try_emplace(frames);
-        if (added) {
-            if (frames.size() == 1) it->second.build(scene_->embree().bounds(), *frames[0]);
-            else it->second.build(scene_->embree().bounds(), mergeShots(frames));
-        }
-        if (!it->second.empty()) sharedFor[i] = &it->second;
-        pending.clear();  // indexed: this frame's pass bins them (the index holds its own copy)
+        pending.clear();  // this frame's pass bins them
     }
 }
 

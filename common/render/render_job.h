@@ -66,12 +66,9 @@ struct ShownKnnPixels {
     std::vector<PixelRadiance> pixels;
 };
 
-/// The other sets' shots shared with one set (one entry per frame) while it was off its turn,
-/// which its next progressive pass bins.
-using PendingShots = std::vector<std::shared_ptr<const std::vector<SetPhotons>>>;
-
-/// SharedPhotons per distinct list of pending frames (RenderJob::indexPendingShots).
-using PendingIndex = std::map<std::vector<const std::vector<SetPhotons>*>, SharedPhotons>;
+/// The other sets' shots shared with one set while it was off its turn, which its next
+/// progressive pass bins: one index per frame, built once and held by every set that waits for it.
+using PendingShots = std::vector<std::shared_ptr<const SharedPhotons>>;
 
 /// What one owned set keeps from frame to frame of one camera.
 struct SetMemory {
@@ -167,13 +164,16 @@ public:
 private:
     /// Paths traced into the owned sets' maps so far.
     uint64_t pathsTraced() const;
-    /// Adds this frame's shared shots `sharedIn` (may be null) to the pending shots of every
-    /// converging set off its turn (dropping those of the sets that do not converge), and indexes,
-    /// once per distinct list of frames, what the sets on their turn bin: their pending shots and
-    /// `sharedIn`. `sharedFor[i]`: owned set i's index, null when it has none.
+    /// Indexes this frame's shared shots `sharedIn` (may be null) once, adds the index to the
+    /// pending shots of every converging set off its turn (dropping those of the sets that do not
+    /// converge), and hands each set on its turn its pending indexes and this frame's:
+    /// `sharedFor[i]`, owned set i's indexes (empty when none), kept alive by `held` for the frame.
+    /// With turns of p frames each shot is indexed once, not once per frame of the p (a merged
+    /// index per list of frames changed every frame); a set shoots once per turn, so the trees a
+    /// pass searches are as many as before.
     void indexPendingShots(const std::vector<SetPhotons>* sharedIn, const std::vector<uint8_t>& converge,
-                           const std::vector<uint8_t>& passShot, PendingIndex& index,
-                           std::vector<const SharedPhotons*>& sharedFor);
+                           const std::vector<uint8_t>& passShot, PendingShots& held,
+                           std::vector<std::vector<const SharedPhotons*>>& sharedFor);
     /// The pixels of owned set `i` at `camera` with the map's k-NN caustic: a Relight frame
     /// re-lights the set's KeptEyePaths (traced first when stale), an Edit frame samples the
     /// dielectric splits, any other traces them all, unless the set's ShownKnnPixels still hold.
