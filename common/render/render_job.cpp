@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
-#include <map>
 #include <stdexcept>
 #include <string>
 
@@ -43,8 +42,6 @@ uint64_t sampleSeedOf(const Camera& c) {
                                 uint64_t(bits[8]) << 32 | bits[9]);
     return h != 0 ? h : 1;
 }
-
-// One SetPhotons per shooting set over several frames' shots: photons end to end, batches summed.
 
 }  // namespace
 
