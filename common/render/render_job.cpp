@@ -266,14 +266,14 @@ bool RenderJob::knnPixels(size_t i, const Camera& camera, FrameMode mode, std::s
 void RenderJob::indexPendingShots(const std::vector<SetPhotons>* sharedIn, const std::vector<uint8_t>& converge,
                                   const std::vector<uint8_t>& passShot, PendingShots& held,
                                   std::vector<std::vector<const SharedPhotons*>>& sharedFor) {
-    std::shared_ptr<const SharedPhotons> current;  // this frame's index, built once if any set needs it
+    // This frame's index, built once when a converging set first needs it; the pending lists hold
+    // it, and `held` those a pass bins this frame.
+    std::shared_ptr<SharedPhotons> current;
     const bool any = sharedIn && !sharedIn->empty();
-    auto index = [&]() -> const std::shared_ptr<const SharedPhotons>& {
+    auto index = [&]() -> std::shared_ptr<const SharedPhotons> {
         if (!current) {
-            auto built = std::make_shared<SharedPhotons>();
-            built->build(scene_->embree().bounds(), *sharedIn);
-            current = std::move(built);
-            held.push_back(current);
+            current = std::make_shared<SharedPhotons>();
+            current->build(scene_->embree().bounds(), *sharedIn);
         }
         return current;
     };
