@@ -80,24 +80,31 @@ std::optional<SceneEdit> applyWireEdit(Scene& scene, const proto::SceneEdit& wir
     return edit;
 }
 
-/// One set's last sent pixels: the encoding `requested` gave them.
+/// One set's last pixels sent: in which frame, asked for in which encoding and sent in which.
 struct SentPixels {
     bool valid = false;
     proto::PixelEncoding requested = proto::PixelEncoding::Rgb9e5;
-    proto::EncodedPixels encoded;
+    proto::PixelEncoding encoding = proto::PixelEncoding::Rgb9e5;
+    uint64_t frame = 0;
 };
 
 namespace {
 
-/// `pixels` encoded as `requested` asks, straight from the renderer's buffer (no intermediate
-/// copy); pixels unchanged since the set's last frame (a pass off its turn) as encoded then.
-proto::EncodedPixels encodeOrResend(const SetPixels& pixels, SentPixels& sent, proto::PixelEncoding requested) {
-    if (!(pixels.unchanged && sent.valid && sent.requested == requested)) {
-        sent.encoded = proto::encodePixels(bridge::pixelView(std::span(pixels.pixels)), requested);
-        sent.requested = requested;
-        sent.valid = true;
+/// Fills `fd`'s pixels: encoded as `requested` asks, straight from the renderer's buffer (no
+/// intermediate copy), or, where they did not change since the set's last frame (a pass off its
+/// turn) and were sent then in that encoding, none: `fd` names the frame that carried them.
+void encodeOrRefer(const SetPixels& pixels, SentPixels& sent, proto::PixelEncoding requested, proto::FrameData& fd) {
+    if (pixels.unchanged && sent.valid && sent.requested == requested) {
+        fd.encoding = sent.encoding;
+        fd.unchanged = true;
+        fd.sameAs = sent.frame;
+        return;
     }
-    return sent.encoded;
+    proto::EncodedPixels enc = proto::encodePixels(bridge::pixelView(std::span(pixels.pixels)), requested);
+    fd.encoding = enc.encoding;
+    fd.pixels = std::move(enc.bytes);
+    fd.ownWeights = pixels.ownWeights;
+    sent = SentPixels{true, requested, enc.encoding, fd.frame};
 }
 
 }  // namespace
@@ -269,15 +276,12 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
         const uint32_t s = fb.sets[i];
         const SetPixels* sp = bySet[s];
         RTPM_CHECK(sp != nullptr && sp->pixels.size() == size_t(pattern.pixelCount(int(s))));
-        proto::EncodedPixels enc = encodeOrResend(*sp, *sentBySet[s], wire_->encoding);
         proto::FrameData& fd = out.data[i];
         fd.frame = fb.frame;
         fd.set = s;
-        fd.encoding = enc.encoding;
         fd.pixelCount = uint32_t(sp->pixels.size());
-        fd.pixels = std::move(enc.bytes);
+        encodeOrRefer(*sp, *sentBySet[s], wire_->encoding, fd);
         fd.passes = sp->passes;
-        fd.ownWeights = sp->ownWeights;
         fd.errorSigma = sp->error.sigma;
         fd.errorRadiance = sp->error.radiance;
         fd.errorPixels = uint32_t(sp->error.pixels);

@@ -138,6 +138,8 @@ void putPayload(Writer& w, const FrameData& m) {
     w.u32(m.set);
     w.u8(static_cast<uint8_t>(m.encoding));
     w.u32(m.pixelCount);
+    w.u8(m.unchanged ? 1 : 0);
+    w.u64(m.sameAs);
     w.bytes(m.pixels);
     w.u32(m.passes);
     w.bytes(m.ownWeights);
@@ -445,10 +447,20 @@ void get(Reader& r, FrameData& m) {
     getEnum8(r, m.encoding, kMaxPixelEncoding, "frameData.encoding");
     r.u32(m.pixelCount);
     inRange(r, m.set, 0, kMaxSets - 1, "frameData.set");
+    uint8_t unchanged = 0;
+    r.u8(unchanged);
+    inRange(r, unchanged, 0, 1, "frameData.unchanged");
+    m.unchanged = unchanged != 0;
+    r.u64(m.sameAs);
+    if (r.ok() && (m.unchanged ? !(m.sameAs < m.frame) : m.sameAs != 0))
+        r.fail(ErrorCode::BadValue, "frameData.sameAs: " + std::to_string(m.sameAs) +
+                                        (m.unchanged ? " is not a frame before " + std::to_string(m.frame)
+                                                     : " without unchanged pixels (must be 0)"));
     // Check the announced length against the pixel count before copying anything.
     uint32_t len = 0;
     if (!r.count(len, payloadLimit(MessageType::FrameData), 1, "frameData.pixels")) return;
-    Status sized = checkPixelPayloadSize(m.encoding, m.pixelCount, len);
+    Status sized = m.unchanged ? checkUnchangedPixels(m.pixelCount, len, payloadLimit(MessageType::FrameData))
+                               : checkPixelPayloadSize(m.encoding, m.pixelCount, len);
     if (!sized) {
         r.fail(sized.error().code, "frameData: " + sized.error().message);
         return;
@@ -458,7 +470,7 @@ void get(Reader& r, FrameData& m) {
     r.u32(m.passes);
     uint32_t weights = 0;
     if (!r.count(weights, m.pixelCount, 1, "frameData.ownWeights")) return;
-    if (weights != 0 && weights != m.pixelCount) {
+    if (weights != 0 && (weights != m.pixelCount || m.unchanged)) {
         r.fail(ErrorCode::BadValue, "frameData.ownWeights: " + std::to_string(weights) +
                                         " bytes for " + std::to_string(m.pixelCount) + " pixels");
         return;

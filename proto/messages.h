@@ -248,6 +248,11 @@ struct FrameData {
     /// the knn estimator), which the master forwards to every client two frames later.
     uint32_t shotBatches = 0;
     std::vector<PhotonRecord> shot;  ///< ≤ kMaxSharedPhotons
+    /// Version 10 (on the wire after pixelCount): the set's pixels and own weights are those its
+    /// FrameData of frame `sameAs` (< frame) carried — a set off its turn — and `pixels` and
+    /// `ownWeights` are empty.
+    bool unchanged = false;
+    uint64_t sameAs = 0;  ///< 0 unless `unchanged`
     bool operator==(const FrameData&) const = default;
 };
 

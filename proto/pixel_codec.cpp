@@ -145,6 +145,14 @@ EncodedPixels encodePixels(ConstPixelView pixels, PixelEncoding requested) {
     return out;
 }
 
+Status checkUnchangedPixels(uint64_t pixelCount, size_t payloadBytes, size_t payloadLimit) {
+    if (pixelCount > payloadLimit / 4)
+        return Error{ErrorCode::LengthTooLarge, std::to_string(pixelCount) + " unchanged pixels, more than a payload holds"};
+    if (payloadBytes != 0)
+        return Error{ErrorCode::BadValue, std::to_string(payloadBytes) + " bytes for unchanged pixels (must be none)"};
+    return okStatus();
+}
+
 Status checkPixelPayloadSize(PixelEncoding encoding, uint64_t pixelCount, size_t payloadBytes) {
     if (static_cast<uint8_t>(encoding) > kMaxPixelEncoding) {
         return Error{ErrorCode::BadEnum,

@@ -79,6 +79,10 @@ inline EncodedPixels encodePixels(std::span<const PixelPair> pixels, PixelEncodi
 /// for the fixed-size encodings, for Rgb9e5Zstd at least the direct plane plus a minimal zstd
 /// frame. Cheap; the message decoder calls it so hostile counts fail before any allocation.
 Status checkPixelPayloadSize(PixelEncoding encoding, uint64_t pixelCount, size_t payloadBytes);
+/// The same for pixels a FrameData says are unchanged (PROTOCOL.md §5.7): no bytes, and no more
+/// pixels than a payload of at most `payloadLimit` bytes could carry (four bytes a pixel at least,
+/// RGB9E5+zstd), so a count that costs the sender nothing still bounds what a reader allocates.
+Status checkUnchangedPixels(uint64_t pixelCount, size_t payloadBytes, size_t payloadLimit);
 
 /// Whether a FrameData in `sent` answers Settings.encoding `requested` (PROTOCOL.md §6): the same
 /// encoding, or plain Rgb9e5 for Rgb9e5Zstd ("compress when it pays"). Pure.

@@ -309,6 +309,9 @@ void FrameLoop::retire(RetiredFrame& r, TimePoint now) {
                 std::fprintf(stderr, "rtpm-server: frame %llu reached the target error (estimated %.4f <= %g)\n",
                              (unsigned long long)shown.frame, shown.errorEstimate, opt_.targetError);
             }
+            if (result.unmatchedUnchanged > 0)
+                std::fprintf(stderr, "rtpm-server: frame %llu: %llu sets keep older pixels (unchanged since a frame whose data came late)\n",
+                             (unsigned long long)shown.frame, (unsigned long long)result.unmatchedUnchanged);
             listener_.frameShown(shown, result.masterMs);
             for (const auto& [id, why] : result.badPayloads)
                 if (ClientInfo* c = peers_.registry().find(id)) peers_.protocolError(*c->connection, why);

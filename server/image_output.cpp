@@ -84,9 +84,10 @@ OutputResult ImageOutput::process(OutputJob& job) {
     std::vector<uint8_t> repeated(job.data.size(), 0);
     for (size_t i = 0; i < job.data.size(); ++i) {
         const proto::FrameData& d = job.data[i];
+        if (!d.unchanged) continue;
+        repeated[i] = 1;
         const Scattered& last = scattered_[d.set];
-        repeated[i] = last.valid && last.encoding == d.encoding && last.pixelCount == d.pixelCount &&
-                      last.pixels == d.pixels && last.ownWeights == d.ownWeights;
+        if (!(last.valid && last.frame == d.sameAs && last.pixelCount == d.pixelCount)) ++result.unmatchedUnchanged;
     }
     // Decoding is the master's heaviest step: sets decode in parallel, each straight into its
     // own radiance buffer (a set appears once per frame); scatter stays serial (FrameImage contract).
@@ -129,7 +130,7 @@ OutputResult ImageOutput::process(OutputJob& job) {
         // (progressive.h); none for knn (the decoder checked the count).
         if (d.ownWeights.empty()) image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set]);
         else image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set], d.ownWeights);
-        last = Scattered{true, d.encoding, d.pixelCount, d.pixels, d.ownWeights};
+        last = Scattered{true, d.frame, d.pixelCount};
     }
     image_.filterAndCompose(opt_.filter);
     const double change = change_.add(job.mode == proto::FrameMode::Converging, job.passPeriod,

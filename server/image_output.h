@@ -74,6 +74,9 @@ struct OutputResult {
     /// since half the progression's frames (shown_change.h) where the job's own figure
     /// (OutputJob::errorEstimate) is known; that figure until then; 0 = none.
     double errorEstimate = 0.0;
+    /// FrameData of unchanged pixels (FrameData::unchanged) whose frame's pixels this stage did not
+    /// show (that frame's data came late or not at all): the set keeps what it shows.
+    uint64_t unmatchedUnchanged = 0;
 };
 
 /// Largest radiance (W/(m²·sr)) the master accepts from a client; larger values are clamped and
@@ -84,7 +87,8 @@ constexpr float kMaxPixelRadiance = 1e30f;
 /// Decodes each set's pixels straight into its radiance buffer (sets in parallel), scatters them
 /// into the full frame, box-filters the caustics, composes and writes EXR + PNG and the CSV row.
 /// post() runs jobs in order on the stage's own thread, so a slow frame never stalls the sockets;
-/// process() runs one on the caller's thread. Sets missing from a job keep their previous values.
+/// process() runs one on the caller's thread. Sets missing from a job keep their previous values,
+/// as do sets whose FrameData says their pixels are unchanged.
 class ImageOutput {
 public:
     /// Throws std::runtime_error if the CSV file cannot be opened.
@@ -115,15 +119,12 @@ private:
     Interleave pattern_;
     FrameImage image_;
     std::vector<std::vector<PixelRadiance>> radiance_;  ///< per set, reused
-    /// Per set, the payload last scattered into the image: a FrameData that repeats it byte for
-    /// byte (a set off its turn sends its last pixels as encoded then) is neither decoded nor
-    /// scattered again; the image holds those pixels already.
+    /// Per set, the frame whose payload was last scattered into the image: a FrameData of
+    /// unchanged pixels that names it (a set off its turn) needs nothing, the image holds them.
     struct Scattered {
         bool valid = false;
-        proto::PixelEncoding encoding = proto::PixelEncoding::Rgb9e5;
+        uint64_t frame = 0;
         uint32_t pixelCount = 0;
-        std::vector<uint8_t> pixels;
-        std::vector<uint8_t> ownWeights;
     };
     std::vector<Scattered> scattered_;
     ShownChange change_;  ///< the still view's error figure from the shown caustic

@@ -35,7 +35,7 @@ struct SetPixels {
     SetPhotons shot;
     /// The pixels and own weights are this job's previous ones for the set, bit for bit (a pass
     /// off the set's turn, or a still knn view's set whose map did not change): a client sends
-    /// the encoding it made of them then.
+    /// none and names the frame that sent them (proto FrameData::unchanged).
     bool unchanged = false;
 };
 

@@ -639,9 +639,10 @@ TEST(FrameRenderer, RendersByTheFrameModeTheMasterSends) {
     EXPECT_FALSE(shots[0].empty()) << "frame 2's passes were handed no photons";
 }
 
-// A set off its turn sends the payload of its last frame again (not re-encoded): the bytes
-// repeat exactly while the set waits, and every frame's pixels still equal rtpm-render's.
-TEST(FrameRenderer, ASetOffItsTurnResendsItsLastPayload) {
+// A set off its turn sends no pixels (not re-encoded) and names the frame that last sent them;
+// the pixels that frame sent equal rtpm-render's of this frame, so the master shows rtpm-render's
+// image at every frame.
+TEST(FrameRenderer, ASetOffItsTurnNamesTheFrameThatSentItsPixels) {
     const proto::Settings s = smallSettings();
     RenderJob ref(loadScene("RING"), client::toRenderSettings(s), {0, 1, 2, 3});
     std::vector<SetPixels> refPixels;
@@ -652,7 +653,7 @@ TEST(FrameRenderer, ASetOffItsTurnResendsItsLastPayload) {
     const auto now = std::chrono::steady_clock::now();
     constexpr uint32_t kPeriod = 2;
     std::vector<std::vector<proto::SetShot>> shots;
-    std::map<uint32_t, std::vector<uint8_t>> last;
+    std::map<uint32_t, proto::FrameData> last;  // per set, the last FrameData carrying pixels
     int repeats = 0;
     for (uint64_t frame = 0; frame < 6; ++frame) {
         ref.renderFrame(cam, refPixels, 1, frame == 0 ? 1 : kPeriod);
@@ -662,12 +663,18 @@ TEST(FrameRenderer, ASetOffItsTurnResendsItsLastPayload) {
         if (frame >= kSharedPhotonLag) fb.shared = shots[frame - kSharedPhotonLag];
         const client::RenderedFrame f = r.render(fb, now);
         for (const proto::FrameData& d : f.data) {
-            expectSamePixels(d, refPixels);
             if (frame > 0 && d.shotBatches == 0) {
-                EXPECT_EQ(d.pixels, last[d.set]) << "set " << d.set << " off its turn, frame " << frame;
+                EXPECT_TRUE(d.unchanged) << "set " << d.set << " off its turn, frame " << frame;
+                EXPECT_TRUE(d.pixels.empty() && d.ownWeights.empty());
+                ASSERT_TRUE(last.count(d.set));
+                EXPECT_EQ(d.sameAs, last[d.set].frame);
+                expectSamePixels(last[d.set], refPixels);
                 ++repeats;
+                continue;
             }
-            last[d.set] = d.pixels;
+            EXPECT_FALSE(d.unchanged);
+            expectSamePixels(d, refPixels);
+            last[d.set] = d;
         }
         std::vector<proto::SetShot>& sent = shots.emplace_back();
         for (const proto::FrameData& d : f.data)

@@ -71,6 +71,10 @@ inline std::vector<Message> sampleMessages() {
     sparse[17].caustic[0] = 3.0f;
     EncodedPixels z = encodePixels(sparse, PixelEncoding::Rgb9e5Zstd);
     out.push_back(FrameData{43, 6, z.encoding, 400, z.bytes});
+    FrameData unchanged{44, 6, z.encoding, 400};
+    unchanged.unchanged = true;
+    unchanged.sameAs = 43;
+    out.push_back(unchanged);
     out.push_back(Edit{9, LightEdit{1, {1, 2, 3}, {0, 0, -1}, {5, 5, 5}}});
     out.push_back(Edit{10, tr});
     out.push_back(Stats{42, 1.5f, 20.25f, 0.5f, 25.0f, 1000, 50000, 1u << 20, 8});
@@ -90,7 +94,7 @@ inline std::string checkDecoders(std::span<const uint8_t> data) {
         std::vector<uint8_t> again = encode(*whole);
         if (again.size() != data.size() || !std::equal(again.begin(), again.end(), data.begin()))
             return "accepted message does not re-encode to the same bytes";
-        if (auto* fd = std::get_if<FrameData>(&*whole)) {
+        if (auto* fd = std::get_if<FrameData>(&*whole); fd && !fd->unchanged) {
             std::vector<PixelPair> px(fd->pixelCount);
             if (decodePixels(fd->encoding, fd->pixels, px).ok())
                 for (const PixelPair& p : px)

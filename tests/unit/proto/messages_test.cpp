@@ -56,7 +56,7 @@ TEST(Messages, HelloGoldenBytes) {
     auto bytes = encode(Hello{5, 8, "c1", 0x0123456789abcdefull});
     EXPECT_EQ(hex(bytes),
               "5254504d"   // magic 'RTPM'
-              "0900"       // version 9
+              "0a00"       // version 10
               "0100"       // type Hello
               "00000000"   // flags
               "14000000"   // payload 20 bytes
@@ -67,7 +67,7 @@ TEST(Messages, HelloGoldenBytes) {
 }
 
 TEST(Messages, HeartbeatIsABareHeaderAndRefusesAnyPayload) {
-    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0900" "0d00" "00000000" "00000000");
+    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0a00" "0d00" "00000000" "00000000");
     EXPECT_FALSE(decodePayload(MessageType::Heartbeat, std::vector<uint8_t>{0}).ok());
 }
 
@@ -83,11 +83,11 @@ TEST(Messages, OnlyBusyRefusalsAreTransient) {
 TEST(Messages, ChallengeAndAuthGoldenBytes) {
     Challenge c;
     for (size_t i = 0; i < c.nonce.size(); ++i) c.nonce[i] = uint8_t(i);
-    EXPECT_EQ(hex(encode(c)), "5254504d09000b0000000000" "20000000"  // type 11, payload 32
+    EXPECT_EQ(hex(encode(c)), "5254504d0a000b0000000000" "20000000"  // type 11, payload 32
                               "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f");
     Auth a;
     a.mac.fill(0xab);
-    EXPECT_EQ(hex(encode(a)).substr(0, 32), "5254504d09000c000000000020000000");  // type 12, payload 32
+    EXPECT_EQ(hex(encode(a)).substr(0, 32), "5254504d0a000c000000000020000000");  // type 12, payload 32
 }
 
 TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
@@ -136,7 +136,7 @@ TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
 TEST(Messages, FrameBeginGoldenBytes) {
     FrameBegin fb{5, 2, 3, {{1, 2, 3}, {0, 0, -1}, {0, 1, 0}, 0.5f}, FrameMode::Accumulate, {0, 7}};
     EXPECT_EQ(hex(encode(fb)),
-              "5254504d09000600" "00000000" "51000000"  // header v9, type 6, payload 81 bytes
+              "5254504d0a000600" "00000000" "51000000"  // header v10, type 6, payload 81 bytes
               "0500000000000000"                        // frame 5
               "02000000" "03000000"                     // epoch 2, sceneVersion 3
               "0000803f" "00000040" "00004040"          // position (1, 2, 3)
@@ -206,12 +206,61 @@ TEST(Messages, SharedPhotonsRoundTripAndHostileOnesAreRefused) {
     reject(badData, ErrorCode::NonFinite);
 }
 
+// A set off its turn names the frame whose pixels it still shows and carries none (version 10):
+// a FrameData that says so with pixels or own weights, names no earlier frame, or names one
+// without saying so is refused.
+TEST(Messages, UnchangedPixelsRoundTripAndInconsistentOnesAreRefused) {
+    auto reject = [](const FrameData& m, ErrorCode code) {
+        auto r = decodeMessage(encode(m));
+        ASSERT_FALSE(r.ok());
+        EXPECT_EQ(r.error().code, code) << r.error().message;
+    };
+    FrameData fd;
+    fd.frame = 9;
+    fd.set = 4;
+    fd.encoding = PixelEncoding::Float32;
+    fd.pixelCount = 2;
+    fd.unchanged = true;
+    fd.sameAs = 5;
+    fd.errorSigma = 0.5;
+    fd.errorRadiance = 2.0;
+    fd.errorPixels = 1;
+    auto back = decodeMessage(encode(fd));
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    EXPECT_EQ(std::get<FrameData>(*back), fd);
+    EXPECT_EQ(encode(fd).size(), kHeaderBytes + 8 + 4 + 1 + 4 + 1 + 8 + 4 + 4 + 4 + 8 + 8 + 4 + 4 + 4);
+    FrameData bad = fd;
+    bad.pixels.assign(48, 0);
+    reject(bad, ErrorCode::BadValue);
+    bad = fd;
+    bad.ownWeights.assign(2, 255);
+    reject(bad, ErrorCode::BadValue);
+    bad = fd;
+    bad.sameAs = 9;  // not before its own frame
+    reject(bad, ErrorCode::BadValue);
+    bad = fd;
+    bad.unchanged = false;  // a frame named, pixels absent
+    reject(bad, ErrorCode::BadValue);
+    bad = fd;
+    bad.unchanged = false;
+    bad.sameAs = 0;  // no pixels where the encoding needs 48 bytes
+    reject(bad, ErrorCode::LengthTooLarge);
+    // The flag is one byte, 0 or 1.
+    auto bytes = encode(fd);
+    bytes[kHeaderBytes + 17] = 2;
+    auto r = decodeMessage(bytes);
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::BadValue) << r.error().message;
+}
+
 TEST(Messages, FrameDataClaimingTwoBillionPixelsInTenBytesIsRejected) {
     Writer w;
     w.u64(1);        // frame
     w.u32(0);        // set
     w.u8(static_cast<uint8_t>(PixelEncoding::Rgb9e5));
     w.u32(1u << 31); // pixel count
+    w.u8(0);         // not unchanged
+    w.u64(0);        // sameAs
     w.u32(10);       // payload bytes
     for (int i = 0; i < 10; ++i) w.u8(0);
     auto r = decodePayload(MessageType::FrameData, w.data());
@@ -224,6 +273,8 @@ TEST(Messages, FrameDataClaimingTwoBillionPixelsInTenBytesIsRejected) {
     v.u32(0);
     v.u8(static_cast<uint8_t>(PixelEncoding::Float32));
     v.u32(1);
+    v.u8(0);
+    v.u64(0);
     v.u32(0x7FFFFFFFu);
     for (int i = 0; i < 24; ++i) v.u8(0);
     EXPECT_EQ(decodePayload(MessageType::FrameData, v.data()).error().code, ErrorCode::LengthTooLarge);

@@ -156,8 +156,8 @@ TEST(SharedPhotons, SetsTakingTurnsShowTheirLastPixelsAndLoseNoSharedPhoton) {
             const SetPixels& q = (p.set % 2 == 0 ? b : c)[size_t(p.set / 2)];
             EXPECT_TRUE(samePixels(p, q)) << "set " << p.set << " frame " << f;
             EXPECT_TRUE(sameShot(p.shot, q.shot)) << "set " << p.set << " frame " << f;
-            // Off its turn a set says its pixels are its last ones (a client then resends their
-            // encoding); on its turn, never.
+            // Off its turn a set says its pixels are its last ones (a client then sends none and
+            // names the frame that sent them); on its turn, never.
             EXPECT_EQ(p.unchanged, f > 0 && p.shot.batches == 0) << "set " << p.set << " frame " << f;
             EXPECT_EQ(q.unchanged, p.unchanged) << "set " << p.set << " frame " << f;
             if (f > 0 && p.shot.batches == 0) {

@@ -58,41 +58,51 @@ TEST(ImageOutputStage, OverflowingRadianceIsClampedAndCountedNeverInf) {
     EXPECT_EQ(output.image().direct()[0], 0.5f);
 }
 
-// A set off its turn sends the payload of its last frame again: the master shows the pixels it
-// scattered then, and any other payload (a new pass, or bytes that fail to decode) is not mistaken
-// for a repeat.
-TEST(ImageOutputStage, ARepeatedPayloadShowsThePixelsScatteredBefore) {
+// A set off its turn sends no pixels and names the frame that sent them: the master shows the
+// pixels it scattered then and decodes nothing; one naming a frame whose pixels it never showed
+// (they came late) leaves the set as it is and is counted; new pixels are decoded as ever.
+TEST(ImageOutputStage, UnchangedPixelsShowWhatTheirFrameScattered) {
     const ImageOutputOptions o = smallOutput(12, 8, 1);
     ImageOutput output(o);
     const Interleave pattern{o.width, o.height, o.interleave};
-    auto frame = [&](float set0, std::vector<uint8_t> weights0 = {}) {
+    auto frame = [&](uint64_t number, float set0) {
         OutputJob job;
         job.setCount = 4;
         job.owners = {1, 1, 2, 2};
-        for (uint32_t s = 0; s < 4; ++s) job.data.push_back(setData(pattern, s, s == 0 ? set0 : 0.25f));
-        job.data[0].ownWeights = std::move(weights0);
+        for (uint32_t s = 0; s < 4; ++s) {
+            job.data.push_back(setData(pattern, s, s == 0 ? set0 : 0.25f));
+            job.data.back().frame = number;
+        }
+        return job;
+    };
+    auto unchanged = [&](OutputJob job, uint64_t sameAs) {
+        job.data[0].unchanged = true;
+        job.data[0].sameAs = sameAs;
+        job.data[0].pixels.clear();
         return job;
     };
     auto set0Direct = [&] { return output.image().direct()[0]; };  // pixel (0, 0) is set 0's
-    OutputJob first = frame(0.5f);
+    OutputJob first = frame(3, 0.5f);
     EXPECT_TRUE(output.process(first).badPayloads.empty());
     EXPECT_EQ(set0Direct(), 0.5f);
-    OutputJob repeat = frame(0.5f);
-    EXPECT_TRUE(output.process(repeat).badPayloads.empty());
-    EXPECT_EQ(set0Direct(), 0.5f);
-    OutputJob next = frame(0.75f);
+    OutputJob same = unchanged(frame(4, 0.0f), 3);
+    OutputResult r = output.process(same);
+    EXPECT_TRUE(r.badPayloads.empty());
+    EXPECT_EQ(r.unmatchedUnchanged, 0u);
+    EXPECT_EQ(set0Direct(), 0.5f) << "frame 3's pixels stay";
+    OutputJob next = frame(5, 0.75f);
     output.process(next);
-    EXPECT_EQ(set0Direct(), 0.75f) << "new bytes are decoded";
-    const size_t n = size_t(pattern.pixelCount(0));
-    OutputJob weighted = frame(0.75f, std::vector<uint8_t>(n, 255));
-    output.process(weighted);
-    EXPECT_EQ(output.image().causticFiltered()[0], 0.75f) << "the same pixels with other weights are new";
-    OutputJob broken = frame(0.75f);
+    EXPECT_EQ(set0Direct(), 0.75f) << "new pixels are decoded";
+    OutputJob late = unchanged(frame(7, 0.0f), 6);  // frame 6's pixels never reached the stage
+    r = output.process(late);
+    EXPECT_TRUE(r.badPayloads.empty());
+    EXPECT_EQ(r.unmatchedUnchanged, 1u);
+    EXPECT_EQ(set0Direct(), 0.75f) << "the set keeps what it shows";
+    OutputJob broken = frame(8, 0.5f);
     broken.data[0].pixels.pop_back();
     EXPECT_EQ(output.process(broken).badPayloads.size(), 1u);
-    OutputJob again = frame(0.75f);
-    EXPECT_TRUE(output.process(again).badPayloads.empty());
-    EXPECT_EQ(set0Direct(), 0.75f);
+    OutputJob afterBroken = unchanged(frame(9, 0.0f), 8);
+    EXPECT_EQ(output.process(afterBroken).unmatchedUnchanged, 1u) << "pixels that failed to decode were not shown";
 }
 
 }  // namespace
