@@ -5,8 +5,8 @@
 #
 # --view runs the cluster as a service with the browser viewer (rtpm-server --http 127.0.0.1:0,
 # rendering until Ctrl-C) and prints the viewer's URL with the token; without it the server
-# renders --frames frames (40 unless given: about two seconds of a still view held to the 50 ms
-# frame budget) and exits.
+# renders --frames frames (120 unless given: about two seconds of a still view held to the
+# 16.7 ms frame budget) and exits.
 # Builds first (deploy/build.sh, incremental, into ${RTPM_BUILD_DIR:-build}): only what the two
 # programs need (RTPM_BUILD_SCOPE=programs: install-deps.sh build, and a new build folder is
 # configured without tests and benchmarks; deploy/test.sh adds them later).
@@ -95,7 +95,7 @@ if ((view)); then
 else
     has_frames=0
     for a in "${server_args[@]}"; do [[ $a == --frames || $a == --frames=* ]] && has_frames=1; done
-    ((has_frames)) || view_args=(--frames 40)
+    ((has_frames)) || view_args=(--frames 120)
 fi
 server_out=$work/server.out
 # Server and clients run in their own sessions: Ctrl-C reaches this script alone, whose cleanup

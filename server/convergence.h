@@ -22,14 +22,19 @@ public:
     Convergence(double frameBudgetMs, double targetError)
         : frameBudgetMs_(frameBudgetMs), budget_(frameBudgetMs * 1e-3),
           accumulate_(frameBudgetMs * 1e-3, /*growBatches=*/false),
-          orbit_(kOrbitBudgetFactor * frameBudgetMs * 1e-3, /*growBatches=*/false), targetError_(targetError) {}
+          orbit_(orbitBudgetMs(frameBudgetMs) * 1e-3, /*growBatches=*/false), targetError_(targetError) {}
 
-    /// An orbit's Accumulate frames take turns only beyond this many frame budgets (200 ms at the
-    /// default 50): a set off its turn shoots nothing, and a moving camera's frames are what grows
-    /// the map the moving image shows, so its frames keep every set shooting as they did when the
-    /// budget was 200 ms for every frame; a still view's frames lose nothing to turns (progressive)
-    /// or show the set's last pixels (knn) and follow the budget itself.
+    /// An orbit's Accumulate frames take turns only beyond kOrbitBudgetMs, or this many frame
+    /// budgets where that is more: a set off its turn shoots nothing, and a moving camera's frames
+    /// are what grows the map the moving image shows, so its frames keep every set shooting as
+    /// they did when the budget was 200 ms for every frame; a still view's frames lose nothing to
+    /// turns (progressive) or show the set's last pixels (knn) and follow the budget itself.
     static constexpr double kOrbitBudgetFactor = 4.0;
+    static constexpr double kOrbitBudgetMs = 200.0;
+    /// The orbit's budget for a frame budget of `frameBudgetMs` (0 stays 0: no turns).
+    static double orbitBudgetMs(double frameBudgetMs) {
+        return frameBudgetMs > 0.0 ? std::max(kOrbitBudgetMs, kOrbitBudgetFactor * frameBudgetMs) : 0.0;
+    }
 
     /// Batches each set shoots in a frame of `mode`: the budget's for a Converging frame, else one.
     uint32_t batchesFor(proto::FrameMode mode) const {

@@ -61,6 +61,7 @@ void ImageOutput::reconfigure(int interleave, int filter) {
         pattern_ = Interleave{opt_.width, opt_.height, interleave};
         radiance_.assign(size_t(interleave) * size_t(interleave), {});
         scattered_.assign(radiance_.size(), {});
+        composed_ = false;
     });
 }
 
@@ -130,9 +131,13 @@ OutputResult ImageOutput::process(OutputJob& job) {
         // (progressive.h); none for knn (the decoder checked the count).
         if (d.ownWeights.empty()) image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set]);
         else image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set], d.ownWeights);
+        composed_ = false;
         last = Scattered{true, d.frame, d.pixelCount};
     }
-    image_.filterAndCompose(opt_.filter);
+    // A frame that scattered nothing (every set off its turn, or none arrived) shows the image
+    // composed before: filtering it again would give the same bits.
+    if (!composed_) image_.filterAndCompose(opt_.filter);
+    composed_ = true;
     const double change = change_.add(job.mode == proto::FrameMode::Converging, job.passPeriod,
                                       image_.causticFiltered(), image_.width(), image_.height());
     result.errorEstimate = shownErrorFigure(job.errorEstimate, change);

@@ -118,6 +118,7 @@ private:
     ImageOutputOptions opt_;
     Interleave pattern_;
     FrameImage image_;
+    bool composed_ = false;  ///< image_ is filtered and composed from everything scattered into it
     std::vector<std::vector<PixelRadiance>> radiance_;  ///< per set, reused
     /// Per set, the frame whose payload was last scattered into the image: a FrameData of
     /// unchanged pixels that names it (a set off its turn) needs nothing, the image holds them.

@@ -63,7 +63,7 @@ struct MasterOptions {
     bool quiet = false;                ///< no per-frame line on stdout
     /// Progressive still views: the frame time their passes grow to (ms; 0 = one batch per pass)
     /// and the estimated caustic error that ends the run (0 = off).
-    double frameBudgetMs = 50.0;
+    double frameBudgetMs = kDefaultFrameBudgetMs;
     double targetError = 0.0;
 
     // Browser viewer (docs/ARCHITECTURE.md §10).

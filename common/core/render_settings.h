@@ -59,6 +59,12 @@ const char* photonTreeName(PhotonTree tree);
 inline constexpr uint32_t kMaxPassBatches = 1024;
 /// Largest number of Converging frames between two passes of a set that shoot (PassBudget::period).
 inline constexpr uint32_t kMaxPassPeriod = 64;
+/// The frame time a still view is held to unless --frame-budget-ms says otherwise: one refresh of
+/// a 60 Hz display. A still frame then costs no more than a moving one on any built-in scene
+/// (the cheapest moving frames, HEADLIGHT's walkthrough at 55–59 fps, take 17–18 ms), and the
+/// photons per second stay as they were at 50 ms: a set off its turn costs almost nothing
+/// (tests/bench/RESULTS.md, "Frame rate by mode").
+inline constexpr double kDefaultFrameBudgetMs = 16.7;
 
 /// Upper bound of PhotonSettings::progressiveGamma (wire and flag limit alike).
 inline constexpr float kMaxProgressiveGamma = 16.0f;

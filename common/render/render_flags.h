@@ -71,7 +71,7 @@ inline void addRenderFlags(CLI::App& app, RenderSettings& settings, std::string&
 /// How a still view converges: the frame-time budget its passes grow to (PassBudget) and the
 /// estimated caustic error at which a still render ends (0: none).
 struct ConvergenceFlags {
-    double frameBudgetMs = 50.0;
+    double frameBudgetMs = kDefaultFrameBudgetMs;
     double targetError = 0.0;
 };
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Error against time of the cluster as shipped: rtpm-server and two rtpm-client processes on this
 # machine (each client cores/2 render threads, as deploy/run-local.sh starts them), the default
-# settings (M 3, P 20 000, still frames held to the 50 ms budget), on the curved-mirror scene with
+# settings (M 3, P 20 000, still frames held to the 16.7 ms budget), on the curved-mirror scene with
 # its closed-form reference (tests/support/ring_mirror.h; no photon estimator in the reference).
 # One cluster per frame count; the time is the whole run's wall clock, from starting the server
 # to the image written (start-up, scene transfer and BVH builds included), and the CPU seconds of

@@ -9,12 +9,13 @@
 # walk — the camera orbits over the first frame's photons (--animate orbit --walkthrough);
 # orbit — the camera orbits while photons accumulate (--animate orbit); still knn — the view
 # stands, k-NN estimator (--estimator knn); still — the view stands, the defaults (progressive,
-# passes growing or the sets taking turns to the 50 ms frame budget).
+# passes growing or the sets taking turns to the 16.7 ms frame budget).
 # fps: the server's rate over its last 8 frames (the CSV's fps of the last frame), so start-up
-# and the first frames of a still view are left out. Beside the still view: the estimator's own
-# caustic error estimate after the last frame, and the last frame's pass work (batches per set,
-# or 1/p when the sets take turns). The moving modes have no error figure: a moving light or
-# camera has no converged reference to compare against, and the knn estimator reports none.
+# and the first frames of a still view are left out. Beside the still view: the estimated caustic
+# error after the last frame, the seconds the run took (its summary line) and the last frame's
+# pass work (batches per set, or 1/p when the sets take turns). The moving modes have no error
+# figure: a moving light or camera has no converged reference to compare against, and the knn
+# estimator reports none.
 # Binaries from ${RTPM_BUILD_DIR:-<repo>/build}.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
@@ -87,13 +88,15 @@ run() {
     fps=$(awk -F, 'NR > 1 { f = $2 } END { printf "%.2f", f }' "$csv")
     err=$(awk -F, 'NR > 1 { e = $15 } END { printf "%.4f", e }' "$csv")
     work_=$(awk -F, 'NR > 1 { b = $16; p = $17 } END { if (p > 1) printf "1/%d", p; else printf "%d", b }' "$csv")
+    # The run's seconds from its summary line ("… frames shown (… incomplete) in S s = …").
+    secs=$(sed -n 's/^summary: .* in \([0-9.]*\) s = .*/\1/p' "$log")
 }
 
 echo "### Frame rate by mode: ${w}x$h, 2 clients × $threads threads, $frames frames"
 echo
 echo "load before: $(cut -d' ' -f1-3 /proc/loadavg)"
 echo
-echo "| scene | light edits fps | walkthrough fps | orbit, accumulating fps | still knn fps | still fps | still: estimated error, pass work |"
+echo "| scene | light edits fps | walkthrough fps | orbit, accumulating fps | still knn fps | still fps | still: estimated error after its seconds, pass work |"
 echo "|---|---|---|---|---|---|---|"
 for scene in $scenes; do
     run "$scene" light --animate light
@@ -105,7 +108,7 @@ for scene in $scenes; do
     run "$scene" knn --estimator knn
     knn=$fps
     run "$scene" still
-    echo "| $scene | $light | $walk | $orbit | $knn | $fps | $err, $work_ |"
+    echo "| $scene | $light | $walk | $orbit | $knn | $fps | $err after $secs s, $work_ |"
 done
 echo
 echo "load after: $(cut -d' ' -f1-3 /proc/loadavg)"

@@ -20,7 +20,7 @@ Wall and CPU (user + sys) are both reported: the machine may be shared.
 
 POV-Ray runs at each photon count and gather setting (MIN:MAX photons per estimate; its spacing
 follows from the count); its best curve is the least time to each error. rtpm runs at the
-defaults a user gets (M 3, P 20 000, still frames held to the 50 ms budget) with both estimators.
+defaults a user gets (M 3, P 20 000, still frames held to the 16.7 ms budget) with both estimators.
 
     /usr/bin/python3 tests/bench/pov_compare.py --build build --seconds 60 --out tests/bench
 """
@@ -114,9 +114,9 @@ def main():
                     help="POV-Ray photon counts, comma-separated")
     ap.add_argument("--pov-gather", default="20:100,10:50,50:200",
                     help="POV-Ray gather MIN:MAX settings, comma-separated (20:100 is its default)")
-    ap.add_argument("--rtpm", default="progressive:3:20000:50,knn:3:20000:50",
+    ap.add_argument("--rtpm", default="progressive:3:20000:16.7,knn:3:20000:16.7",
                     help="rtpm runs ESTIMATOR:M:P:BUDGET_MS, comma-separated (the defaults: M 3, "
-                         "P 20 000, still frames held to the 50 ms budget)")
+                         "P 20 000, still frames held to the 16.7 ms budget)")
     ap.add_argument("--seconds", type=float, default=60.0, help="rtpm wall-time budget per run")
     ap.add_argument("--out", default="tests/bench", help="folder for pov_compare.csv and .png")
     a = ap.parse_args()

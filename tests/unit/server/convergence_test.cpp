@@ -54,9 +54,15 @@ TEST(Convergence, AccumulateFramesTakeTurnsOverTheBudgetWithOneBatch) {
 }
 
 // An orbit's Accumulate frames grow the map the moving image shows: they take turns only beyond
-// kOrbitBudgetFactor × the budget, while a still camera's (the knn estimator's still view, whose
-// sets off their turn show their last pixels) follow the budget itself.
+// 200 ms or kOrbitBudgetFactor × the budget, while a still camera's (the knn estimator's still
+// view, whose sets off their turn show their last pixels) follow the budget itself.
 TEST(Convergence, AnOrbitKeepsEverySetShootingUpToFourBudgets) {
+    EXPECT_DOUBLE_EQ(Convergence::orbitBudgetMs(kDefaultFrameBudgetMs), 200.0);
+    EXPECT_DOUBLE_EQ(Convergence::orbitBudgetMs(100.0), 400.0);
+    EXPECT_DOUBLE_EQ(Convergence::orbitBudgetMs(0.0), 0.0) << "no budget, no turns";
+    Convergence small(kDefaultFrameBudgetMs, 0.0);
+    for (int i = 0; i < 4; ++i) record(small, FrameMode::Accumulate, 150.0, /*still=*/false);
+    EXPECT_EQ(small.periodFor(FrameMode::Accumulate, false), 1u) << "a small frame budget: still 200 ms";
     Convergence c(50.0, 0.0);
     for (int i = 0; i < 4; ++i) record(c, FrameMode::Accumulate, 150.0, /*still=*/false);
     EXPECT_EQ(c.periodFor(FrameMode::Accumulate, false), 1u);
