@@ -30,8 +30,9 @@ inline bool passShoots(uint64_t pass, uint32_t set, uint32_t sets, uint32_t peri
 /// per set predicts (expectShooting; 1 without a prediction).
 /// While frames converge, each decision takes the mean frame time over one whole turn (a frame's
 /// cost depends on whose turn it is): above the budget the period doubles (a trial: unless its
-/// first whole turn is at least 1 − kTurnGain faster than the turn before, it is undone and the
-/// period grows no more until the view moves), and once it may not, the batches halve; below half
+/// first whole turn is at least 1 − kTurnGain faster than the turn before, it is undone and no
+/// trial follows for kFirstTrialBackoff turns, twice as many after each further failure), and
+/// while it may not, the batches halve; below half
 /// the budget the batches double (a longer pass spreads a pass's fixed cost, its binning and
 /// composing, over more photons). So a still view does ever more work per turn while the viewer
 /// gets about 1/budget updates a second, and a scene whose single batch per set costs more than
@@ -100,12 +101,14 @@ public:
         const double mean = turnSeconds_ / double(turnFrames_);
         turnSeconds_ = 0.0;
         turnFrames_ = 0;
+        if (blockedTurns_ > 0) --blockedTurns_;
         if (trialBefore_ > 0.0) {
             const bool paid = mean <= kTurnGain * trialBefore_;
             trialBefore_ = 0.0;
             if (!paid) {
                 period_ /= 2;
-                turnsBlocked_ = true;
+                blockedTurns_ = backoff_;
+                backoff_ = std::min(2 * backoff_, kMaxTrialBackoff);
                 return;
             }
         }
@@ -115,7 +118,7 @@ public:
         // more photons. Hence turns before smaller passes, and larger passes before fewer turns.
         // Accumulate frames (k-NN): a set off its turn shoots nothing, so turns cost photons.
         // (Without growBatches_ the batches stay 1.)
-        const bool mayTurn = !turnsBlocked_ && period_ < kMaxPassPeriod &&
+        const bool mayTurn = blockedTurns_ == 0 && period_ < kMaxPassPeriod &&
                              (period_ > 1 || growBatches_ || mean > kTurnStart * budget_);
         if (mean < 0.5 * budget_) {
             if (growBatches_ && batches_ < kMaxPassBatches) batches_ *= 2;
@@ -133,6 +136,15 @@ public:
     /// A doubled period stays only if its turns' mean frame time is at most this share of the
     /// mean before it.
     static constexpr double kTurnGain = 0.9;
+    /// After a trial that did not pay, no other begins for this many whole turns, twice as many
+    /// after each further failure (up to kMaxTrialBackoff), until the view moves. A failure for
+    /// good would hold a still view at its period for as long as it stands when one turn's
+    /// timing was merely unlucky: at the 16.7 ms budget, where a frame's time is a few
+    /// milliseconds of noise, HEADLIGHT's knn still view stayed at 8 fps in one run of ten
+    /// (the others reached the longest period and 86–95 fps), GLASS's still view at 36 fps
+    /// against 109–116. Backing off keeps a scene whose turns never pay from trying every turn.
+    static constexpr uint32_t kFirstTrialBackoff = 4;
+    static constexpr uint32_t kMaxTrialBackoff = 64;
     /// Accumulate frames' turns begin only when the frames exceed the budget by this factor (once
     /// begun, the period doubles whenever a turn exceeds the budget). There turns buy frame rate
     /// with photons (a set off its turn shoots nothing), so frames near the budget keep every set
@@ -150,7 +162,8 @@ private:
     double turnSeconds_ = 0.0;   ///< Σ frame seconds of the current turn
     uint32_t turnFrames_ = 0;    ///< frames of the current turn recorded
     double trialBefore_ = 0.0;   ///< > 0 while a doubled period is on trial: the mean before it
-    bool turnsBlocked_ = false;  ///< a trial did not pay: no more turns until the view moves
+    uint32_t blockedTurns_ = 0;  ///< turns before the next trial may begin (a trial did not pay)
+    uint32_t backoff_ = kFirstTrialBackoff;  ///< what the next failed trial blocks
     uint32_t startPeriod_ = 1;   ///< the period a still view starts at (expectShooting)
 };
 

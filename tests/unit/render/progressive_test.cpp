@@ -292,22 +292,50 @@ TEST(PassBudget, ProgressivePassesTakeTurnsAsSoonAsAFrameExceedsTheBudget) {
     EXPECT_EQ(b.batches(), 1u);
 }
 
-TEST(PassBudget, TurnsThatDoNotShortenTheFramesAreUndone) {
+TEST(PassBudget, TurnsThatDoNotShortenTheFramesAreUndoneAndTriedLessOften) {
     // 1 s frames whatever the turns (a pass's cost is its binning, not its shooting): the trial
-    // of a period of 2 is undone after its first whole turn, and no other follows while the view
-    // stays still; once it moves, a new still view may try again.
+    // of a period of 2 is undone after its first whole turn; the next trial comes only after
+    // kFirstTrialBackoff turns, the one after twice as many later; once the view moves, a new
+    // still view may try at once.
     PassBudget b(0.2);
     b.record(true, 1.0);
     EXPECT_EQ(b.period(), 2u) << "a trial";
     b.record(true, 1.0);
     b.record(true, 0.9);  // mean 0.95 s: more than 0.9 × 1 s
     EXPECT_EQ(b.period(), 1u) << "undone";
-    for (int i = 0; i < 10; ++i) b.record(true, 1.0);
-    EXPECT_EQ(b.period(), 1u);
+    auto turnsUntilTrial = [&b] {
+        int turns = 0;
+        while (b.period() == 1 && turns < 1000) {
+            b.record(true, 1.0);
+            ++turns;
+        }
+        return turns;
+    };
+    EXPECT_EQ(turnsUntilTrial(), int(PassBudget::kFirstTrialBackoff));
     EXPECT_EQ(b.batches(), 1u);
+    b.record(true, 1.0);
+    b.record(true, 1.0);  // the second trial fails as well
+    ASSERT_EQ(b.period(), 1u);
+    EXPECT_EQ(turnsUntilTrial(), 2 * int(PassBudget::kFirstTrialBackoff));
+    b.record(true, 1.0);
+    b.record(true, 1.0);
+    ASSERT_EQ(b.period(), 1u);
     b.record(false, 1.0);
     b.record(true, 1.0);
-    EXPECT_EQ(b.period(), 2u);
+    EXPECT_EQ(b.period(), 2u) << "a new still view tries at once";
+}
+
+// One unlucky turn does not hold a still view at a short period: frames that pay for turns once
+// the noise is gone reach the period at which they fit the budget.
+TEST(PassBudget, ATrialUndoneByNoiseIsTriedAgain) {
+    PassBudget b(0.02);
+    const double shooting = 0.6;  // one batch per set: 30 budgets, spread over the turns
+    b.record(true, shooting);
+    ASSERT_EQ(b.period(), 2u);
+    for (uint32_t i = 0; i < 2; ++i) b.record(true, shooting);  // a hiccup: no gain
+    ASSERT_EQ(b.period(), 1u);
+    for (int i = 0; i < 400; ++i) b.record(true, shooting / double(b.period()));
+    EXPECT_EQ(b.period(), 32u) << "0.6 s / 32 = 19 ms fits the 20 ms budget";
 }
 
 TEST(PassBudget, TakingTurnsEverySetShootsOncePerPeriod) {
