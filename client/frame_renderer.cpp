@@ -285,6 +285,7 @@ RenderedFrame FrameRenderer::render(const proto::FrameBegin& fb, std::chrono::st
         fd.errorSigma = sp->error.sigma;
         fd.errorRadiance = sp->error.radiance;
         fd.errorPixels = uint32_t(sp->error.pixels);
+        fd.errorBatches = sp->error.batches;
         fd.shotBatches = sp->shot.batches;
         fd.shot = bridge::toWire(sp->shot.photons);
     });

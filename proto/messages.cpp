@@ -146,6 +146,7 @@ void putPayload(Writer& w, const FrameData& m) {
     w.f64(m.errorSigma);
     w.f64(m.errorRadiance);
     w.u32(m.errorPixels);
+    w.f64(m.errorBatches);
     w.u32(m.shotBatches);
     putPhotons(w, m.shot);
 }
@@ -452,10 +453,9 @@ void get(Reader& r, FrameData& m) {
     inRange(r, unchanged, 0, 1, "frameData.unchanged");
     m.unchanged = unchanged != 0;
     r.u64(m.sameAs);
-    if (r.ok() && (m.unchanged ? !(m.sameAs < m.frame) : m.sameAs != 0))
-        r.fail(ErrorCode::BadValue, "frameData.sameAs: " + std::to_string(m.sameAs) +
-                                        (m.unchanged ? " is not a frame before " + std::to_string(m.frame)
-                                                     : " without unchanged pixels (must be 0)"));
+    const std::string sameAs = "frameData.sameAs: " + std::to_string(m.sameAs);
+    if (r.ok() && m.unchanged && !(m.sameAs < m.frame)) r.fail(ErrorCode::BadValue, sameAs + " is not an earlier frame");
+    if (r.ok() && !m.unchanged && m.sameAs != 0) r.fail(ErrorCode::BadValue, sameAs + " without unchanged pixels");
     // Check the announced length against the pixel count before copying anything.
     uint32_t len = 0;
     if (!r.count(len, payloadLimit(MessageType::FrameData), 1, "frameData.pixels")) return;
@@ -479,8 +479,8 @@ void get(Reader& r, FrameData& m) {
     r.f64Finite(m.errorSigma, "frameData.errorSigma");
     r.f64Finite(m.errorRadiance, "frameData.errorRadiance");
     r.u32(m.errorPixels);
-    if (r.ok() && (m.errorSigma < 0.0 || m.errorRadiance < 0.0))
-        r.fail(ErrorCode::BadValue, "frameData.error figures must be >= 0");
+    r.f64Finite(m.errorBatches, "frameData.errorBatches");
+    if (r.ok() && std::min({m.errorSigma, m.errorRadiance, m.errorBatches}) < 0.0) r.fail(ErrorCode::BadValue, "frameData.error figures must be >= 0");
     inRange(r, m.errorPixels, 0, m.pixelCount, "frameData.errorPixels");
     r.u32(m.shotBatches);
     inRange(r, m.shotBatches, 0, kMaxPassBatches, "frameData.shotBatches");

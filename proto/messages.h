@@ -244,6 +244,7 @@ struct FrameData {
     double errorSigma = 0.0;     ///< Σ σ over the set's caustic region (finite, ≥ 0)
     double errorRadiance = 0.0;  ///< Σ radiance over the same pixels (finite, ≥ 0)
     uint32_t errorPixels = 0;    ///< pixels in it, ≤ pixelCount
+    double errorBatches = 0.0;   ///< version 10: the set's own batches in its estimate (finite, ≥ 0)
     /// Version 5: the photons the set shot this frame (shotBatches whole batches; 0 and none for
     /// the knn estimator), which the master forwards to every client two frames later.
     uint32_t shotBatches = 0;

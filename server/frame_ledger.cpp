@@ -87,10 +87,11 @@ std::pair<OutputJob, ViewerFrame> FrameLedger::retire(const RetiredFrame& r, Tim
     CausticErrorSums error;
     for (const proto::FrameData& d : info.data) {
         passes = std::min(passes, d.passes);
-        error += CausticErrorSums{d.errorSigma, d.errorRadiance, d.errorPixels};
+        error += CausticErrorSums{d.errorSigma, d.errorRadiance, d.errorPixels, d.errorBatches};
     }
     // Only a frame every set arrived for says how the whole image stands.
     job.errorEstimate = r.missing.empty() ? causticErrorEstimate(error) : 0.0;
+    job.estimateBatches = r.missing.empty() ? error.batches : 0.0;
     job.passBatches = info.passBatches;
     job.passPeriod = info.passPeriod;
     job.cameraStill = info.still;

@@ -138,7 +138,7 @@ OutputResult ImageOutput::process(OutputJob& job) {
     // composed before: filtering it again would give the same bits.
     if (!composed_) image_.filterAndCompose(opt_.filter);
     composed_ = true;
-    const double change = change_.add(job.mode == proto::FrameMode::Converging, job.passPeriod,
+    const double change = change_.add(job.mode == proto::FrameMode::Converging, job.passPeriod, job.estimateBatches,
                                       image_.causticFiltered(), image_.width(), image_.height());
     result.errorEstimate = shownErrorFigure(job.errorEstimate, change);
     result.masterMs = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();

@@ -56,6 +56,9 @@ struct OutputJob {
     std::string saveAs;  ///< also write this frame to this EXR path (PNG beside it); empty = no
     bool last = false;   ///< write opt.out after this frame
     double errorEstimate = 0.0;  ///< progressive: the caustic's estimated relative error (0 = none)
+    /// Progressive: Σ over the sets of the batches in their estimates (0 = unknown: not every
+    /// set arrived), how far the progression went (shown_change.h).
+    double estimateBatches = 0.0;
     uint32_t passBatches = 1;    ///< batches per set this frame's progressive passes shot
     uint32_t passPeriod = 1;     ///< the sets took turns: one pass in this many shot (pass_budget.h)
     bool cameraStill = false;    ///< the frame's camera was the previous frame's (Convergence)
@@ -71,7 +74,7 @@ struct OutputResult {
     bool writeFailed = false;
     uint64_t clampedValues = 0;  ///< decoded radiance values above kMaxPixelRadiance, clamped
     /// The caustic's estimated relative error as shown and written: the shown caustic's change
-    /// since half the progression's frames (shown_change.h) where the job's own figure
+    /// since half the progression's photons (shown_change.h) where the job's own figure
     /// (OutputJob::errorEstimate) is known; that figure until then; 0 = none.
     double errorEstimate = 0.0;
     /// FrameData of unchanged pixels (FrameData::unchanged) whose frame's pixels this stage did not

@@ -266,11 +266,11 @@ int run(int argc, char** argv) {
         if (!st.converging && !st.walkthrough && passPeriod == 1) budget.expectShooting(st.shootSeconds);
         budget.record(st.converging, totalMs * 1e-3);
         accumulation.record(knn && f > 0 && !st.walkthrough, totalMs * 1e-3);
-        // The shown caustic's change since half the progression's frames (shown_change.h), where
+        // The shown caustic's change since half the progression's photons (shown_change.h), where
         // the progressive estimator composed this frame; its own figure until that is known.
         const double own = causticErrorEstimate(st.error);
-        const double change = shownChange.add(st.converging, passPeriod, image.causticFiltered(), image.width(),
-                                              image.height());
+        const double change = shownChange.add(st.converging, passPeriod, st.error.batches, image.causticFiltered(),
+                                              image.width(), image.height());
         const double estimate = shownErrorFigure(own, change);
         uint64_t productive = 0;
         for (uint32_t s : sets) productive += job.photons().stats(s).productivePaths;

@@ -1,4 +1,4 @@
-// ShownChange: the shown caustic's change since half the progression's frames (shown_change.h).
+// ShownChange: the shown caustic's change since half the progression's photons (shown_change.h).
 #include "common/image/shown_change.h"
 
 #include <algorithm>
@@ -15,7 +15,8 @@ bool ShownChange::kept(uint64_t n) {
     return n < 8;
 }
 
-double ShownChange::add(bool converging, uint32_t period, std::span<const float> caustic, int width, int height) {
+double ShownChange::add(bool converging, uint32_t period, double work, std::span<const float> caustic, int width,
+                        int height) {
     RTPM_CHECK(caustic.size() == size_t(width) * size_t(height) * 3);
     if (!converging || frame_ == 0 || width != width_ || height != height_) {
         width_ = width;
@@ -25,17 +26,20 @@ double ShownChange::add(bool converging, uint32_t period, std::span<const float>
         images_.clear();
     }
     const uint64_t n = ++frame_;
-    if (!kept(n)) return figure_;
-    if (n >= 2 && n % 2 == 0 && n / 2 >= uint64_t(std::max<uint32_t>(period, 1))) {
-        const auto half = std::find_if(images_.begin(), images_.end(), [&](const auto& i) { return i.first == n / 2; });
-        if (half != images_.end()) {
-            const ErrorMetrics m = compareRgb(caustic, half->second, caustic, width, height);
-            if (m.caustic.pixels > 0 && std::isfinite(m.caustic.relMae)) figure_ = m.caustic.relMae;
-        }
+    if (!kept(n) || !(work > 0.0) || !std::isfinite(work)) return figure_;
+    // The half: the kept image with the most work at most half this one's, `period` frames back.
+    const double half = 0.5 * work;
+    const Kept* best = nullptr;
+    for (const Kept& k : images_)
+        if (k.work <= half && n - k.frame >= uint64_t(std::max<uint32_t>(period, 1)) && (!best || k.work > best->work))
+            best = &k;
+    if (best && best->work >= kHalfTolerance * half) {
+        const ErrorMetrics m = compareRgb(caustic, best->image, caustic, width, height);
+        if (m.caustic.pixels > 0 && std::isfinite(m.caustic.relMae)) figure_ = m.caustic.relMae;
     }
-    // No later kept frame m > n takes a half below n/2 + 1 (m/2 > n/2).
-    std::erase_if(images_, [&](const auto& i) { return 2 * i.first <= n; });
-    images_.emplace_back(n, std::vector<float>(caustic.begin(), caustic.end()));
+    // Work never falls within a progression: no later frame takes a half below this one's.
+    std::erase_if(images_, [&](const Kept& k) { return k.work < kHalfTolerance * half; });
+    images_.push_back(Kept{n, work, std::vector<float>(caustic.begin(), caustic.end())});
     return figure_;
 }
 

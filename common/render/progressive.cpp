@@ -317,6 +317,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
     std::vector<float> lum(out.size());
     for (size_t p = 0; p < out.size(); ++p) lum[p] = float(luminance(out[p].caustic));
     error_ = CausticErrorSums{};
+    error_.batches = batches_;
     if (lum.empty()) return;
     std::vector<float> sorted = lum;
     const size_t k99 = std::min(sorted.size() - 1, size_t(0.99 * double(sorted.size())));

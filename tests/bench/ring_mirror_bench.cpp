@@ -160,7 +160,8 @@ int converge(const Options& o) {
         image.filterAndCompose(rs.filterSize());
         // The error figure rtpm-render prints (render_main.cpp, common/image/shown_change.h).
         const double own = causticErrorEstimate(st.error);
-        const double changed = change.add(st.converging, passPeriod, image.causticFiltered(), rs.width, rs.height);
+        const double changed = change.add(st.converging, passPeriod, st.error.batches, image.causticFiltered(), rs.width,
+                                          rs.height);
         const double estimate = shownErrorFigure(own, changed);
         const bool report = (f & (f - 1)) == 0 || f % 16 == 0 || last;
         if (!report) continue;

@@ -64,7 +64,7 @@ inline Convergence renderConvergence(Scene scene, const RenderSettings& rs, cons
         std::vector<float> shown = image.causticFiltered();
         // The error figure as rtpm-render prints it (render_main.cpp).
         const double own = causticErrorEstimate(st.error);
-        const double changed = change.add(st.converging, 1, shown, rs.width, rs.height);
+        const double changed = change.add(st.converging, 1, st.error.batches, shown, rs.width, rs.height);
         double total = 0.0, totalRef = 0.0, dark = 0.0;
         for (size_t p = 0; p < ref.mask.size(); ++p)
             for (int c = 0; c < 3; ++c) {

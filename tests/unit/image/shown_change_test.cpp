@@ -39,51 +39,81 @@ TEST(ShownChange, KeepsFourFramesPerDoubling) {
 
 TEST(ShownChange, ComparesAKeptFrameWithItsHalfAndHoldsTheFigureBetween) {
     ShownChange change;
-    EXPECT_EQ(change.add(false, 1, frame(1), kW, kH), 0.0) << "a first frame has no half";
+    EXPECT_EQ(change.add(false, 1, double(1), frame(1), kW, kH), 0.0) << "a first frame has no half";
+    // One batch a frame: frame n's half is the last kept frame m ≤ n/2, if m ≥ 2^-1/4 · n/2.
+    auto halfOf = [](uint64_t n) -> uint64_t {
+        uint64_t m = n / 2;
+        while (m > 0 && !ShownChange::kept(m)) --m;
+        return m > 0 && double(m) >= ShownChange::kHalfTolerance * 0.5 * double(n) ? m : 0;
+    };
+    uint64_t lastN = 0, lastHalf = 0;
     for (uint64_t n = 2; n <= 40; ++n) {
-        const double figure = change.add(true, 1, frame(n), kW, kH);
+        const double figure = change.add(true, 1, double(n), frame(n), kW, kH);
         EXPECT_EQ(change.frame(), n);
-        uint64_t last = n;  // the last kept even frame up to n
-        while (!(ShownChange::kept(last) && last % 2 == 0)) --last;
-        EXPECT_DOUBLE_EQ(figure, changeBetween(last, last / 2)) << "frame " << n;
+        if (ShownChange::kept(n) && halfOf(n) > 0) {
+            lastN = n;
+            lastHalf = halfOf(n);
+        }
+        ASSERT_GT(lastN, 0u);
+        EXPECT_DOUBLE_EQ(figure, changeBetween(lastN, lastHalf)) << "frame " << n;
         EXPECT_GT(figure, 0.0);
     }
+    EXPECT_EQ(lastHalf, 20u) << "frame 40's half";
 }
 
 TEST(ShownChange, ANewProgressionStartsAgain) {
     ShownChange change;
-    change.add(false, 1, frame(1), kW, kH);
-    change.add(true, 1, frame(2), kW, kH);
+    change.add(false, 1, double(1), frame(1), kW, kH);
+    change.add(true, 1, double(2), frame(2), kW, kH);
     EXPECT_GT(change.figure(), 0.0);
     // A moving frame: the next still frame is a progression's first again, with no figure.
-    EXPECT_EQ(change.add(false, 1, frame(1), kW, kH), 0.0);
+    EXPECT_EQ(change.add(false, 1, double(1), frame(1), kW, kH), 0.0);
     EXPECT_EQ(change.frame(), 1u);
-    EXPECT_DOUBLE_EQ(change.add(true, 1, frame(2), kW, kH), changeBetween(2, 1));
+    EXPECT_DOUBLE_EQ(change.add(true, 1, double(2), frame(2), kW, kH), changeBetween(2, 1));
 }
 
 TEST(ShownChange, WaitsUntilEverySetTookATurnSinceTheHalf) {
-    // Sets take turns of 4 frames: frame n is compared with n/2 only once n/2 ≥ 4 frames lie
+    // Sets take turns of 4 frames: frame n is compared with its half only once 4 frames lie
     // between, else a set that has not shot since would show no change.
     ShownChange change;
-    change.add(false, 4, frame(1), kW, kH);
-    for (uint64_t n = 2; n <= 7; ++n) EXPECT_EQ(change.add(true, 4, frame(n), kW, kH), 0.0) << "frame " << n;
-    EXPECT_DOUBLE_EQ(change.add(true, 4, frame(8), kW, kH), changeBetween(8, 4));
+    change.add(false, 4, double(1), frame(1), kW, kH);
+    for (uint64_t n = 2; n <= 6; ++n) EXPECT_EQ(change.add(true, 4, double(n), frame(n), kW, kH), 0.0) << "frame " << n;
+    EXPECT_DOUBLE_EQ(change.add(true, 4, double(7), frame(7), kW, kH), changeBetween(7, 3));
+    EXPECT_DOUBLE_EQ(change.add(true, 4, double(8), frame(8), kW, kH), changeBetween(8, 4));
+}
+
+// Where photons grow more slowly than frames (the sets take turns; a restart from a map of many
+// batches), the half is the kept image with half the photons, not half the frames.
+TEST(ShownChange, TheHalfIsHalfThePhotonsNotHalfTheFrames) {
+    ShownChange change;
+    auto work = [](uint64_t n) { return 8.0 + double(n); };  // 8 batches at the restart, one a frame
+    change.add(false, 1, work(1), frame(1), kW, kH);
+    for (uint64_t n = 2; n <= 9; ++n)
+        EXPECT_EQ(change.add(true, 1, work(n), frame(n), kW, kH), 0.0) << "frame " << n << ": no image of half its work";
+    // Frame 10 holds 18 batches: frame 1's 9 are half (frame 5's 13 would be half the frames).
+    EXPECT_DOUBLE_EQ(change.add(true, 1, work(10), frame(10), kW, kH), changeBetween(10, 1));
+    for (uint64_t n = 11; n <= 24; ++n) change.add(true, 1, work(n), frame(n), kW, kH);
+    // Frame 24 (32 batches) against frame 8 (16), not frame 12.
+    EXPECT_DOUBLE_EQ(change.figure(), changeBetween(24, 8));
+    // A frame whose work is not known (a set missing) is counted, not kept or compared.
+    EXPECT_DOUBLE_EQ(change.add(true, 1, 0.0, frame(1), kW, kH), changeBetween(24, 8));
+    EXPECT_EQ(change.frame(), 25u);
 }
 
 TEST(ShownChange, AnotherImageSizeStartsAgain) {
     ShownChange change;
-    change.add(false, 1, frame(1), kW, kH);
-    change.add(true, 1, frame(2), kW, kH);
+    change.add(false, 1, double(1), frame(1), kW, kH);
+    change.add(true, 1, double(2), frame(2), kW, kH);
     const std::vector<float> other(size_t(kW) * 2 * kH * 3, 1.0f);
-    EXPECT_EQ(change.add(true, 1, other, kW * 2, kH), 0.0);
+    EXPECT_EQ(change.add(true, 1, 2.0, other, kW * 2, kH), 0.0);
     EXPECT_EQ(change.frame(), 1u);
 }
 
 TEST(ShownChange, NoCausticNoFigure) {
     ShownChange change;
     const std::vector<float> dark(size_t(kW) * kH * 3, 0.0f);
-    change.add(false, 1, dark, kW, kH);
-    EXPECT_EQ(change.add(true, 1, dark, kW, kH), 0.0);
+    change.add(false, 1, 1.0, dark, kW, kH);
+    EXPECT_EQ(change.add(true, 1, 2.0, dark, kW, kH), 0.0);
 }
 
 TEST(ShownChange, TheFigureShownIsTheChangeWhereTheEstimatorComposedAndAChangeIsKnown) {

@@ -228,7 +228,7 @@ TEST(Messages, UnchangedPixelsRoundTripAndInconsistentOnesAreRefused) {
     auto back = decodeMessage(encode(fd));
     ASSERT_TRUE(back.ok()) << back.error().message;
     EXPECT_EQ(std::get<FrameData>(*back), fd);
-    EXPECT_EQ(encode(fd).size(), kHeaderBytes + 8 + 4 + 1 + 4 + 1 + 8 + 4 + 4 + 4 + 8 + 8 + 4 + 4 + 4);
+    EXPECT_EQ(encode(fd).size(), kHeaderBytes + 8 + 4 + 1 + 4 + 1 + 8 + 4 + 4 + 4 + 8 + 8 + 4 + 8 + 4 + 4);
     FrameData bad = fd;
     bad.pixels.assign(48, 0);
     reject(bad, ErrorCode::BadValue);
