@@ -23,6 +23,13 @@ std::string hex(std::span<const uint8_t> b) {
     return s;
 }
 
+// A message that must be refused with `code`.
+void expectRefused(const Message& m, ErrorCode code) {
+    auto r = decodeMessage(encode(m));
+    ASSERT_FALSE(r.ok()) << "type " << static_cast<int>(typeOf(m));
+    EXPECT_EQ(r.error().code, code) << r.error().message;
+}
+
 TEST(Messages, EveryTypeRoundTrips) {
     std::vector<bool> seen(kMaxMessageType + 1, false);
     for (const Message& m : testing::sampleMessages()) {
@@ -210,11 +217,7 @@ TEST(Messages, SharedPhotonsRoundTripAndHostileOnesAreRefused) {
 // a FrameData that says so with pixels or own weights, names no earlier frame, or names one
 // without saying so is refused.
 TEST(Messages, UnchangedPixelsRoundTripAndInconsistentOnesAreRefused) {
-    auto reject = [](const FrameData& m, ErrorCode code) {
-        auto r = decodeMessage(encode(m));
-        ASSERT_FALSE(r.ok());
-        EXPECT_EQ(r.error().code, code) << r.error().message;
-    };
+    const auto reject = expectRefused;
     FrameData fd;
     fd.frame = 9;
     fd.set = 4;
@@ -283,11 +286,7 @@ TEST(Messages, FrameDataClaimingTwoBillionPixelsInTenBytesIsRejected) {
 // Version 4: the own weights are absent or one byte per pixel, the error figures finite and ≥ 0,
 // passBatches within [1, kMaxPassBatches]; version 6: passPeriod within [1, kMaxPassPeriod].
 TEST(Messages, ProgressiveFieldsAreValidated) {
-    auto reject = [](const Message& m, ErrorCode code) {
-        auto r = decodeMessage(encode(m));
-        ASSERT_FALSE(r.ok()) << "type " << static_cast<int>(typeOf(m));
-        EXPECT_EQ(r.error().code, code) << r.error().message;
-    };
+    const auto reject = expectRefused;
     FrameData fd;
     fd.frame = 1;
     fd.set = 0;
