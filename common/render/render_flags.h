@@ -83,8 +83,8 @@ inline void addConvergenceFlags(CLI::App& app, ConvergenceFlags& flags) {
                    "set off its turn shows its last pixels and bins the photons shared meanwhile at its "
                    "next turn), so the view keeps about 1000/budget updates a second (and the master "
                    "keeps a faster motion's frame time after it); an orbit over a growing map takes turns "
-                   "beyond four budgets; 0 = one batch per pass, no turns (the frames then do not depend "
-                   "on the machine's speed)")
+                   "beyond 200 ms (or four budgets if more); 0 = one batch per pass, no turns (the frames "
+                   "then do not depend on the machine's speed)")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 60000.0))
         ->group("estimator");
