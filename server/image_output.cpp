@@ -82,18 +82,18 @@ OutputResult ImageOutput::process(OutputJob& job) {
     OutputResult result;
     std::vector<std::string> errors(job.data.size());
     std::vector<uint64_t> clamped(job.data.size(), 0);
-    std::vector<uint8_t> repeated(job.data.size(), 0);
+    std::vector<uint8_t> unchanged(job.data.size(), 0);  // nothing to decode or scatter
     for (size_t i = 0; i < job.data.size(); ++i) {
         const proto::FrameData& d = job.data[i];
         if (!d.unchanged) continue;
-        repeated[i] = 1;
+        unchanged[i] = 1;
         const Scattered& last = scattered_[d.set];
         if (!(last.valid && last.frame == d.sameAs && last.pixelCount == d.pixelCount)) ++result.unmatchedUnchanged;
     }
     // Decoding is the master's heaviest step: sets decode in parallel, each straight into its
     // own radiance buffer (a set appears once per frame); scatter stays serial (FrameImage contract).
     tbb::parallel_for(size_t(0), job.data.size(), [&](size_t i) {
-        if (repeated[i]) return;
+        if (unchanged[i]) return;
         const proto::FrameData& d = job.data[i];
         std::vector<PixelRadiance>& rad = radiance_[d.set];
         rad.resize(d.pixelCount);
@@ -118,7 +118,7 @@ OutputResult ImageOutput::process(OutputJob& job) {
         }
     for (size_t i = 0; i < job.data.size(); ++i) {
         const proto::FrameData& d = job.data[i];
-        if (repeated[i]) continue;
+        if (unchanged[i]) continue;
         Scattered& last = scattered_[d.set];
         last.valid = false;
         if (!errors[i].empty()) {

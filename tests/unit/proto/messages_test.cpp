@@ -30,6 +30,16 @@ void expectRefused(const Message& m, ErrorCode code) {
     EXPECT_EQ(r.error().code, code) << r.error().message;
 }
 
+// A FrameData of `pixels` Float32 pixels of set `set` in frame `frame` (pixels and the rest empty).
+FrameData floatFrame(uint64_t frame, uint32_t set, uint32_t pixels) {
+    FrameData fd;
+    fd.frame = frame;
+    fd.set = set;
+    fd.encoding = PixelEncoding::Float32;
+    fd.pixelCount = pixels;
+    return fd;
+}
+
 TEST(Messages, EveryTypeRoundTrips) {
     std::vector<bool> seen(kMaxMessageType + 1, false);
     for (const Message& m : testing::sampleMessages()) {
@@ -188,11 +198,7 @@ TEST(Messages, SharedPhotonsRoundTripAndHostileOnesAreRefused) {
     bad.shared[0].set = kMaxSets;
     reject(bad, ErrorCode::BadValue);
 
-    FrameData fd;
-    fd.frame = 9;
-    fd.set = 4;
-    fd.encoding = PixelEncoding::Float32;
-    fd.pixelCount = 1;
+    FrameData fd = floatFrame(9, 4, 1);
     fd.pixels.assign(24, 0);
     fd.shotBatches = 3;
     fd.shot = {p, p, p};
@@ -218,11 +224,7 @@ TEST(Messages, SharedPhotonsRoundTripAndHostileOnesAreRefused) {
 // without saying so is refused.
 TEST(Messages, UnchangedPixelsRoundTripAndInconsistentOnesAreRefused) {
     const auto reject = expectRefused;
-    FrameData fd;
-    fd.frame = 9;
-    fd.set = 4;
-    fd.encoding = PixelEncoding::Float32;
-    fd.pixelCount = 2;
+    FrameData fd = floatFrame(9, 4, 2);
     fd.unchanged = true;
     fd.sameAs = 5;
     fd.errorSigma = 0.5;
@@ -287,11 +289,7 @@ TEST(Messages, FrameDataClaimingTwoBillionPixelsInTenBytesIsRejected) {
 // passBatches within [1, kMaxPassBatches]; version 6: passPeriod within [1, kMaxPassPeriod].
 TEST(Messages, ProgressiveFieldsAreValidated) {
     const auto reject = expectRefused;
-    FrameData fd;
-    fd.frame = 1;
-    fd.set = 0;
-    fd.encoding = PixelEncoding::Float32;
-    fd.pixelCount = 2;
+    FrameData fd = floatFrame(1, 0, 2);
     fd.pixels.assign(48, 0);
     fd.ownWeights = {0, 255};
     fd.errorSigma = 0.5;
