@@ -262,12 +262,8 @@ int run(int argc, char** argv) {
         last = st;
         double filterMs = std::chrono::duration<double, std::milli>(tend - tfilter).count();
         double totalMs = std::chrono::duration<double, std::milli>(tend - tf).count();
-        // The still view starts with every set passing, as the knn estimator's Accumulate frames
-        // do, and takes turns only once a whole turn exceeded the budget: no period is predicted
-        // from the first frame's shooting (PassBudget::expectShooting, which the master uses for the
-        // viewer's first still frames after motion). Nobody steers rtpm-render, and its frame
-        // count is what a user compares: on the curved mirror at 320x240 a predicted period of 2
-        // left frames 2 and 4 worse than knn's (0.0906 / 0.0811 against 0.0852 / 0.0732).
+        // No first period predicted from the shooting (PassBudget::expectShooting, the master's,
+        // for the viewer after motion): all sets pass first, as knn's frames (docs/ARCHITECTURE.md).
         budget.record(st.converging, totalMs * 1e-3);
         accumulation.record(knn && f > 0 && !st.walkthrough, totalMs * 1e-3);
         // The shown caustic's change since half the progression's photons (shown_change.h), where

@@ -34,13 +34,16 @@ double disc2(double outer2, int j) { return outer2 * kDiscScale[size_t(j)]; }
 thread_local std::vector<FoundPhoton> found;
 
 // The blur of a disc relative to its estimate e (n photons), from the step to the disc just
-// inside it (e', n'; Choice::drift), with the step's own noise taken out in quadrature: for
-// Poisson counts Var(e − e')/e² = (n'(1/ρ − 1)² + n − n')/n², ρ = kBinRatio2.
-double drift(double e, double n, double inner, double innerN) {
+// inside it (e', n'; Choice::drift), whose area is rho × this disc's (kBinRatio2 between whole
+// rings), with the step's own noise taken out in quadrature: for Poisson counts
+// Var(e − e')/e² = (n'(1/rho − 1)² + n − n')/n². A step of less than half a ring's (the walk's
+// start disc lay near the next ring's edge) says nothing it could be divided up by: 0.
+double drift(double e, double n, double inner, double innerN, double rho) {
+    if (!(1.0 - rho >= 0.5 * (1.0 - kBinRatio2))) return 0.0;
     const double step = (e - inner) / e;
-    const double a = 1.0 / kBinRatio2 - 1.0;
+    const double a = 1.0 / rho - 1.0;
     const double noise = (innerN * a * a + (n - innerN)) / (n * n);
-    return std::sqrt(std::max(0.0, step * step - noise)) / (1.0 - kBinRatio2);
+    return std::sqrt(std::max(0.0, step * step - noise)) / (1.0 - rho);
 }
 
 }  // namespace
@@ -48,8 +51,8 @@ double drift(double e, double n, double inner, double innerN) {
 void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const double (&noiseScale)[2],
                             double maxCount, Choice (&out)[2]) {
     // E_j ∝ P_j / kBinRatio2^j (the common factor π R₀² B cancels in every comparison), and
-    // σ_j ≈ E_j / √n_j. The walk starts at the smallest disc holding kMinPhotons (a disc with
-    // fewer says too little about its noise to be compared).
+    // σ_j ≈ E_j / √n_j. The walk starts at the disc holding exactly kMinPhotons (a disc with
+    // fewer says too little about its noise to be compared), then takes whole rings.
     glm::dvec3 power(0.0);
     double count = 0.0;
     double lo[2], hi[2];
@@ -60,10 +63,32 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
         out[i] = Choice{active, kDiscScale[size_t(active)], glm::dvec3(0.0), 0.0};
     }
     double previous = 0.0, previousCount = 0.0;  // E and n of the last disc walked
+    double previousScale = 1.0;                  // and its area (Choice::scale)
     double previousDrift = 0.0;                  // and its blur (Choice::drift)
     for (int j = kRadiusBins - 1; j >= active && (open[0] || open[1]); --j) {
         const double scale = 1.0 / kDiscScale[size_t(j)];
         const glm::dvec3 ring(rings.power[3 * j], rings.power[3 * j + 1], rings.power[3 * j + 2]);
+        if (!any && count + rings.count[j] >= kMinPhotons && count < kMinPhotons && j + 1 < kRadiusBins) {
+            // The walk starts at the disc holding exactly kMinPhotons, within ring j (its photons
+            // taken as spread evenly over the ring's area, as where the cap ends the walk): a
+            // start at whole rings jumped from ring to ring as a pixel moved away from a bright
+            // edge, and drew concentric rings around GLASS's spot and in EGG's shadow.
+            const double a = (double(kMinPhotons) - count) / double(rings.count[j]);
+            const double inner = kDiscScale[size_t(j + 1)];
+            const double discScale = inner + a * (kDiscScale[size_t(j)] - inner);
+            const glm::dvec3 p = power + a * ring;
+            const double e = luminance(p) / discScale;
+            const double sd = e / std::sqrt(double(kMinPhotons));
+            for (int i = 0; i < 2; ++i) {
+                lo[i] = e - gamma * noiseScale[i] * sd;
+                hi[i] = e + gamma * noiseScale[i] * sd;
+                out[i] = Choice{j + 1, discScale, p, double(kMinPhotons), 0.0};
+            }
+            previous = e;
+            previousCount = double(kMinPhotons);
+            previousScale = discScale;
+            any = true;
+        }
         if (any && count + rings.count[j] > maxCount) {
             // The cap ends the walk inside ring j: the disc holding exactly maxCount photons, the
             // ring's photons taken as spread evenly over its area, if the rule still admits it.
@@ -87,7 +112,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
         if (!any && count < kMinPhotons && j > active) continue;
         const double e = luminance(power) * scale;
         const double sd = count > 0.0 ? e / std::sqrt(count) : 0.0;
-        const double blur = any && e > 0.0 ? drift(e, count, previous, previousCount) : 0.0;
+        const double blur = any && e > 0.0 ? drift(e, count, previous, previousCount, previousScale / kDiscScale[size_t(j)]) : 0.0;
         for (int i = 0; i < 2; ++i) {
             if (!open[i]) continue;
             const double lo2 = std::max(lo[i], e - gamma * noiseScale[i] * sd);
@@ -102,6 +127,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
         }
         previous = e;
         previousCount = count;
+        previousScale = kDiscScale[size_t(j)];
         previousDrift = blur;
         any = true;
     }

@@ -79,11 +79,15 @@ TEST(ProgressiveEstimator, ErrorDoesNotDependOnHowPhotonsAreSplitIntoPasses) {
 }
 
 // Defaults (M = 3, the box filter and own weights, SPT): the caustic's total over the receiver
-// (the pixels the reference covers) stays within 2 % of what the knn estimator shows from the
-// same photons at every frame: choosing discs per pixel moves light between pixels but neither
-// loses nor makes any. (Against the analytic total both show 5-8 % more inside the compared
-// region, the same at every photon count: light the renderer's mesh mirror sends there that the
-// smooth analytic mirror does not.) The error is no worse than knn's and falls meanwhile.
+// (the pixels the reference covers) against the analytic total. A gather estimator does not keep
+// the photons' total over a fold caustic: a pixel beside the fold line counts the fold's photons
+// that the pixels on it count too. Both estimators show more than arrives; the default must show
+// no more than knn from the same photons, at every frame, and come within 3 % by frame 24. (The
+// walk used to start at the first whole ring holding kMinPhotons: 1.074 / 1.088 / 1.056 at frames
+// 1 / 4 / 24 against knn's 1.080 / 1.080 / 1.054, and the earlier form of this test, within 2 %
+// of knn's, passed on that shared excess; now 1.055 / 1.057 / 1.019. Over the whole image, where
+// knn's wide discs draw halos around every bright edge, the default shows 1-3 % less than knn.)
+// The error is no worse than knn's and falls meanwhile.
 TEST(ProgressiveEstimator, EnergyStaysOnTheReceiverAtEveryFrame) {
     const Convergence run = render(small(), 24);
     RenderSettings knn = small();
@@ -92,9 +96,10 @@ TEST(ProgressiveEstimator, EnergyStaysOnTheReceiverAtEveryFrame) {
     for (size_t f = 0; f < run.energy.size(); ++f) {
         std::printf("frame %2zu: rel. MAE %.4f (knn %.4f), energy %.4f (knn %.4f), estimate %.4f\n", f + 1,
                     run.relMae[f], reference.relMae[f], run.energy[f], reference.energy[f], run.estimate[f]);
-        EXPECT_NEAR(run.energy[f] / reference.energy[f], 1.0, 0.02) << "frame " << f + 1;
+        EXPECT_LE(std::abs(run.energy[f] - 1.0), std::abs(reference.energy[f] - 1.0)) << "frame " << f + 1;
         EXPECT_LE(run.relMae[f], reference.relMae[f]) << "frame " << f + 1 << ": worse than knn";
     }
+    EXPECT_NEAR(run.energy.back(), 1.0, 0.03);
     EXPECT_LT(run.relMae.back(), 0.75 * run.relMae.front());
 }
 
