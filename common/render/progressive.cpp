@@ -46,6 +46,15 @@ double drift(double e, double n, double inner, double innerN, double rho) {
     return std::sqrt(std::max(0.0, step * step - noise)) / (1.0 - rho);
 }
 
+// The number of equal-power photons whose estimate is as noisy as that of photons of luminance
+// sum `sum` and sum of squared luminances `sum2`: (Σw)² / Σw². Photons of one power count as
+// themselves; a disc holding one heavy photon among many light ones (an SPT pilot that hit
+// outside the refined boxes carries up to 1 + R times a refined path's power) counts far fewer,
+// so the rule does not take it for a precise small disc.
+double effectiveCount(double sum, double sum2, double count) {
+    return sum2 > 0.0 ? sum * sum / sum2 : count;
+}
+
 }  // namespace
 
 void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const double (&noiseScale)[2],
@@ -54,7 +63,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
     // σ_j ≈ E_j / √n_j. The walk starts at the disc holding exactly kMinPhotons (a disc with
     // fewer says too little about its noise to be compared), then takes whole rings.
     glm::dvec3 power(0.0);
-    double count = 0.0;
+    double count = 0.0, power2 = 0.0;  // photons, Σ of their squared luminances
     double lo[2], hi[2];
     bool open[2] = {true, true}, any = false;
     for (int i = 0; i < 2; ++i) {
@@ -62,7 +71,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
         hi[i] = std::numeric_limits<double>::infinity();
         out[i] = Choice{active, kDiscScale[size_t(active)], glm::dvec3(0.0), 0.0};
     }
-    double previous = 0.0, previousCount = 0.0;  // E and n of the last disc walked
+    double previous = 0.0, previousCount = 0.0;  // E and effective n of the last disc walked
     double previousScale = 1.0;                  // and its area (Choice::scale)
     double previousDrift = 0.0;                  // and its blur (Choice::drift)
     for (int j = kRadiusBins - 1; j >= active && (open[0] || open[1]); --j) {
@@ -77,15 +86,16 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             const double inner = kDiscScale[size_t(j + 1)];
             const double discScale = inner + a * (kDiscScale[size_t(j)] - inner);
             const glm::dvec3 p = power + a * ring;
+            const double n = effectiveCount(luminance(p), power2 + a * double(rings.power2[j]), kMinPhotons);
             const double e = luminance(p) / discScale;
-            const double sd = e / std::sqrt(double(kMinPhotons));
+            const double sd = e / std::sqrt(n);
             for (int i = 0; i < 2; ++i) {
                 lo[i] = e - gamma * noiseScale[i] * sd;
                 hi[i] = e + gamma * noiseScale[i] * sd;
-                out[i] = Choice{j + 1, discScale, p, double(kMinPhotons), 0.0};
+                out[i] = Choice{j + 1, discScale, p, double(kMinPhotons), 0.0, n};
             }
             previous = e;
-            previousCount = double(kMinPhotons);
+            previousCount = n;
             previousScale = discScale;
             any = true;
         }
@@ -96,23 +106,27 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             const double inner = kDiscScale[size_t(j + 1)];
             const double scaleA = inner + a * (kDiscScale[size_t(j)] - inner);
             const glm::dvec3 p = power + a * ring;
+            const double n = effectiveCount(luminance(p), power2 + a * double(rings.power2[j]), maxCount);
             const double e = luminance(p) / scaleA;
-            const double sd = e / std::sqrt(maxCount);
+            const double sd = e / std::sqrt(n);
             for (int i = 0; i < 2 && a > 0.0; ++i) {
                 if (!open[i]) continue;
                 if (std::max(lo[i], e - gamma * noiseScale[i] * sd) > std::min(hi[i], e + gamma * noiseScale[i] * sd))
                     continue;
                 // Its blur: the inner disc's, grown with the area (a kernel's bias grows as r²).
-                out[i] = Choice{j + 1, scaleA, p, maxCount, previousDrift * scaleA / inner};
+                out[i] = Choice{j + 1, scaleA, p, maxCount, previousDrift * scaleA / inner, n};
             }
             break;
         }
         power += ring;
         count += rings.count[j];
+        power2 += rings.power2[j];
         if (!any && count < kMinPhotons && j > active) continue;
+        const double n = effectiveCount(luminance(power), power2, count);
         const double e = luminance(power) * scale;
-        const double sd = count > 0.0 ? e / std::sqrt(count) : 0.0;
-        const double blur = any && e > 0.0 ? drift(e, count, previous, previousCount, previousScale / kDiscScale[size_t(j)]) : 0.0;
+        const double sd = n > 0.0 ? e / std::sqrt(n) : 0.0;
+        const double rho = previousScale / kDiscScale[size_t(j)];
+        const double blur = any && e > 0.0 ? drift(e, n, previous, previousCount, rho) : 0.0;
         for (int i = 0; i < 2; ++i) {
             if (!open[i]) continue;
             const double lo2 = std::max(lo[i], e - gamma * noiseScale[i] * sd);
@@ -123,10 +137,10 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             }
             lo[i] = lo2;
             hi[i] = hi2;
-            out[i] = Choice{j, kDiscScale[size_t(j)], power, count, blur};
+            out[i] = Choice{j, kDiscScale[size_t(j)], power, count, blur, n};
         }
         previous = e;
-        previousCount = count;
+        previousCount = n;
         previousScale = kDiscScale[size_t(j)];
         previousDrift = blur;
         any = true;
@@ -150,10 +164,13 @@ void ProgressiveSet::bin(Rings& rings, float outer2, int active, std::span<const
         local.power[3 * j + 1] += p.power.y;
         local.power[3 * j + 2] += p.power.z;
         local.count[j] += 1.0f;
+        const float w = 0.2126f * p.power.x + 0.7152f * p.power.y + 0.0722f * p.power.z;
+        local.power2[j] += w * w;
     }
     for (int j = active; j < kRadiusBins; ++j) {
         for (int c = 0; c < 3; ++c) rings.power[3 * j + c] += local.power[3 * j + c];
         rings.count[j] += local.count[j];
+        rings.power2[j] += local.power2[j];
     }
 }
 
@@ -289,7 +306,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                     const double area = kPi * double(s.outer2) * c[i].scale * batches;
                     const glm::dvec3 value = weight * (c[i].power / area);
                     // Noise and the blur the rule saw, added in quadrature.
-                    const double rel = c[i].count > 0.0 ? 1.0 / c[i].count + c[i].drift * c[i].drift : 0.0;
+                    const double rel = c[i].effective > 0.0 ? 1.0 / c[i].effective + c[i].drift * c[i].drift : 0.0;
                     const double sdv = luminance(value) * std::sqrt(rel);
                     if (i == 0) {
                         caustic += value;

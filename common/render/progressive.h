@@ -7,7 +7,9 @@
 // — over the accumulated map at the restart and over every progressive pass since. With B
 // batches in all, the disc j gives the kernel estimate
 //   E_j = Σ_{r < r_j} Φ_p / (π r_j² B)      with standard deviation  σ_j ≈ E_j / √n_j
-// (n_j photons in the disc, of about equal power), unbiased for the density smoothed over r_j.
+// (n_j the disc's photons weighed by their power, (Σw)²/Σw² for luminances w: the photon count
+// where all carry one power, far fewer where one SPT pilot outside the refined boxes carries up
+// to 1 + R times the others'), unbiased for the density smoothed over r_j.
 // Which disc a pixel shows is chosen when the frame is composed, by the
 // intersection-of-confidence-intervals rule (Goldenshluger & Nemirovski 1997, Katkovnik 1999):
 // from the disc holding exactly kMinPhotons photons outwards, keep E_j ± Γσ_j (Γ wider while
@@ -232,10 +234,14 @@ public:
         /// Poisson noise taken out. A kernel's bias grows as r², so the step from
         /// r'² = kBinRatio2 r² to r² shows 1 − kBinRatio2 of disc j's own bias.
         double drift = 0.0;
+        /// Equal-power photons as noisy as those within it, (Σw)²/Σw² with w a photon's
+        /// luminance: σ ≈ E/√effective (count where every photon carries one power).
+        double effective = 0.0;
     };
     struct Rings {
         std::array<float, kRadiusBins * 3> power{};  ///< Σ power per ring (W summed over batches)
         std::array<float, kRadiusBins> count{};      ///< photons per ring
+        std::array<float, kRadiusBins> power2{};     ///< Σ squared luminance of the photons' power
     };
     /// The intersection-of-confidence-intervals choice over rings `active` … kRadiusBins−1 of a
     /// ladder: the discs' estimates differ only by their area, so the rule needs no radius. σ is

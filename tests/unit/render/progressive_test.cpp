@@ -28,6 +28,7 @@ ProgressiveSet::Rings ringsOf(Density rho) {
         }
         n = std::round(n);
         rings.count[j] = float(n);
+        rings.power2[j] = float(n);  // luminance 1 each
         for (int c = 0; c < 3; ++c) rings.power[3 * j + c] = float(n);
     }
     return rings;
@@ -50,6 +51,24 @@ TEST(ProgressiveChoose, AStepStopsTheDiscBeforeItReachesTheStep) {
     const double radius = std::sqrt(std::pow(kBinRatio2, double(c[0].disc)));
     EXPECT_LE(radius, 0.3 / std::sqrt(kBinRatio2) + 1e-9) << "disc " << c[0].disc;
     EXPECT_GT(radius, 0.3 * kBinRatio2) << "but as wide as the step allows";
+}
+
+// An SPT pilot that hit outside the refined boxes carries up to 1 + R times a refined path's
+// power: one such photon near the query among many light ones is noise, not a bright spot. The
+// rule weighs the photons by their power ((Σw)²/Σw² equal ones), so it widens the disc over it as
+// over a flat density (before: 30 photons counted as 30, and the disc stopped around the heavy
+// one, which showed as a blotch the size of a disc in GLASS's shadow).
+TEST(ProgressiveChoose, OneHeavyPhotonDoesNotPassForManyLightOnes) {
+    auto rings = ringsOf([](double) { return 4000.0; });
+    const int j = 10;  // a small inner disc: about 4000 π 0.57^10 ≈ 50 photons inside disc 10
+    const float heavy = 60.0f;
+    rings.count[j] += 1.0f;
+    rings.power2[j] += heavy * heavy;
+    for (int c = 0; c < 3; ++c) rings.power[3 * j + c] += heavy;
+    ProgressiveSet::Choice c[2];
+    ProgressiveSet::choose(rings, 0, 2.0, kScales, 1e30, c);
+    EXPECT_LE(c[0].disc, 2) << "the heavy photon's noise spread over a wide disc";
+    EXPECT_LT(c[0].effective, 0.8 * c[0].count) << "and its noise counted there";
 }
 
 TEST(ProgressiveChoose, AWiderNoiseScaleNeverTakesANarrowerDisc) {
