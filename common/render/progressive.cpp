@@ -114,7 +114,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
                 if (std::max(lo[i], e - gamma * noiseScale[i] * sd) > std::min(hi[i], e + gamma * noiseScale[i] * sd))
                     continue;
                 // Its blur: the inner disc's, grown with the area (a kernel's bias grows as r²).
-                out[i] = Choice{j + 1, scaleA, p, maxCount, previousDrift * scaleA / inner, n};
+                out[i] = Choice{j + 1, scaleA, p, maxCount, previousDrift * scaleA / inner, n, true};
             }
             break;
         }
@@ -320,8 +320,9 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 }
                 if (h == records_.firstHit[p]) radius = std::sqrt(double(s.outer2) * c[0].scale);
                 const Choice& shown = c[0];
-                // Rings far outside the shown disc are no longer gathered.
-                s.active = std::max(s.active, shown.disc - kActiveMargin);
+                // Rings far outside the shown disc are no longer gathered; none outside the ring
+                // of a capped one (kActiveMargin).
+                s.active = std::max(s.active, shown.capped ? shown.disc - 1 : shown.disc - kActiveMargin);
             }
             if (image_.f > 1 && radius > 0.0) {
                 const double half = 0.5 * double(image_.f) * footprint(p);
