@@ -58,7 +58,7 @@ double effectiveCount(double sum, double sum2, double count) {
 }  // namespace
 
 void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const double (&noiseScale)[2],
-                            double maxCount, Choice (&out)[2]) {
+                            double maxCount, Choice (&out)[2], double powerUnit) {
     // E_j ∝ P_j / kBinRatio2^j (the common factor π R₀² B cancels in every comparison), and
     // σ_j ≈ E_j / √n_j. The walk starts at the disc holding exactly kMinPhotons (a disc with
     // fewer says too little about its noise to be compared), then takes whole rings.
@@ -86,7 +86,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             const double inner = kDiscScale[size_t(j + 1)];
             const double discScale = inner + a * (kDiscScale[size_t(j)] - inner);
             const glm::dvec3 p = power + a * ring;
-            const double n = effectiveCount(luminance(p), power2 + a * double(rings.power2[j]), kMinPhotons);
+            const double n = effectiveCount(luminance(p) / powerUnit, power2 + a * double(rings.power2[j]), kMinPhotons);
             const double e = luminance(p) / discScale;
             const double sd = e / std::sqrt(n);
             for (int i = 0; i < 2; ++i) {
@@ -106,7 +106,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             const double inner = kDiscScale[size_t(j + 1)];
             const double scaleA = inner + a * (kDiscScale[size_t(j)] - inner);
             const glm::dvec3 p = power + a * ring;
-            const double n = effectiveCount(luminance(p), power2 + a * double(rings.power2[j]), maxCount);
+            const double n = effectiveCount(luminance(p) / powerUnit, power2 + a * double(rings.power2[j]), maxCount);
             const double e = luminance(p) / scaleA;
             const double sd = e / std::sqrt(n);
             for (int i = 0; i < 2 && a > 0.0; ++i) {
@@ -122,7 +122,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
         count += rings.count[j];
         power2 += rings.power2[j];
         if (!any && count < kMinPhotons && j > active) continue;
-        const double n = effectiveCount(luminance(power), power2, count);
+        const double n = effectiveCount(luminance(power) / powerUnit, power2, count);
         const double e = luminance(power) * scale;
         const double sd = n > 0.0 ? e / std::sqrt(n) : 0.0;
         const double rho = previousScale / kDiscScale[size_t(j)];
@@ -147,7 +147,8 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
     }
 }
 
-void ProgressiveSet::bin(Rings& rings, float outer2, int active, std::span<const FoundPhoton> photons) {
+void ProgressiveSet::bin(Rings& rings, float outer2, int active, std::span<const FoundPhoton> photons,
+                         float powerUnit) {
     // One pass's photons are summed per ring first, then added to the ring totals: the totals
     // take one addition per pass, not per photon, so float sums stay accurate over many passes.
     // A photon's ring is the number of inner discs it lies inside (r_{j+1}² ≤ d² < r_j²): 19
@@ -157,6 +158,7 @@ void ProgressiveSet::bin(Rings& rings, float outer2, int active, std::span<const
     inner2[0] = 0.0f;  // unused: every photon lies inside the outer disc
     for (int j = 1; j < kRadiusBins; ++j) inner2[j] = float(disc2(outer2, j));
     Rings local;
+    const float inverseUnit = 1.0f / powerUnit;  // squares in units² stay far from float's range
     for (const FoundPhoton& p : photons) {
         int j = 0;
         for (int i = 1; i < kRadiusBins; ++i) j += p.dist2 < inner2[i] ? 1 : 0;
@@ -164,7 +166,7 @@ void ProgressiveSet::bin(Rings& rings, float outer2, int active, std::span<const
         local.power[3 * j + 1] += p.power.y;
         local.power[3 * j + 2] += p.power.z;
         local.count[j] += 1.0f;
-        const float w = 0.2126f * p.power.x + 0.7152f * p.power.y + 0.0722f * p.power.z;
+        const float w = (0.2126f * p.power.x + 0.7152f * p.power.y + 0.0722f * p.power.z) * inverseUnit;
         local.power2[j] += w * w;
     }
     for (int j = active; j < kRadiusBins; ++j) {
@@ -185,6 +187,7 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
     rule_.gamma = maps.settings().progressiveGamma;
     rule_.k = maps.settings().k;
     rule_.pathsPerBatch = maps.settings().photonsPerBatch;
+    powerUnit_ = maps.powerUnit();
     fixedDirect_.resize(out.size());
     for (size_t p = 0; p < out.size(); ++p) fixedDirect_[p] = out[p].direct;
     state_.assign(records_.hits.size(), HitState{});
@@ -230,13 +233,13 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
                     maps.gatherMapPhotons(scene, set, e.hit, e.normal, float(disc2(s.outer2, inner)), found);
                     if (double(found.size()) > capPhotons) {
                         s.active = inner;
-                        bin(s.rings, s.outer2, s.active, found);
+                        bin(s.rings, s.outer2, s.active, found, powerUnit_);
                         continue;
                     }
                     found.clear();
                 }
                 maps.gatherMapPhotons(scene, set, e.hit, e.normal, s.outer2, found);
-                bin(s.rings, s.outer2, s.active, found);
+                bin(s.rings, s.outer2, s.active, found, powerUnit_);
             }
         }
     });
@@ -265,7 +268,7 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
             if (s.sharing)
                 for (const SharedPhotons* frame : shared)
                     s.shared += float(maps.gatherSharedPhotons(scene, *frame, set, e.hit, e.normal, r2, found));
-            bin(s.rings, s.outer2, s.active, found);
+            bin(s.rings, s.outer2, s.active, found, powerUnit_);
             if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, areaSets_, localRays));
         }
         rays += localRays;
@@ -320,7 +323,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 const double scales[2] = {noiseScale, 1.0};
                 Choice c[2];
                 const double paths = batches * double(rule_.pathsPerBatch);
-                choose(s.rings, s.active, earlyGamma(rule_.gamma, paths), scales, maxDiscPhotons(rule_.k, paths), c);
+                choose(s.rings, s.active, earlyGamma(rule_.gamma, paths), scales, maxDiscPhotons(rule_.k, paths), c, powerUnit_);
                 const glm::dvec3 weight = throughput * glm::dvec3(e.albedo) / double(kPi);
                 for (int i = 0; i < (image_.f > 1 ? 2 : 1); ++i) {
                     const double area = kPi * double(s.outer2) * c[i].scale * batches;

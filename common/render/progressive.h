@@ -248,19 +248,23 @@ public:
     struct Rings {
         std::array<float, kRadiusBins * 3> power{};  ///< Σ power per ring (W summed over batches)
         std::array<float, kRadiusBins> count{};      ///< photons per ring
-        std::array<float, kRadiusBins> power2{};     ///< Σ squared luminance of the photons' power
+        /// Σ squared luminance of the photons' power in the maps' power unit (a photon's is < 2
+        /// units, so the squares keep float's range whatever the lights' watts; choose's powerUnit)
+        std::array<float, kRadiusBins> power2{};
     };
     /// The intersection-of-confidence-intervals choice over rings `active` … kRadiusBins−1 of a
     /// ladder: the discs' estimates differ only by their area, so the rule needs no radius. σ is
     /// multiplied by `noiseScale[i]` for choice i (two choices from one walk over the rings).
+    /// `powerUnit`: the maps' power unit (PhotonMaps::powerUnit), in which Rings::power2 is kept.
     static void choose(const Rings& rings, int active, double gamma, const double (&noiseScale)[2],
-                       double maxCount, Choice (&out)[2]);
+                       double maxCount, Choice (&out)[2], double powerUnit = 1.0);
     /// Adds one pass's photons (squared distance from the end point, power) to the rings of a
     /// ladder whose outer disc has squared radius `outer2`: a photon with r_{j+1}² ≤ d² < r_j² to
     /// ring j (the innermost ring holds the whole innermost disc); rings inside `active` are no
     /// longer kept and take nothing. Photons beyond the outer disc must not be passed (the gathers
     /// search within it). Exposed for tests.
-    static void bin(Rings& rings, float outer2, int active, std::span<const FoundPhoton> photons);
+    static void bin(Rings& rings, float outer2, int active, std::span<const FoundPhoton> photons,
+                    float powerUnit = 1.0f);
 
 private:
     struct HitState {
@@ -278,6 +282,7 @@ private:
     uint32_t passes_ = 0;
     uint32_t areaSets_ = 0;  ///< area-light sample sets added by passes (the restart's is one more)
     double batches_ = 0.0;
+    float powerUnit_ = 1.0f;  ///< PhotonMaps::powerUnit at the restart (Rings::power2's unit)
     /// What the rule reads besides the rings: the settings at the restart and the filter's share.
     struct Rule {
         double gamma = 2.0;             ///< Γ of the settings

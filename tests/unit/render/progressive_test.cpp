@@ -130,6 +130,21 @@ TEST(ProgressiveBin, APhotonLandsInTheRingAroundItsDistanceAndPassesAddUp) {
     EXPECT_EQ(rings.power[3 * 5], 12.0f);
 }
 
+// A light of 1e26 W/sr (the most a scene may hold) sends photons of ~1e22 W: their squares would
+// overflow float (the noise figure then read 0 photons and took the smallest disc). Kept in the
+// maps' power unit, the squares stay small and photons of one power count as themselves.
+TEST(ProgressiveBin, SquaredPowersStayInFloatRangeForAnyLightsWatts) {
+    const float unit = 0x1p73f;  // a power of two near 1e22 W, as PhotonMaps::powerUnit
+    const float outer2 = 1.0f;
+    std::vector<FoundPhoton> photons(40, FoundPhoton{0.1f, Vec3(1.5f * unit)});
+    ProgressiveSet::Rings rings;
+    ProgressiveSet::bin(rings, outer2, 0, photons, unit);
+    for (float v : rings.power2) EXPECT_TRUE(std::isfinite(v));
+    ProgressiveSet::Choice c[2];
+    ProgressiveSet::choose(rings, 0, 2.0, kScales, 1e30, c, unit);
+    EXPECT_NEAR(c[0].effective, 40.0, 1e-3) << "40 photons of one power";
+}
+
 TEST(ProgressiveBin, ADiscsBoundaryBelongsToTheRingOutsideIt) {
     // A photon at exactly r_j (j ≥ 1) is not inside disc j: it counts in ring j − 1, so a disc
     // holds the photons strictly within its radius, as the gathers find them.
