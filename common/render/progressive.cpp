@@ -88,7 +88,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             const glm::dvec3 p = power + a * ring;
             const double n = effectiveCount(luminance(p) / powerUnit, power2 + a * double(rings.power2[j]), kMinPhotons);
             const double e = luminance(p) / discScale;
-            const double sd = e / std::sqrt(n);
+            const double sd = n > 0.0 ? e / std::sqrt(n) : 0.0;
             for (int i = 0; i < 2; ++i) {
                 lo[i] = e - gamma * noiseScale[i] * sd;
                 hi[i] = e + gamma * noiseScale[i] * sd;
@@ -108,7 +108,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             const glm::dvec3 p = power + a * ring;
             const double n = effectiveCount(luminance(p) / powerUnit, power2 + a * double(rings.power2[j]), maxCount);
             const double e = luminance(p) / scaleA;
-            const double sd = e / std::sqrt(n);
+            const double sd = n > 0.0 ? e / std::sqrt(n) : 0.0;
             for (int i = 0; i < 2 && a > 0.0; ++i) {
                 if (!open[i]) continue;
                 if (std::max(lo[i], e - gamma * noiseScale[i] * sd) > std::min(hi[i], e + gamma * noiseScale[i] * sd))
