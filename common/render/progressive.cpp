@@ -74,6 +74,25 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
     double previous = 0.0, previousCount = 0.0;  // E and effective n of the last disc walked
     double previousScale = 1.0;                  // and its area (Choice::scale)
     double previousDrift = 0.0;                  // and its blur (Choice::drift)
+    // The disc holding exactly `target` photons inside ring j, the ring's photons taken as spread
+    // evenly over its area (where the walk starts and where the cap ends it).
+    struct Partial {
+        double inner, scale;  // disc j+1's area and this disc's, relative to the outer disc
+        glm::dvec3 power;
+        double effective, e, sd;
+    };
+    auto partial = [&](int j, double target) {
+        const glm::dvec3 ring(rings.power[3 * j], rings.power[3 * j + 1], rings.power[3 * j + 2]);
+        const double a = (target - count) / double(rings.count[j]);
+        Partial d;
+        d.inner = kDiscScale[size_t(j + 1)];
+        d.scale = d.inner + a * (kDiscScale[size_t(j)] - d.inner);
+        d.power = power + a * ring;
+        d.effective = effectiveCount(luminance(d.power) / powerUnit, power2 + a * double(rings.power2[j]), target);
+        d.e = luminance(d.power) / d.scale;
+        d.sd = d.effective > 0.0 ? d.e / std::sqrt(d.effective) : 0.0;
+        return d;
+    };
     for (int j = kRadiusBins - 1; j >= active && (open[0] || open[1]); --j) {
         const double scale = 1.0 / kDiscScale[size_t(j)];
         const glm::dvec3 ring(rings.power[3 * j], rings.power[3 * j + 1], rings.power[3 * j + 2]);
@@ -82,39 +101,27 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             // taken as spread evenly over the ring's area, as where the cap ends the walk): a
             // start at whole rings jumped from ring to ring as a pixel moved away from a bright
             // edge, and drew concentric rings around GLASS's spot and in EGG's shadow.
-            const double a = (double(kMinPhotons) - count) / double(rings.count[j]);
-            const double inner = kDiscScale[size_t(j + 1)];
-            const double discScale = inner + a * (kDiscScale[size_t(j)] - inner);
-            const glm::dvec3 p = power + a * ring;
-            const double n = effectiveCount(luminance(p) / powerUnit, power2 + a * double(rings.power2[j]), kMinPhotons);
-            const double e = luminance(p) / discScale;
-            const double sd = n > 0.0 ? e / std::sqrt(n) : 0.0;
+            const Partial d = partial(j, kMinPhotons);
             for (int i = 0; i < 2; ++i) {
-                lo[i] = e - gamma * noiseScale[i] * sd;
-                hi[i] = e + gamma * noiseScale[i] * sd;
-                out[i] = Choice{j + 1, discScale, p, double(kMinPhotons), 0.0, n};
+                lo[i] = d.e - gamma * noiseScale[i] * d.sd;
+                hi[i] = d.e + gamma * noiseScale[i] * d.sd;
+                out[i] = Choice{j + 1, d.scale, d.power, double(kMinPhotons), 0.0, d.effective};
             }
-            previous = e;
-            previousCount = n;
-            previousScale = discScale;
+            previous = d.e;
+            previousCount = d.effective;
+            previousScale = d.scale;
             any = true;
         }
         if (any && count + rings.count[j] > maxCount) {
             // The cap ends the walk inside ring j: the disc holding exactly maxCount photons, the
             // ring's photons taken as spread evenly over its area, if the rule still admits it.
-            const double a = (maxCount - count) / double(rings.count[j]);
-            const double inner = kDiscScale[size_t(j + 1)];
-            const double scaleA = inner + a * (kDiscScale[size_t(j)] - inner);
-            const glm::dvec3 p = power + a * ring;
-            const double n = effectiveCount(luminance(p) / powerUnit, power2 + a * double(rings.power2[j]), maxCount);
-            const double e = luminance(p) / scaleA;
-            const double sd = n > 0.0 ? e / std::sqrt(n) : 0.0;
-            for (int i = 0; i < 2 && a > 0.0; ++i) {
+            const Partial d = partial(j, maxCount);
+            for (int i = 0; i < 2 && maxCount > count; ++i) {
                 if (!open[i]) continue;
-                if (std::max(lo[i], e - gamma * noiseScale[i] * sd) > std::min(hi[i], e + gamma * noiseScale[i] * sd))
+                if (std::max(lo[i], d.e - gamma * noiseScale[i] * d.sd) > std::min(hi[i], d.e + gamma * noiseScale[i] * d.sd))
                     continue;
                 // Its blur: the inner disc's, grown with the area (a kernel's bias grows as r²).
-                out[i] = Choice{j + 1, scaleA, p, maxCount, previousDrift * scaleA / inner, n, true};
+                out[i] = Choice{j + 1, d.scale, d.power, maxCount, previousDrift * d.scale / d.inner, d.effective, true};
             }
             break;
         }
