@@ -81,8 +81,9 @@ TEST(ProgressiveEstimator, ErrorDoesNotDependOnHowPhotonsAreSplitIntoPasses) {
 // Defaults (M = 3, the box filter and own weights, SPT): the caustic's total over the receiver
 // (the pixels the reference covers) against the analytic total. A gather estimator does not keep
 // the photons' total over a fold caustic: a pixel beside the fold line counts the fold's photons
-// that the pixels on it count too. Both estimators show more than arrives; the default must show
-// no more than knn from the same photons, at every frame, and come within 3 % by frame 24. (The
+// that the pixels on it count too. Both estimators show more than arrives; the default must be no
+// farther from the analytic total than knn from the same photons, at every frame, and come within
+// 3 % of it by frame 24. (The
 // walk used to start at the first whole ring holding kMinPhotons: 1.074 / 1.088 / 1.056 at frames
 // 1 / 4 / 24 against knn's 1.080 / 1.080 / 1.054, and the earlier form of this test, within 2 %
 // of knn's, passed on that shared excess; now 1.055 / 1.057 / 1.019. Over the whole image, where
