@@ -81,8 +81,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
         glm::dvec3 power;
         double effective, e, sd;
     };
-    auto partial = [&](int j, double target) {
-        const glm::dvec3 ring(rings.power[3 * j], rings.power[3 * j + 1], rings.power[3 * j + 2]);
+    auto partial = [&](int j, const glm::dvec3& ring, double target) {
         const double a = (target - count) / double(rings.count[j]);
         Partial d;
         d.inner = kDiscScale[size_t(j + 1)];
@@ -101,7 +100,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
             // taken as spread evenly over the ring's area, as where the cap ends the walk): a
             // start at whole rings jumped from ring to ring as a pixel moved away from a bright
             // edge, and drew concentric rings around GLASS's spot and in EGG's shadow.
-            const Partial d = partial(j, kMinPhotons);
+            const Partial d = partial(j, ring, kMinPhotons);
             for (int i = 0; i < 2; ++i) {
                 lo[i] = d.e - gamma * noiseScale[i] * d.sd;
                 hi[i] = d.e + gamma * noiseScale[i] * d.sd;
@@ -115,7 +114,7 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
         if (any && count + rings.count[j] > maxCount) {
             // The cap ends the walk inside ring j: the disc holding exactly maxCount photons, the
             // ring's photons taken as spread evenly over its area, if the rule still admits it.
-            const Partial d = partial(j, maxCount);
+            const Partial d = partial(j, ring, maxCount);
             for (int i = 0; i < 2 && maxCount > count; ++i) {
                 if (!open[i]) continue;
                 if (std::max(lo[i], d.e - gamma * noiseScale[i] * d.sd) > std::min(hi[i], d.e + gamma * noiseScale[i] * d.sd))
@@ -194,7 +193,7 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
     rule_.gamma = maps.settings().progressiveGamma;
     rule_.k = maps.settings().k;
     rule_.pathsPerBatch = maps.settings().photonsPerBatch;
-    powerUnit_ = maps.powerUnit();
+    rule_.powerUnit = maps.powerUnit();
     fixedDirect_.resize(out.size());
     for (size_t p = 0; p < out.size(); ++p) fixedDirect_[p] = out[p].direct;
     state_.assign(records_.hits.size(), HitState{});
@@ -240,13 +239,13 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
                     maps.gatherMapPhotons(scene, set, e.hit, e.normal, float(disc2(s.outer2, inner)), found);
                     if (double(found.size()) > capPhotons) {
                         s.active = inner;
-                        bin(s.rings, s.outer2, s.active, found, powerUnit_);
+                        bin(s.rings, s.outer2, s.active, found, float(rule_.powerUnit));
                         continue;
                     }
                     found.clear();
                 }
                 maps.gatherMapPhotons(scene, set, e.hit, e.normal, s.outer2, found);
-                bin(s.rings, s.outer2, s.active, found, powerUnit_);
+                bin(s.rings, s.outer2, s.active, found, float(rule_.powerUnit));
             }
         }
     });
@@ -275,7 +274,7 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
             if (s.sharing)
                 for (const SharedPhotons* frame : shared)
                     s.shared += float(maps.gatherSharedPhotons(scene, *frame, set, e.hit, e.normal, r2, found));
-            bin(s.rings, s.outer2, s.active, found, powerUnit_);
+            bin(s.rings, s.outer2, s.active, found, float(rule_.powerUnit));
             if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, areaSets_, localRays));
         }
         rays += localRays;
@@ -330,7 +329,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 const double scales[2] = {noiseScale, 1.0};
                 Choice c[2];
                 const double paths = batches * double(rule_.pathsPerBatch);
-                choose(s.rings, s.active, earlyGamma(rule_.gamma, paths), scales, maxDiscPhotons(rule_.k, paths), c, powerUnit_);
+                choose(s.rings, s.active, earlyGamma(rule_.gamma, paths), scales, maxDiscPhotons(rule_.k, paths), c, rule_.powerUnit);
                 const glm::dvec3 weight = throughput * glm::dvec3(e.albedo) / double(kPi);
                 for (int i = 0; i < (image_.f > 1 ? 2 : 1); ++i) {
                     const double area = kPi * double(s.outer2) * c[i].scale * batches;

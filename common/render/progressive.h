@@ -282,13 +282,13 @@ private:
     uint32_t passes_ = 0;
     uint32_t areaSets_ = 0;  ///< area-light sample sets added by passes (the restart's is one more)
     double batches_ = 0.0;
-    float powerUnit_ = 1.0f;  ///< PhotonMaps::powerUnit at the restart (Rings::power2's unit)
     /// What the rule reads besides the rings: the settings at the restart and the filter's share.
     struct Rule {
         double gamma = 2.0;             ///< Γ of the settings
         uint32_t k = 64;                ///< the k-NN k of the settings (maxDiscPhotons)
         uint32_t pathsPerBatch = 20000; ///< P of the settings
         double filterShare = 1.0;       ///< setFilterShare
+        double powerUnit = 1.0;         ///< PhotonMaps::powerUnit (Rings::power2's unit)
     } rule_;
     /// The image geometry of setImage.
     struct Image {

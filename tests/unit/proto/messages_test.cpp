@@ -30,6 +30,14 @@ void expectRefused(const Message& m, ErrorCode code) {
     EXPECT_EQ(r.error().code, code) << r.error().message;
 }
 
+// A message that decodes to itself.
+template <class T>
+void expectRoundTrips(const T& m) {
+    auto back = decodeMessage(encode(m));
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    EXPECT_EQ(std::get<T>(*back), m);
+}
+
 // A FrameData of `pixels` Float32 pixels of set `set` in frame `frame` (pixels and the rest empty).
 FrameData floatFrame(uint64_t frame, uint32_t set, uint32_t pixels) {
     FrameData fd;
@@ -176,9 +184,7 @@ TEST(Messages, SharedPhotonsRoundTripAndHostileOnesAreRefused) {
     const PhotonRecord p{1.0f, -2.0f, 0.5f, 0x12345678u, 0x9abcdef0u};
     FrameBegin fb{9, 1, 1, {{1, 2, 3}, {0, 0, -1}, {0, 1, 0}, 0.5f}, FrameMode::Converging, {0, 4}};
     fb.shared = {SetShot{1, 2, {p, p}}, SetShot{3, 1, {p}}};
-    auto back = decodeMessage(encode(fb));
-    ASSERT_TRUE(back.ok()) << back.error().message;
-    EXPECT_EQ(std::get<FrameBegin>(*back), fb);
+    expectRoundTrips(fb);
     FrameBegin bad = fb;
     std::swap(bad.shared[0], bad.shared[1]);  // not ascending
     reject(bad, ErrorCode::BadValue);
@@ -202,9 +208,7 @@ TEST(Messages, SharedPhotonsRoundTripAndHostileOnesAreRefused) {
     fd.pixels.assign(24, 0);
     fd.shotBatches = 3;
     fd.shot = {p, p, p};
-    back = decodeMessage(encode(fd));
-    ASSERT_TRUE(back.ok()) << back.error().message;
-    EXPECT_EQ(std::get<FrameData>(*back), fd);
+    expectRoundTrips(fd);
     FrameData badData = fd;
     badData.shotBatches = 0;  // photons without batches
     reject(badData, ErrorCode::BadValue);
@@ -230,9 +234,7 @@ TEST(Messages, UnchangedPixelsRoundTripAndInconsistentOnesAreRefused) {
     fd.errorSigma = 0.5;
     fd.errorRadiance = 2.0;
     fd.errorPixels = 1;
-    auto back = decodeMessage(encode(fd));
-    ASSERT_TRUE(back.ok()) << back.error().message;
-    EXPECT_EQ(std::get<FrameData>(*back), fd);
+    expectRoundTrips(fd);
     EXPECT_EQ(encode(fd).size(), kHeaderBytes + 8 + 4 + 1 + 4 + 1 + 8 + 4 + 4 + 4 + 8 + 8 + 4 + 8 + 4 + 4);
     FrameData bad = fd;
     bad.pixels.assign(48, 0);
@@ -295,9 +297,7 @@ TEST(Messages, ProgressiveFieldsAreValidated) {
     fd.errorSigma = 0.5;
     fd.errorRadiance = 10.0;
     fd.errorPixels = 2;
-    auto back = decodeMessage(encode(fd));
-    ASSERT_TRUE(back.ok()) << back.error().message;
-    EXPECT_EQ(std::get<FrameData>(*back), fd);
+    expectRoundTrips(fd);
     FrameData bad = fd;
     bad.ownWeights = {7};
     reject(bad, ErrorCode::BadValue);
