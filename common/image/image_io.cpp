@@ -10,6 +10,7 @@
 #include <ImfOutputFile.h>
 #include <ImfStringAttribute.h>
 #include <ImfTestFile.h>
+#include <ImfThreading.h>
 #include <half.h>
 #include <stb_image.h>
 #include <stb_image_write.h>
@@ -27,8 +28,10 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <set>
 #include <stdexcept>
+#include <thread>
 
 #include "common/core/output_file.h"
 #include "common/image/frame_image.h"
@@ -152,6 +155,10 @@ void writeExr(const std::string& path, int width, int height, std::span<const Im
             frameBuffer.insert(name, Imf::Slice(type, base, bytes, bytes * size_t(width)));
         }
     }
+    // OpenEXR compresses the file's blocks on its own worker threads, none by default: one per
+    // core (a 320×240 image of four layers took 24 ms on one thread).
+    static std::once_flag threads;
+    std::call_once(threads, [] { Imf::setGlobalThreadCount(int(std::max(1u, std::thread::hardware_concurrency()))); });
     writeThroughTemporary(path, [&](const std::string& tmp) {
         try {
             Imf::OutputFile file(tmp.c_str(), header);

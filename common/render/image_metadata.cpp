@@ -2,6 +2,7 @@
 #include "common/render/image_metadata.h"
 
 #include <filesystem>
+#include <future>
 
 #include "common/core/version.h"
 #include "common/image/frame_image.h"
@@ -23,9 +24,14 @@ ExrAttributes imageMetadata(const ImageProvenance& p) {
 }
 
 std::string writeImageFiles(const std::string& exrPath, const FrameImage& image, const ImageProvenance& p) {
-    writeExr(exrPath, image, false, imageMetadata(p));
     const std::string png = std::filesystem::path(exrPath).replace_extension(".png").string();
-    writePng(png, image.width(), image.height(), image.final(), ToneMap{.stopsAboveAuto = p.settings.exposure});
+    // The PNG is compressed while the EXR is: a run's last step waits for the slower of the two,
+    // not for their sum. Should the EXR fail, the PNG's thread still ends before its error leaves.
+    auto pngWritten = std::async(std::launch::async, [&] {
+        writePng(png, image.width(), image.height(), image.final(), ToneMap{.stopsAboveAuto = p.settings.exposure});
+    });
+    writeExr(exrPath, image, false, imageMetadata(p));
+    pngWritten.get();
     return png;
 }
 

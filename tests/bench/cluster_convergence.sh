@@ -9,10 +9,13 @@
 # (caustic_filtered) against the reference.
 #
 #   tests/bench/cluster_convergence.sh [--build DIR] [--estimator E ...] [--frames "1 2 4 ..."]
-#                                      [--size WxH] [--clients N] [-- extra rtpm-server flags]
+#                                      [--size WxH] [--clients N] [--repeat R] [-- extra rtpm-server flags]
 #
-# Prints one markdown row per run and, per estimator, the first measured time at which the error
-# is at most 0.05 and 0.02.
+# Prints one markdown row per frame count and, per estimator, the first measured time at which the
+# error is at most 0.05 and 0.02. With --repeat R each frame count runs R times and the row gives
+# the median wall and CPU time and the median error (a still view's photons depend on how its
+# frames met the budget, so the error varies a little from run to run); whole runs of a quarter
+# of a second vary by ±20 % on this machine, so a single run says little about a 10 % change.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
@@ -21,6 +24,7 @@ estimators=(progressive knn)
 frames="1 2 4 8 16 32 64 128 256"
 size=320x240
 clients=2
+repeat=1
 extra=()
 while (($#)); do
     case $1 in
@@ -29,6 +33,7 @@ while (($#)); do
         --frames) frames=${2:?}; shift 2 ;;
         --size) size=${2:?}; shift 2 ;;
         --clients) clients=${2:?}; shift 2 ;;
+        --repeat) repeat=${2:?}; shift 2 ;;
         --) shift; extra=("$@"); break ;;
         *) echo "cluster_convergence.sh: unknown argument $1" >&2; exit 2 ;;
     esac
@@ -41,7 +46,7 @@ for b in "$server_bin" "$client_bin" "$bench_bin"; do
 done
 width=${size%x*}
 height=${size#*x}
-threads=$(( $(nproc) / clients ))
+threads=${RTPM_BENCH_THREADS:-$(( $(nproc) / clients ))}
 ((threads >= 1)) || threads=1
 
 work=$(mktemp -d /tmp/rtpm-convergence.XXXXXX)
@@ -83,6 +88,7 @@ cluster() {
 # seconds of the server and the clients, all reaped by the run).
 run() {
     local estimator=$1 n=$2 dir="$work/$1-$2"
+    rm -rf "$dir"
     mkdir -p "$dir"
     local TIMEFORMAT='%R %U %S'
     { time cluster "$estimator" "$n" "$dir"; } 2>"$dir/time"
@@ -97,7 +103,20 @@ echo "|---|---|---|---|---|---|"
 for estimator in "${estimators[@]}"; do
     first05="" first02=""
     for n in $frames; do
-        read -r wall cpu err energy < <(run "$estimator" "$n")
+        runs=()
+        for ((r = 0; r < repeat; r++)); do runs+=("$(run "$estimator" "$n")"); done
+        # The median of each column (the middle run for an odd count, the upper middle otherwise).
+        read -r wall cpu err energy < <(printf '%s\n' "${runs[@]}" | awk '
+            { for (c = 1; c <= 4; c++) v[c, NR] = $c }
+            END {
+                m = int(NR / 2) + 1
+                for (c = 1; c <= 4; c++) {
+                    n = 0
+                    for (i = 1; i <= NR; i++) col[++n] = v[c, i] + 0
+                    for (i = 2; i <= n; i++) for (j = i; j > 1 && col[j - 1] > col[j]; j--) { t = col[j]; col[j] = col[j - 1]; col[j - 1] = t }
+                    printf "%s%s", col[m], (c < 4 ? " " : "\n")
+                }
+            }')
         echo "| $estimator | $n | $wall | $cpu | $err | $energy |"
         [[ -z $first05 ]] && awk -v e="$err" 'BEGIN { exit !(e <= 0.05) }' && first05="$wall s ($n frames)"
         [[ -z $first02 ]] && awk -v e="$err" 'BEGIN { exit !(e <= 0.02) }' && first02="$wall s ($n frames)"
