@@ -171,6 +171,16 @@ public:
     /// map (sum them and divide by the returned batch count for the flux of one batch).
     uint32_t gatherMapPhotons(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
                               float radius2, std::vector<FoundPhoton>& out) const;
+    /// gatherMapPhotons within `reach2` (0 or at least rMax²: just beyond rMax², all of rMax) and,
+    /// from the same photons, the k-NN radius and count gatherMap finds (power not summed): r_k²
+    /// (at least the index's minimum density radius²) and k when k photons lie within reach and
+    /// rMax; else a second search over all of rMax, whose photons replace the first's in `out`,
+    /// and rMax² with the count strictly within it (an empty gather when none). `reach2` returns
+    /// the squared radius `out` holds every photon strictly within.
+    /// One radius search where a caller needs the k-NN disc and the photons around it (the
+    /// progressive restart) instead of a k-NN search and a radius search. Thread-safe.
+    DensityGather gatherMapKnnWithin(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
+                                     float& reach2, std::vector<FoundPhoton>& out) const;
 
     /// Batches in `set`'s last progressive pass (0 before its first pass).
     uint32_t passBatches(uint32_t set) const;

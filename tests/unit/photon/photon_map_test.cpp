@@ -177,6 +177,65 @@ TEST(PhotonMaps, TreeVariantsGiveTheSameCausticEstimates) {
     }
 }
 
+// gatherMapKnnWithin (the progressive restart's one search) gives the k-NN disc and count that
+// gatherMap's k-NN search gives, and exactly the photons a radius search of the reach it returns
+// gives, in the same order, whatever the guess: none, far too small, about right, beyond rMax.
+TEST(PhotonMaps, KnnWithinGivesTheKnnDiscAndThePhotonsOfItsReach) {
+    const Scene scene = causticScene(2.0f);
+    const EmbreeScene es(scene);
+    for (PhotonTree t : {PhotonTree::MiddleSplit, PhotonTree::MedianBalanced, PhotonTree::UniformGrid}) {
+        PhotonSettings ps;
+        ps.photonsPerBatch = 6000;
+        ps.diffuseBounces = 1;
+        ps.k = 40;
+        ps.capPhotons = 0;
+        ps.tree = t;
+        PhotonMaps maps(ps, std::vector<uint32_t>{0});
+        for (int b = 0; b < 3; ++b) maps.shootBatch(es, 0);
+        const std::vector<Photon> all = maps.photons(0);
+        ASSERT_GT(all.size(), 2000u);
+        std::vector<Vec3> queries;
+        for (size_t i = 0; i < all.size(); i += 53) queries.push_back(all[i].position);
+        for (float x = -1.9f; x < 2.0f; x += 0.4f)
+            for (float z = -1.9f; z < 2.0f; z += 0.4f) queries.push_back(Vec3(x, 0.0f, z));
+        const Vec3 up(0.0f, 1.0f, 0.0f);
+        const float rMax2 = maps.gatherRadius() * maps.gatherRadius();
+        size_t full = 0, sparse = 0, searchedTwice = 0;
+        for (const Vec3& q : queries) {
+            SurfaceHit hit;
+            hit.position = q;
+            hit.geometricNormal = hit.shadingNormal = up;
+            const DensityGather knn = maps.gatherMap(es, 0, hit, up);
+            for (float guess : {0.0f, 1e-6f * rMax2, 1.3f * knn.radius2, 0.5f * rMax2, 2.0f * rMax2}) {
+                float reach2 = guess;
+                std::vector<FoundPhoton> out;
+                const DensityGather g = maps.gatherMapKnnWithin(es, 0, hit, up, reach2, out);
+                ASSERT_EQ(g.count, knn.count) << photonTreeName(t);
+                ASSERT_EQ(g.radius2, knn.radius2) << photonTreeName(t);
+                ASSERT_GT(reach2, 0.0f);
+                if (guess > 0.0f && guess < rMax2) {
+                    ASSERT_TRUE(reach2 == guess || reach2 > rMax2);
+                    searchedTwice += reach2 != guess;
+                } else {
+                    ASSERT_GT(reach2, rMax2);  // all of rMax, just beyond
+                }
+                std::vector<FoundPhoton> direct;
+                maps.gatherMapPhotons(es, 0, hit, up, reach2, direct);
+                ASSERT_EQ(out.size(), direct.size());
+                for (size_t i = 0; i < out.size(); ++i) {
+                    ASSERT_EQ(out[i].dist2, direct[i].dist2);
+                    ASSERT_EQ(out[i].power, direct[i].power);
+                }
+                full += g.count == ps.k;
+                sparse += g.count > 0 && g.count < ps.k;
+            }
+        }
+        EXPECT_GT(full, queries.size());          // dense caustics: k photons within reach
+        EXPECT_GT(sparse, 0u);                    // and floor points with fewer within rMax
+        EXPECT_GT(searchedTwice, queries.size()); // the small guesses fell short
+    }
+}
+
 // Scaling the light by 2^±40 scales the power unit by exactly that, so the stored codes are
 // bit-identical and the radiance scales exactly; in watts a photon of the dim light would have
 // been far below RGB9E5's smallest step (2^-29 W) and one of the bright light far above its clamp.
