@@ -244,6 +244,12 @@ private:
 class KdTree {
 public:
     static constexpr uint32_t kDefaultLeafSize = 12;
+    /// The bucket size of trees that only radius searches read (a progressive pass's photons and
+    /// the other sets' shared shots, searched within discs of a few dozen of their photons): a
+    /// leaf's photons are scanned in one vectorised loop, so a shallower tree with larger leaves
+    /// finds them sooner (curved mirror, 24 frames on one thread: 2.55 s with 12, 2.45 with 24,
+    /// 2.45 with 48, 2.5 with 96; 2.75 with 6).
+    static constexpr uint32_t kRadiusLeafSize = 32;
     static constexpr uint32_t kMaxDepth = 40;
     static constexpr float kMinExtentRelative = 1e-6f;
     static constexpr float kRootInflation = 1e-3f;

@@ -376,7 +376,7 @@ void PhotonMaps::shootPass(const EmbreeScene& scene, uint32_t set, uint32_t batc
             sharedPhotons = batch.size();
         }
     }
-    st->pass.emplace(scene.bounds());
+    st->pass.emplace(scene.bounds(), KdTree::kRadiusLeafSize);
     st->pass->build(batch);
     st->passBatches = batches;
     st->stats.passes += 1;

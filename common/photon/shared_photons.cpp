@@ -21,7 +21,7 @@ void SharedPhotons::build(const Bounds& bounds, std::span<const SetPhotons> sets
         Entry& e = entries_[i];
         e.set = used[i]->set;
         e.batches = used[i]->batches;
-        e.tree = KdTree(bounds);
+        e.tree = KdTree(bounds, KdTree::kRadiusLeafSize);
         e.tree.build(used[i]->photons);
     });
 }
