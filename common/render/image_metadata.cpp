@@ -26,8 +26,9 @@ ExrAttributes imageMetadata(const ImageProvenance& p) {
 std::string writeImageFiles(const std::string& exrPath, const FrameImage& image, const ImageProvenance& p) {
     const std::string png = std::filesystem::path(exrPath).replace_extension(".png").string();
     // The PNG is compressed while the EXR is: a run's last step waits for the slower of the two,
-    // not for their sum. Should the EXR fail, the PNG's thread still ends before its error leaves.
-    auto pngWritten = std::async(std::launch::async, [&] {
+    // not for their sum (or after it, where no thread can be started: deferred). Should the EXR
+    // fail, the PNG's thread still ends before its error leaves.
+    auto pngWritten = std::async(std::launch::async | std::launch::deferred, [&] {
         writePng(png, image.width(), image.height(), image.final(), ToneMap{.stopsAboveAuto = p.settings.exposure});
     });
     writeExr(exrPath, image, false, imageMetadata(p));
