@@ -68,22 +68,27 @@ Gathered gather(const Index& index, Vec3 x, Vec3 normal, uint32_t k, float rMax)
     return g;
 }
 
+// Set 0's map of causticScene(2) after three batches of 6000 paths (k = 40, one diffuse bounce,
+// no cap) in the index variant `tree`.
+std::unique_ptr<PhotonMaps> threeBatchMap(const EmbreeScene& es, PhotonTree tree) {
+    PhotonSettings ps;
+    ps.photonsPerBatch = 6000;
+    ps.diffuseBounces = 1;
+    ps.k = 40;
+    ps.capPhotons = 0;
+    ps.tree = tree;
+    auto maps = std::make_unique<PhotonMaps>(ps, std::vector<uint32_t>{0});
+    for (int b = 0; b < 3; ++b) maps->shootBatch(es, 0);
+    return maps;
+}
+
 TEST(PhotonMaps, TreeVariantsGiveTheSameCausticEstimates) {
     const Scene scene = causticScene(2.0f);
     const EmbreeScene es(scene);  // keeps a reference to the scene
     const std::vector<PhotonTree> variants = {PhotonTree::MiddleSplit, PhotonTree::MedianBalanced,
                                               PhotonTree::UniformGrid};
     std::vector<std::unique_ptr<PhotonMaps>> maps;
-    for (PhotonTree t : variants) {
-        PhotonSettings ps;
-        ps.photonsPerBatch = 6000;
-        ps.diffuseBounces = 1;
-        ps.k = 40;
-        ps.capPhotons = 0;
-        ps.tree = t;
-        maps.push_back(std::make_unique<PhotonMaps>(ps, std::vector<uint32_t>{0}));
-        for (int b = 0; b < 3; ++b) maps.back()->shootBatch(es, 0);
-    }
+    for (PhotonTree t : variants) maps.push_back(threeBatchMap(es, t));
     // Only the selected index exists.
     EXPECT_NE(maps[0]->index<KdTree>(0), nullptr);
     EXPECT_EQ(maps[0]->index<MedianKdTree>(0), nullptr);
@@ -184,14 +189,9 @@ TEST(PhotonMaps, KnnWithinGivesTheKnnDiscAndThePhotonsOfItsReach) {
     const Scene scene = causticScene(2.0f);
     const EmbreeScene es(scene);
     for (PhotonTree t : {PhotonTree::MiddleSplit, PhotonTree::MedianBalanced, PhotonTree::UniformGrid}) {
-        PhotonSettings ps;
-        ps.photonsPerBatch = 6000;
-        ps.diffuseBounces = 1;
-        ps.k = 40;
-        ps.capPhotons = 0;
-        ps.tree = t;
-        PhotonMaps maps(ps, std::vector<uint32_t>{0});
-        for (int b = 0; b < 3; ++b) maps.shootBatch(es, 0);
+        const std::unique_ptr<PhotonMaps> owned = threeBatchMap(es, t);
+        const PhotonMaps& maps = *owned;
+        const uint32_t k = maps.settings().k;
         const std::vector<Photon> all = maps.photons(0);
         ASSERT_GT(all.size(), 2000u);
         std::vector<Vec3> queries;
@@ -226,8 +226,8 @@ TEST(PhotonMaps, KnnWithinGivesTheKnnDiscAndThePhotonsOfItsReach) {
                     ASSERT_EQ(out[i].dist2, direct[i].dist2);
                     ASSERT_EQ(out[i].power, direct[i].power);
                 }
-                full += g.count == ps.k;
-                sparse += g.count > 0 && g.count < ps.k;
+                full += g.count == k;
+                sparse += g.count > 0 && g.count < k;
             }
         }
         EXPECT_GT(full, queries.size());          // dense caustics: k photons within reach
