@@ -599,6 +599,11 @@ uint32_t PhotonMaps::passBatches(uint32_t set) const {
     return st && st->pass ? st->passBatches : 0;
 }
 
+const KdTree* PhotonMaps::passTree(uint32_t set) const {
+    const SetState* st = find(set);
+    return st && st->pass ? &*st->pass : nullptr;
+}
+
 SetPhotons PhotonMaps::takeShot(uint32_t set) {
     SetState* st = find(set);
     RTPM_CHECK(st != nullptr);

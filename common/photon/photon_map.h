@@ -184,6 +184,10 @@ public:
 
     /// Batches in `set`'s last progressive pass (0 before its first pass).
     uint32_t passBatches(uint32_t set) const;
+    /// The tree of `set`'s last progressive pass's photons (null before its first pass), for a
+    /// caller's own radius search: what gatherPassPhotons searches. Stored powers in units of
+    /// powerUnit().
+    const KdTree* passTree(uint32_t set) const;
 
     const PhotonSettings& settings() const { return settings_; }
     /// Changes k (no reset needed: the stored photons do not depend on k).

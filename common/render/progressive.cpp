@@ -56,6 +56,69 @@ double effectiveCount(double sum, double sum2, double count) {
     return sum2 > 0.0 ? sum * sum / sum2 : count;
 }
 
+// One hit's binning of one pass (ProgressiveSet::bin): the photons are summed per ring here
+// first, then added to the ring totals (addTo), so the totals take one addition per pass, not per
+// photon, and float sums stay accurate over many passes. A photon's ring is the number of inner
+// discs it lies inside (r_{j+1}² ≤ d² < r_j²): 19 comparisons with the discs' exact squared
+// radii, which the compiler vectorises (a log2 per photon cost more, and rounded at the ring
+// boundaries).
+class PassRings {
+public:
+    PassRings(float outer2, float powerUnit) : inverseUnit_(1.0f / powerUnit) {
+        inner2_[0] = 0.0f;  // unused: every photon lies inside the outer disc
+        for (int j = 1; j < kRadiusBins; ++j) inner2_[j] = float(disc2(outer2, j));
+    }
+    /// A photon at squared distance `dist2` with power `power` (W, one batch).
+    void add(float dist2, Vec3 power) {
+        int j = 0;
+        for (int i = 1; i < kRadiusBins; ++i) j += dist2 < inner2_[i] ? 1 : 0;
+        local_.power[3 * j] += power.x;
+        local_.power[3 * j + 1] += power.y;
+        local_.power[3 * j + 2] += power.z;
+        local_.count[j] += 1.0f;
+        // Squares in units² stay far from float's range.
+        const float w = (0.2126f * power.x + 0.7152f * power.y + 0.0722f * power.z) * inverseUnit_;
+        local_.power2[j] += w * w;
+    }
+    /// Adds rings `active` … kRadiusBins − 1 to `rings` (photons in rings outside are left out).
+    void addTo(ProgressiveSet::Rings& rings, int active) const {
+        for (int j = active; j < kRadiusBins; ++j) {
+            for (int c = 0; c < 3; ++c) rings.power[3 * j + c] += local_.power[3 * j + c];
+            rings.count[j] += local_.count[j];
+            rings.power2[j] += local_.power2[j];
+        }
+    }
+
+private:
+    alignas(32) float inner2_[kRadiusBins];
+    float inverseUnit_;
+    ProgressiveSet::Rings local_;
+};
+
+// A radius search's result set that bins the photons it finds (front-facing, strictly within
+// sqrt(radius2)) straight into PassRings, in the order the search finds them: the sums of
+// gatherPassPhotons / gatherSharedPhotons followed by bin, without the list between (without
+// gatherVisibility, whose test lives in PhotonMaps).
+class BinFound {
+public:
+    BinFound(const KdTree& tree, Vec3 normal, float radius2, float powerUnit, PassRings& rings)
+        : tree_(tree), normal_(normal), radius2_(radius2), powerUnit_(powerUnit), rings_(rings) {}
+    float worstDist2() const { return radius2_; }
+    void add(float dist2, uint32_t i) {
+        if (!(dist2 < radius2_)) return;
+        if (arrivesFromBehind(tree_.photonIncoming(i), normal_)) return;
+        rings_.add(dist2, decodeRgb9e5(tree_.photonPower(i)) * powerUnit_);
+    }
+
+private:
+    const KdTree& tree_;
+    Vec3 normal_;
+    float radius2_;
+    float powerUnit_;
+    PassRings& rings_;
+};
+static_assert(ResultSet<BinFound>);
+
 }  // namespace
 
 void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const double (&noiseScale)[2],
@@ -156,31 +219,21 @@ void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const 
 
 void ProgressiveSet::bin(Rings& rings, float outer2, int active, std::span<const FoundPhoton> photons,
                          float powerUnit) {
-    // One pass's photons are summed per ring first, then added to the ring totals: the totals
-    // take one addition per pass, not per photon, so float sums stay accurate over many passes.
-    // A photon's ring is the number of inner discs it lies inside (r_{j+1}² ≤ d² < r_j²): 19
-    // comparisons with the discs' exact squared radii, which the compiler vectorises (a log2 per
-    // photon cost more, and rounded at the ring boundaries).
-    alignas(32) float inner2[kRadiusBins];
-    inner2[0] = 0.0f;  // unused: every photon lies inside the outer disc
-    for (int j = 1; j < kRadiusBins; ++j) inner2[j] = float(disc2(outer2, j));
-    Rings local;
-    const float inverseUnit = 1.0f / powerUnit;  // squares in units² stay far from float's range
-    for (const FoundPhoton& p : photons) {
-        int j = 0;
-        for (int i = 1; i < kRadiusBins; ++i) j += p.dist2 < inner2[i] ? 1 : 0;
-        local.power[3 * j] += p.power.x;
-        local.power[3 * j + 1] += p.power.y;
-        local.power[3 * j + 2] += p.power.z;
-        local.count[j] += 1.0f;
-        const float w = (0.2126f * p.power.x + 0.7152f * p.power.y + 0.0722f * p.power.z) * inverseUnit;
-        local.power2[j] += w * w;
-    }
-    for (int j = active; j < kRadiusBins; ++j) {
-        for (int c = 0; c < 3; ++c) rings.power[3 * j + c] += local.power[3 * j + c];
-        rings.count[j] += local.count[j];
-        rings.power2[j] += local.power2[j];
-    }
+    PassRings local(outer2, powerUnit);
+    for (const FoundPhoton& p : photons) local.add(p.dist2, p.power);
+    local.addTo(rings, active);
+}
+
+void ProgressiveSet::binWithin(Rings& rings, float outer2, int active, std::span<const KdTree* const> trees, Vec3 x,
+                               Vec3 normal, float radius2, float treeUnit, float powerUnit) {
+    PassRings local(outer2, powerUnit);
+    if (radius2 > 0.0f)
+        for (const KdTree* tree : trees) {
+            if (tree->empty()) continue;
+            BinFound found(*tree, normal, radius2, treeUnit, local);
+            tree->search(x, found);
+        }
+    local.addTo(rings, active);
 }
 
 void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set,
@@ -291,18 +344,43 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
     const bool sampleArea = !areaLights.empty();
     if (sampleArea) ++areaSets_;
     std::atomic<uint64_t> rays{0};
+    // Without gatherVisibility the searches bin what they find (BinFound); with it, PhotonMaps
+    // tests each photon's visibility into a list first.
+    const bool visibility = maps.settings().gatherVisibility;
+    const float unit = maps.powerUnit();
+    // The trees a hit searches: the pass's, then (a sharing hit's) the other sets' shots frame by
+    // frame in ascending set order, as gatherPassPhotons and gatherSharedPhotons list them; and
+    // each shared frame's batches.
+    std::vector<const KdTree*> trees;
+    if (const KdTree* own = maps.passTree(set)) trees.push_back(own);
+    const size_t ownTrees = trees.size();
+    std::vector<uint32_t> sharedBatches;
+    for (const SharedPhotons* frame : shared) {
+        sharedBatches.push_back(frame->batchesExcept(set));
+        for (const SharedPhotons::Entry& entry : frame->entries())
+            if (entry.set != set) trees.push_back(&entry.tree);
+    }
     tbb::parallel_for(tbb::blocked_range<size_t>(0, records_.hits.size()), [&](const auto& range) {
         uint64_t localRays = 0;
         for (size_t h = range.begin(); h < range.end(); ++h) {
             const EyeHit& e = records_.hits[h];
             HitState& s = state_[h];
-            found.clear();
             const float r2 = float(disc2(s.outer2, s.active));
-            maps.gatherPassPhotons(scene, set, e.hit, e.normal, r2, found);
-            if (s.sharing)
-                for (const SharedPhotons* frame : shared)
-                    s.shared += float(maps.gatherSharedPhotons(scene, *frame, set, e.hit, e.normal, r2, found));
-            bin(s.rings, s.outer2, s.active, found, float(rule_.powerUnit));
+            if (visibility) {
+                found.clear();
+                maps.gatherPassPhotons(scene, set, e.hit, e.normal, r2, found);
+                if (s.sharing)
+                    for (const SharedPhotons* frame : shared)
+                        s.shared += float(maps.gatherSharedPhotons(scene, *frame, set, e.hit, e.normal, r2, found));
+                bin(s.rings, s.outer2, s.active, found, float(rule_.powerUnit));
+            } else {
+                // The same photons in the same order as the lists above (the pass's, then the
+                // shared shots' in ascending set order), binned as the searches find them.
+                if (s.sharing)
+                    for (uint32_t b : sharedBatches) s.shared += float(b);
+                binWithin(s.rings, s.outer2, s.active, std::span(trees).first(s.sharing ? trees.size() : ownTrees),
+                          e.hit.position, e.normal, r2, unit, float(rule_.powerUnit));
+            }
             if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, areaSets_, localRays));
         }
         rays += localRays;

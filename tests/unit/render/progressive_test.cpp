@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include "common/render/pass_budget.h"
+#include "common/photon/density.h"
+#include "common/photon/kd_tree.h"
 #include "common/render/progressive.h"
 
 namespace rtpm {
@@ -167,6 +169,63 @@ TEST(ProgressiveBin, RingsNoLongerKeptTakeNothing) {
     ProgressiveSet::bin(rings, outer2, 7, photons);
     for (int j = 0; j < kRadiusBins; ++j)
         EXPECT_EQ(rings.count[size_t(j)], j < 7 ? 0.0f : 1.0f) << "ring " << j;
+}
+
+// A pass bins what its searches find as they find it (binWithin): the rings, bit for bit, of one
+// bin over the lists the same searches give (RadiusList, as gatherPassPhotons and
+// gatherSharedPhotons list them, powers × the maps' unit): the pass's tree and two shared shots,
+// photons from both sides of the surface, several end points and kept rings.
+TEST(ProgressiveBin, BinningWhileSearchingEqualsBinningTheLists) {
+    uint64_t state = 12345;
+    auto uniform = [&] {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return float(double(state >> 11) * 0x1p-53);
+    };
+    const Bounds box{Vec3(-1.0f, -0.1f, -1.0f), Vec3(1.0f, 0.1f, 1.0f)};
+    std::vector<KdTree> trees;
+    for (int t = 0; t < 3; ++t) {
+        std::vector<Photon> photons;
+        for (int i = 0; i < 3000; ++i) {
+            const Vec3 x(2.0f * uniform() - 1.0f, 0.0f, 2.0f * uniform() - 1.0f);
+            const Vec3 power(uniform() + 0.01f, uniform() + 0.01f, 0.5f * uniform() + 0.01f);
+            // Most arrive from above (front of an upward normal), one in five from below.
+            const Vec3 dir = glm::normalize(Vec3(uniform() - 0.5f, uniform() < 0.2f ? 0.7f : -0.7f, uniform() - 0.5f));
+            photons.push_back(Photon::make(x, power, dir));
+        }
+        trees.emplace_back(box, KdTree::kRadiusLeafSize);
+        trees.back().build(photons);
+    }
+    const std::vector<const KdTree*> order = {&trees[0], &trees[1], &trees[2]};
+    const float unit = 0.25f;
+    const Vec3 up(0.0f, 1.0f, 0.0f);
+    const auto visible = [](const Photon&) { return true; };
+    size_t binned = 0;
+    for (int q = 0; q < 40; ++q) {
+        const Vec3 x(1.6f * uniform() - 0.8f, 0.0f, 1.6f * uniform() - 0.8f);
+        const float outer2 = 0.02f + 0.05f * uniform();
+        const int active = q % 4;
+        const float radius2 = float(double(outer2) * std::pow(kBinRatio2, double(active)));
+        std::vector<FoundPhoton> list;
+        for (const KdTree* tree : order) {
+            const size_t first = list.size();
+            RadiusList<KdTree, decltype(visible)> gather(*tree, up, radius2, visible, list);
+            tree->search(x, gather);
+            for (size_t i = first; i < list.size(); ++i) list[i].power *= unit;
+        }
+        binned += list.size();
+        ProgressiveSet::Rings fromLists, whileSearching;
+        for (int pass = 0; pass < 2; ++pass) {
+            ProgressiveSet::bin(fromLists, outer2, active, list, 2.0f);
+            ProgressiveSet::binWithin(whileSearching, outer2, active, order, x, up, radius2, unit, 2.0f);
+        }
+        for (int j = 0; j < kRadiusBins; ++j) {
+            for (int c = 0; c < 3; ++c)
+                ASSERT_EQ(fromLists.power[3 * size_t(j) + size_t(c)], whileSearching.power[3 * size_t(j) + size_t(c)]) << "end point " << q << " ring " << j;
+            ASSERT_EQ(fromLists.count[size_t(j)], whileSearching.count[size_t(j)]) << "end point " << q << " ring " << j;
+            ASSERT_EQ(fromLists.power2[size_t(j)], whileSearching.power2[size_t(j)]) << "end point " << q << " ring " << j;
+        }
+    }
+    EXPECT_GT(binned, 40u * 50u);  // the discs held photons
 }
 
 TEST(ProgressiveChoose, TheCapEndsTheDiscInsideARingWithExactlyItsPhotons) {
