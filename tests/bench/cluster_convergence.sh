@@ -38,6 +38,7 @@ while (($#)); do
         *) echo "cluster_convergence.sh: unknown argument $1" >&2; exit 2 ;;
     esac
 done
+[[ $repeat =~ ^[1-9][0-9]*$ ]] || { echo "cluster_convergence.sh: --repeat must be a positive whole number, not '$repeat'" >&2; exit 2; }
 server_bin=$build/server/rtpm-server
 client_bin=$build/client/rtpm-client
 bench_bin=$build/tests/bench/ring_mirror_bench
@@ -105,15 +106,16 @@ for estimator in "${estimators[@]}"; do
     for n in $frames; do
         runs=()
         for ((r = 0; r < repeat; r++)); do runs+=("$(run "$estimator" "$n")"); done
-        # The median of each column (the middle run for an odd count, the upper middle otherwise).
+        # The median of each column (the middle run for an odd count, the upper middle otherwise),
+        # printed as the run printed it.
         read -r wall cpu err energy < <(printf '%s\n' "${runs[@]}" | awk '
             { for (c = 1; c <= 4; c++) v[c, NR] = $c }
             END {
                 m = int(NR / 2) + 1
                 for (c = 1; c <= 4; c++) {
-                    n = 0
-                    for (i = 1; i <= NR; i++) col[++n] = v[c, i] + 0
-                    for (i = 2; i <= n; i++) for (j = i; j > 1 && col[j - 1] > col[j]; j--) { t = col[j]; col[j] = col[j - 1]; col[j - 1] = t }
+                    for (i = 1; i <= NR; i++) col[i] = v[c, i]
+                    for (i = 2; i <= NR; i++)
+                        for (j = i; j > 1 && col[j - 1] + 0 > col[j] + 0; j--) { t = col[j]; col[j] = col[j - 1]; col[j - 1] = t }
                     printf "%s%s", col[m], (c < 4 ? " " : "\n")
                 }
             }')

@@ -86,7 +86,7 @@ viewer_cost)
     expectRows 2 '^summary:' "$work/out.log"
     ;;
 cluster_convergence)
-    run "$work/out.log" bash "$root/tests/bench/cluster_convergence.sh" --build "$build" --frames "1 2" --size 64x48
+    run "$work/out.log" bash "$root/tests/bench/cluster_convergence.sh" --build "$build" --frames "1 2" --size 64x48 --repeat 3
     expectRows 4 "^\| (progressive|knn) \| [12] \| $num \| $num \| $num \| $num \|$" "$work/out.log"
     ;;
 pov_compare)
