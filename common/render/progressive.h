@@ -261,8 +261,9 @@ public:
     /// Adds one pass's photons (squared distance from the end point, power) to the rings of a
     /// ladder whose outer disc has squared radius `outer2`: a photon with r_{j+1}² ≤ d² < r_j² to
     /// ring j (the innermost ring holds the whole innermost disc); rings inside `active` are no
-    /// longer kept and take nothing. Photons beyond the outer disc must not be passed (the gathers
-    /// search within it). Exposed for tests.
+    /// longer kept and take nothing. A photon beyond the outer disc counts in ring 0: pass such
+    /// photons only with `active` > 0, which leaves them out (the restart bins what a wider search
+    /// found that way). Exposed for tests.
     static void bin(Rings& rings, float outer2, int active, std::span<const FoundPhoton> photons,
                     float powerUnit = 1.0f);
     /// bin of what radius searches of `trees` (in that order) find: their photons strictly within
