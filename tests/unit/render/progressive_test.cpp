@@ -165,6 +165,7 @@ TEST(ProgressiveBin, RingsNoLongerKeptTakeNothing) {
     std::vector<FoundPhoton> photons;
     for (int j = 0; j < kRadiusBins; ++j)
         photons.push_back({float(0.99 * std::pow(kBinRatio2, double(j))), Vec3(1.0f)});
+    photons.push_back({2.0f * outer2, Vec3(1.0f)});  // beyond the outer disc (a restart's wider search)
     ProgressiveSet::Rings rings;
     ProgressiveSet::bin(rings, outer2, 7, photons);
     for (int j = 0; j < kRadiusBins; ++j)
