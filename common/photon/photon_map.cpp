@@ -37,6 +37,7 @@
 #include "common/photon/density.h"
 #include "common/photon/group_gather.h"
 #include "common/photon/spt_grid.h"
+#include "common/photon/visible_from.h"
 
 namespace rtpm {
 
@@ -60,35 +61,6 @@ bool hasCausticGenerator(const Scene& s) {
 }
 
 float maxChannel(Vec3 v) { return std::max({v.x, v.y, v.z}); }
-
-// Visibility of a gathered photon from the shaded point (PhotonSettings::gatherVisibility): both
-// ends are lifted off their surfaces by the same distance, x along its normal, the photon back
-// along the direction it arrived from (the side of the surface it lies on). A ray between two
-// points of one plane then runs parallel to it, and a photon on the lit face of a
-// zero-thickness wall is seen from the lit side only. Always true when disabled.
-class VisibleFrom {
-public:
-    VisibleFrom(bool enabled, const EmbreeScene& scene, const SurfaceHit& hit, Vec3 normal)
-        : enabled_(enabled), scene_(scene) {
-        if (!enabled_) return;
-        origin_ = scene.offsetOrigin(hit.position, hit.geometricNormal, normal);
-        lift_ = glm::length(origin_ - hit.position);
-    }
-    bool operator()(const Photon& photon) const {
-        if (!enabled_) return true;
-        Ray ray;
-        ray.origin = origin_;
-        ray.dir = photon.position - lift_ * photon.incomingDir() - origin_;
-        ray.tMax = 1.0f;
-        return glm::dot(ray.dir, ray.dir) == 0.0f || !scene_.occluded(ray);
-    }
-
-private:
-    bool enabled_;
-    const EmbreeScene& scene_;
-    Vec3 origin_{0.0f};
-    float lift_ = 0.0f;
-};
 
 // SPT cell target of a light with `budget` paths per batch.
 uint64_t sptTarget(const PhotonSettings& settings, uint64_t budget) {
@@ -613,35 +585,6 @@ SetPhotons PhotonMaps::takeShot(uint32_t set) {
     // SharedPhotons::build does), and the wire carries a shot's batches only with its photons.
     if (shot.photons.empty()) shot.batches = 0;
     return shot;
-}
-
-uint32_t PhotonMaps::gatherSharedPhotons(const EmbreeScene& scene, const SharedPhotons& shared, uint32_t exclude,
-                                         const SurfaceHit& hit, Vec3 normal, float radius2,
-                                         std::vector<FoundPhoton>& out) const {
-    if (!(radius2 > 0.0f)) return shared.batchesExcept(exclude);
-    const size_t first = out.size();
-    const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
-    uint32_t batches = 0;
-    for (const SharedPhotons::Entry& e : shared.entries()) {
-        if (e.set == exclude) continue;
-        RadiusList<KdTree, VisibleFrom> list(e.tree, normal, radius2, visible, out);
-        e.tree.search(hit.position, list);
-        batches += e.batches;
-    }
-    for (size_t i = first; i < out.size(); ++i) out[i].power *= powerUnit_;
-    return batches;
-}
-
-uint32_t PhotonMaps::gatherPassPhotons(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
-                                       Vec3 normal, float radius2, std::vector<FoundPhoton>& out) const {
-    const SetState* st = find(set);
-    if (!st || !st->pass || st->pass->empty() || !(radius2 > 0.0f)) return passBatches(set);
-    const size_t first = out.size();
-    const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
-    RadiusList<KdTree, VisibleFrom> list(*st->pass, normal, radius2, visible, out);
-    st->pass->search(hit.position, list);
-    for (size_t i = first; i < out.size(); ++i) out[i].power *= powerUnit_;
-    return st->passBatches;
 }
 
 uint32_t PhotonMaps::gatherMapPhotons(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,

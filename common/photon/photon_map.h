@@ -146,20 +146,6 @@ public:
     PassGather gatherPass(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
                           Vec3 normal, float radius2) const;
 
-    /// Every photon of the last pass strictly within sqrt(radius2) of `hit` arriving from the
-    /// front of `normal` (and visible, with gatherVisibility), appended to `out`: squared
-    /// distance and power in W (one batch). Returns the pass's batch count (0: no pass).
-    /// Cost O(log b + found). Thread-safe.
-    uint32_t gatherPassPhotons(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
-                               float radius2, std::vector<FoundPhoton>& out) const;
-    /// Every photon of `shared` (other sets' shots, SharedPhotons) but set `exclude`'s, strictly
-    /// within sqrt(radius2) of `hit` and arriving from the front of `normal` (and visible, with
-    /// gatherVisibility), appended to `out` in ascending set order: squared distance and power in
-    /// W (one batch). Returns Σ batches of the sets searched. Cost O(sets · log b + found).
-    /// Thread-safe.
-    uint32_t gatherSharedPhotons(const EmbreeScene& scene, const SharedPhotons& shared, uint32_t exclude,
-                                 const SurfaceHit& hit, Vec3 normal, float radius2,
-                                 std::vector<FoundPhoton>& out) const;
     /// What `set` traced in its last shootBatch or shootPass since the previous takeShot, for
     /// the other sets (SharedPhotons): the leading whole batches holding at most setShareCap
     /// photons (batches 0 and no photon when nothing, when they stored no photon, or when one
@@ -185,7 +171,7 @@ public:
     /// Batches in `set`'s last progressive pass (0 before its first pass).
     uint32_t passBatches(uint32_t set) const;
     /// The tree of `set`'s last progressive pass's photons (null before its first pass), for a
-    /// caller's own radius search: what gatherPassPhotons searches. Stored powers in units of
+    /// caller's own radius search (ProgressiveSet::binWithin). Stored powers in units of
     /// powerUnit().
     const KdTree* passTree(uint32_t set) const;
 

@@ -13,7 +13,8 @@
 
 namespace rtpm {
 
-/// One kd-tree per set over SetPhotons of one frame, for PhotonMaps::gatherSharedPhotons.
+/// One kd-tree per set over SetPhotons of one frame, for the progressive passes' searches
+/// (ProgressiveSet::pass).
 /// Thread safety: const members may run concurrently.
 class SharedPhotons {
 public:

@@ -96,17 +96,18 @@ private:
 };
 
 // A radius search's result set that bins the photons it finds (front-facing, strictly within
-// sqrt(radius2)) straight into PassRings, in the order the search finds them: the sums of
-// gatherPassPhotons / gatherSharedPhotons followed by bin, without the list between (without
-// gatherVisibility, whose test lives in PhotonMaps).
+// sqrt(radius2), visible if `visible` is given) straight into PassRings, in the order the search
+// finds them: the tests of density.h RadiusList in its order, without the list between.
 class BinFound {
 public:
-    BinFound(const KdTree& tree, Vec3 normal, float radius2, float powerUnit, PassRings& rings)
-        : tree_(tree), normal_(normal), radius2_(radius2), powerUnit_(powerUnit), rings_(rings) {}
+    BinFound(const KdTree& tree, Vec3 normal, float radius2, float powerUnit, const VisibleFrom* visible,
+             PassRings& rings)
+        : tree_(tree), normal_(normal), radius2_(radius2), powerUnit_(powerUnit), visible_(visible), rings_(rings) {}
     float worstDist2() const { return radius2_; }
     void add(float dist2, uint32_t i) {
         if (!(dist2 < radius2_)) return;
         if (arrivesFromBehind(tree_.photonIncoming(i), normal_)) return;
+        if (visible_ && !(*visible_)(tree_.photon(i))) return;
         rings_.add(dist2, decodeRgb9e5(tree_.photonPower(i)) * powerUnit_);
     }
 
@@ -115,6 +116,7 @@ private:
     Vec3 normal_;
     float radius2_;
     float powerUnit_;
+    const VisibleFrom* visible_;
     PassRings& rings_;
 };
 static_assert(ResultSet<BinFound>);
@@ -225,12 +227,12 @@ void ProgressiveSet::bin(Rings& rings, float outer2, int active, std::span<const
 }
 
 void ProgressiveSet::binWithin(Rings& rings, float outer2, int active, std::span<const KdTree* const> trees, Vec3 x,
-                               Vec3 normal, float radius2, float treeUnit, float powerUnit) {
+                               Vec3 normal, float radius2, float treeUnit, float powerUnit, const VisibleFrom* visible) {
     PassRings local(outer2, powerUnit);
     if (radius2 > 0.0f)
         for (const KdTree* tree : trees) {
             if (tree->empty()) continue;
-            BinFound found(*tree, normal, radius2, treeUnit, local);
+            BinFound found(*tree, normal, radius2, treeUnit, visible, local);
             tree->search(x, found);
         }
     local.addTo(rings, active);
@@ -299,6 +301,13 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
             // Where the k-NN disc held its k photons: the discs above, narrowest first. `found`
             // may hold photons beyond the disc tried: they fall in rings below `active`, which
             // bin leaves out, so the rings get exactly what a search of that disc would give.
+            // Makes `found` hold every photon strictly within sqrt(r2), searching only beyond reach.
+            auto cover = [&](float r2) {
+                if (r2 <= reach2) return;
+                found.clear();
+                maps.gatherMapPhotons(scene, set, e.hit, e.normal, r2, found);
+                reach2 = r2;
+            };
             bool capped = false;
             int tried = 0;
             for (double factor : kCapAreaTries) {
@@ -306,11 +315,7 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
                 if (inner == tried) continue;  // 0: none; else the disc just tried
                 tried = inner;
                 const float r2 = float(disc2(s.outer2, inner));
-                if (r2 > reach2) {
-                    found.clear();
-                    maps.gatherMapPhotons(scene, set, e.hit, e.normal, r2, found);
-                    reach2 = r2;
-                }
+                cover(r2);
                 const auto held = std::count_if(found.begin(), found.end(), [r2](const FoundPhoton& p) { return p.dist2 < r2; });
                 if (double(held) > capPhotons) {
                     s.active = inner;
@@ -320,13 +325,10 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
                 }
             }
             if (capped) continue;
-            if (s.outer2 <= reach2) {
-                const float r2 = s.outer2;
-                std::erase_if(found, [r2](const FoundPhoton& p) { return !(p.dist2 < r2); });
-            } else {
-                found.clear();
-                maps.gatherMapPhotons(scene, set, e.hit, e.normal, s.outer2, found);
-            }
+            // The whole ladder (active 0): nothing beyond its outer disc may be binned.
+            cover(s.outer2);
+            const float outer2 = s.outer2;
+            std::erase_if(found, [outer2](const FoundPhoton& p) { return !(p.dist2 < outer2); });
             bin(s.rings, s.outer2, s.active, found, float(rule_.powerUnit));
         }
     });
@@ -344,13 +346,10 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
     const bool sampleArea = !areaLights.empty();
     if (sampleArea) ++areaSets_;
     std::atomic<uint64_t> rays{0};
-    // Without gatherVisibility the searches bin what they find (BinFound); with it, PhotonMaps
-    // tests each photon's visibility into a list first.
     const bool visibility = maps.settings().gatherVisibility;
     const float unit = maps.powerUnit();
     // The trees a hit searches: the pass's, then (a sharing hit's) the other sets' shots frame by
-    // frame in ascending set order, as gatherPassPhotons and gatherSharedPhotons list them; and
-    // each shared frame's batches.
+    // frame in ascending set order; and each shared frame's batches.
     std::vector<const KdTree*> trees;
     if (const KdTree* own = maps.passTree(set)) trees.push_back(own);
     const size_t ownTrees = trees.size();
@@ -366,21 +365,13 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
             const EyeHit& e = records_.hits[h];
             HitState& s = state_[h];
             const float r2 = float(disc2(s.outer2, s.active));
-            if (visibility) {
-                found.clear();
-                maps.gatherPassPhotons(scene, set, e.hit, e.normal, r2, found);
-                if (s.sharing)
-                    for (const SharedPhotons* frame : shared)
-                        s.shared += float(maps.gatherSharedPhotons(scene, *frame, set, e.hit, e.normal, r2, found));
-                bin(s.rings, s.outer2, s.active, found, float(rule_.powerUnit));
-            } else {
-                // The same photons in the same order as the lists above (the pass's, then the
-                // shared shots' in ascending set order), binned as the searches find them.
-                if (s.sharing)
-                    for (uint32_t b : sharedBatches) s.shared += float(b);
-                binWithin(s.rings, s.outer2, s.active, std::span(trees).first(s.sharing ? trees.size() : ownTrees),
-                          e.hit.position, e.normal, r2, unit, float(rule_.powerUnit));
-            }
+            // Its own photons, then (a sharing hit) the other sets', binned as the searches find
+            // them.
+            if (s.sharing)
+                for (uint32_t b : sharedBatches) s.shared += float(b);
+            const VisibleFrom visible(visibility, scene, e.hit, e.normal);
+            binWithin(s.rings, s.outer2, s.active, std::span(trees).first(s.sharing ? trees.size() : ownTrees),
+                      e.hit.position, e.normal, r2, unit, float(rule_.powerUnit), visibility ? &visible : nullptr);
             if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, areaSets_, localRays));
         }
         rays += localRays;

@@ -47,6 +47,7 @@
 
 #include "common/core/pixel_radiance.h"
 #include "common/photon/photon_map.h"
+#include "common/photon/visible_from.h"
 #include "common/scene/scene.h"
 #include "common/trace/eye_pass.h"
 
@@ -267,13 +268,13 @@ public:
     static void bin(Rings& rings, float outer2, int active, std::span<const FoundPhoton> photons,
                     float powerUnit = 1.0f);
     /// bin of what radius searches of `trees` (in that order) find: their photons strictly within
-    /// sqrt(radius2) of `x` arriving from the front of `normal`, stored powers × `treeUnit` (W),
-    /// binned as the searches find them — the same rings, bit for bit, as one bin of the lists
-    /// RadiusList searches of the same trees give, without the lists (a pass without
-    /// gatherVisibility: its own photons, then the other sets' shared shots). Photons beyond the
-    /// outer disc must not be found (radius2 at most outer2).
+    /// sqrt(radius2) of `x` arriving from the front of `normal` (and, given `visible`, visible
+    /// from the end point), stored powers × `treeUnit` (W), binned as the searches find them —
+    /// the same rings, bit for bit, as one bin of the lists RadiusList searches of the same trees
+    /// give, without the lists (a pass: its own photons, then the other sets' shared shots).
     static void binWithin(Rings& rings, float outer2, int active, std::span<const KdTree* const> trees, Vec3 x,
-                          Vec3 normal, float radius2, float treeUnit, float powerUnit = 1.0f);
+                          Vec3 normal, float radius2, float treeUnit, float powerUnit = 1.0f,
+                          const VisibleFrom* visible = nullptr);
 
 private:
     struct HitState {

@@ -173,8 +173,8 @@ TEST(ProgressiveBin, RingsNoLongerKeptTakeNothing) {
 }
 
 // A pass bins what its searches find as they find it (binWithin): the rings, bit for bit, of one
-// bin over the lists the same searches give (RadiusList, as gatherPassPhotons and
-// gatherSharedPhotons list them, powers × the maps' unit): the pass's tree and two shared shots,
+// bin over the lists the same searches give (RadiusList, powers × the maps' unit, as the passes
+// gathered them before they binned while searching): the pass's tree and two shared shots,
 // photons from both sides of the surface, several end points and kept rings.
 TEST(ProgressiveBin, BinningWhileSearchingEqualsBinningTheLists) {
     uint64_t state = 12345;
