@@ -49,10 +49,11 @@ FramePlan FramePolicy::plan(uint64_t frame, bool edited, const std::vector<Clien
     bool reassigned = false, balanced = false;
     if (newEpoch || assignment_.owner.size() != setCount_) {
         Assignment next = dealSets(setCount_, takers);
-        // Every map restarts here, so the measured share carries over and may change for free
-        // (server/balance.h: why only here).
-        if (newEpoch && balance_.enabled() && assignment_.owner.size() == setCount_ && covers(assignment_, takers) &&
-            balance_.measuredAll(takers)) {
+        // Every map restarts here, so the share carries over and may change for free by the
+        // measured costs (server/balance.h: why only here). It carries over while the costs at
+        // a new share are still being measured: dealing round-robin then would undo every move
+        // one frame after it was made.
+        if (newEpoch && balance_.enabled() && assignment_.owner.size() == setCount_ && covers(assignment_, takers)) {
             next = assignment_;
             if (auto b = balance_.propose(next, takers)) {
                 next = std::move(*b);

@@ -641,20 +641,22 @@ int balancedShareOf(const std::string& err, const std::string& name) {
 
 // Load balance by measured cost (issue 22, item 4): a client four times slower (the hidden
 // --slowdown-for-tests: a CPU quota cannot be set everywhere the tests run) hands sets to the
-// faster one where an epoch begins (here a settings edit at frame 8, P 2000 -> 2400), and the
-// image is still rtpm-render's bit for bit: frames 8-13 are a single-process render of six frames
-// at P 2400. Within an epoch nothing moves (server/balance.h says why). About 4 s.
+// faster one where an epoch begins (here a settings edit at frame 8, P 2000 -> 2400), keeps the
+// new share in the epoch after (a second edit at frame 10, P 2800, before the new share has been
+// measured long enough to be judged), and the image is still rtpm-render's bit for bit: frames
+// 10-13 are a single-process render of four frames at P 2800. Within an epoch nothing moves
+// (server/balance.h says why). About 4 s.
 TEST(ClusterBalance, SetsMoveToTheFasterClientWhereAnEpochBeginsAndTheImageStaysBitIdentical) {
     RunSettings rs;
     rs.frames = 14;
     RunSettings after = rs;
-    after.photons = 2400;
-    after.frames = 6;
+    after.photons = 2800;
+    after.frames = 4;
     const ExrImage& ref = reference(after);
     expectNonTrivial(ref);
     Cluster c;
     const std::string script = c.dir.file("edits.txt");
-    std::ofstream(script) << "frame 8 settings P 2400\n";
+    std::ofstream(script) << "frame 8 settings P 2400\nframe 10 settings P 2800\n";
     c.startServer(rs, 2, "float32", {"--edit-script", script});
     c.startClient({"--name", "fast"});
     c.startClient({"--name", "slow", "--slowdown-for-tests", "4"});
@@ -669,6 +671,13 @@ TEST(ClusterBalance, SetsMoveToTheFasterClientWhereAnEpochBeginsAndTheImageStays
     if (line != std::string::npos) std::printf("%s", err.substr(line, err.find('\n', line) - line + 1).c_str());
     EXPECT_NE(err.find("frame 8: sets by measured cost"), std::string::npos) << "moved elsewhere than the epoch's start\n"
                                                                             << c.logs();
+    // The slow client's last frame (--verbose: "frame 13: sets 1,3,…") still has the moved share.
+    const std::string slowOut = c.clients[1]->out();
+    const size_t last = slowOut.find("frame 13: sets ");
+    ASSERT_NE(last, std::string::npos) << c.logs();
+    const std::string sets = slowOut.substr(last + 15, slowOut.find(", photons", last) - last - 15);
+    EXPECT_EQ(int(std::count(sets.begin(), sets.end(), ',')) + 1, slow) << "frame 13 renders sets " << sets
+                                                                     << " (the round-robin share came back)\n" << c.logs();
     const ExrImage got = readExr(c.outPath());
     for (const char* layer : kLayers) expectBitIdentical(got, ref, layer);
 }

@@ -96,10 +96,18 @@ TEST(FramePolicy, SetsMoveByMeasuredCostOnlyWhereAnEpochBegins) {
     EXPECT_EQ(f2.mode, proto::FrameMode::Interaction);
     EXPECT_EQ(f2.sets.at(1).size(), 6u);
     EXPECT_EQ(f2.sets.at(2).size(), 3u);
-    // The next epoch keeps the measured share rather than dealing round-robin again.
+    // The next epochs keep the measured share rather than dealing round-robin again, also while
+    // the costs at the new share are still being measured (fewer figures than minSamples).
+    p.balance().measured(1, 6, 60.0);
+    p.balance().measured(2, 3, 60.0);
     FramePlan f3 = p.plan(3, true, {1, 2}, none);
     EXPECT_FALSE(f3.balanced);
     EXPECT_EQ(f3.sets.at(2).size(), 3u);
+    report(p.balance(), 1, 6, 10.0);
+    report(p.balance(), 2, 3, 20.0);
+    FramePlan f4 = p.plan(4, true, {1, 2}, none);
+    EXPECT_FALSE(f4.balanced) << "settled";
+    EXPECT_EQ(f4.sets.at(2).size(), 3u);
     // --static-sets: the round-robin deal at every epoch.
     FramePolicy fixed(9, false, 2, 3, false, BalanceOptions{.enabled = false});
     fixed.plan(0, false, {1, 2}, none);
