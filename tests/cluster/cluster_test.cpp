@@ -645,7 +645,7 @@ int balancedShareOf(const std::string& err, const std::string& name) {
 // new share in the epoch after (a second edit at frame 10, P 2800, before the new share has been
 // measured long enough to be judged), and the image is still rtpm-render's bit for bit: frames
 // 10-13 are a single-process render of four frames at P 2800. Within an epoch nothing moves
-// (server/balance.h says why). About 4 s.
+// (server/balance.h says why). Under a second here.
 TEST(ClusterBalance, SetsMoveToTheFasterClientWhereAnEpochBeginsAndTheImageStaysBitIdentical) {
     RunSettings rs;
     rs.frames = 14;
