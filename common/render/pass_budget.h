@@ -15,11 +15,17 @@ namespace rtpm {
 /// shoots in the passes with (pass + g) mod period = 0 — each set once per period. Neighbouring
 /// ids, not every period-th one: clients get sets round robin, so a group of neighbours spreads
 /// a frame's shooting over the clients where a residue class would give it all to one.
+/// With more passes in a period than sets (period > sets), each set is its own group, g = set:
+/// the sets shoot in consecutive passes (ids descending, so round-robin clients alternate) and
+/// the passes without a set follow one another. Two frames are in flight at once (the master's
+/// pipeline), so neighbouring passes on different clients run side by side and the empty ones
+/// pass through together; spread between the sets (⌊set · period / sets⌋) every empty pass held
+/// one of the two frames while one client's pass ran, and the other client waited.
 /// A progressive pass off its set's turn shows the set's last pixels (ProgressiveSet::skip); an
 /// Accumulate frame's set off its turn shoots nothing.
 inline bool passShoots(uint64_t pass, uint32_t set, uint32_t sets, uint32_t period) {
     if (period <= 1 || sets == 0) return true;
-    const uint64_t group = uint64_t(set) * period / sets;
+    const uint64_t group = period > sets ? uint64_t(set) : uint64_t(set) * period / sets;
     return (pass + group) % period == 0;
 }
 

@@ -1,6 +1,7 @@
 // The progressive estimator's parts on their own: the disc rule (ProgressiveSet::choose) on
 // rings of known photon densities, and the still view's pass budget.
 #include <cmath>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -465,6 +466,30 @@ TEST(PassBudget, TakingTurnsEverySetShootsOncePerPeriod) {
         int shooting = 0;
         for (uint32_t set = 0; set < 9; ++set) shooting += passShoots(7, set, 9, period) ? 1 : 0;
         if (period > 1) EXPECT_LT(shooting, 9);
+    }
+}
+
+TEST(PassBudget, WithMorePassesThanSetsTheSetsShootInConsecutivePasses) {
+    // Periods longer than the nine sets: the passes with a set are one run, alternating between
+    // two round-robin clients (even and odd ids), and the empty passes are another, so the two
+    // frames in flight hold both clients' passes, or two empty ones.
+    for (uint32_t period : {16u, 64u}) {
+        std::vector<int> shooter(period, -1);
+        for (uint64_t pass = 0; pass < period; ++pass)
+            for (uint32_t set = 0; set < 9; ++set)
+                if (passShoots(pass, set, 9, period)) {
+                    EXPECT_EQ(shooter[pass], -1) << "two sets in pass " << pass << ", period " << period;
+                    shooter[pass] = int(set);
+                }
+        int runs = 0;  // runs of passes with a set, cyclically
+        for (uint32_t i = 0; i < period; ++i) {
+            const int here = shooter[i], before = shooter[(i + period - 1) % period];
+            if (here >= 0 && before < 0) ++runs;
+            if (here >= 0 && before >= 0) {
+                EXPECT_NE(here % 2, before % 2) << "period " << period << ", pass " << i;
+            }
+        }
+        EXPECT_EQ(runs, 1) << "period " << period;
     }
 }
 
