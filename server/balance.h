@@ -54,10 +54,14 @@ public:
     /// True when every client in `clients` (at least one) has a cost per set.
     bool measuredAll(const std::vector<ClientId>& clients) const;
 
-    /// The share that lowers the predicted frame time the most (greedy over equal sets, at least
-    /// one set each), reached from `current` by the most loaded clients giving their highest
-    /// sets; nullopt unless every client is measured at the share it holds in `current` and the
-    /// predicted frame time falls by minGain. `clients` must hold every owner in `current`. Cost O(sets · clients).
+    /// One step towards the share that lowers the predicted frame time the most (greedy over
+    /// equal sets, at least one set each): the slowest client above that share gives its highest
+    /// set to the client furthest below it; nullopt unless every client is measured at the share
+    /// it holds in `current` and the step cuts the predicted frame time by minGain. One set a
+    /// step because a cost per set measured at one share need not hold at another (a client
+    /// under a CPU quota runs at full speed while its frames fit in the quota's burst); the next
+    /// step waits for figures at the new share. `clients` must hold every owner in `current`.
+    /// Cost O(sets · clients).
     std::optional<Assignment> propose(const Assignment& current, const std::vector<ClientId>& clients) const;
 
 private:

@@ -8,8 +8,13 @@
 #   --size WxH     resolution (default 640x480)
 #   --frames N     frames per run (default 24); fps is the server's rate over its last 8 frames
 #   --modes "…"    light: --animate light, a light edit every frame, so every frame starts an
-#                  epoch and the share may change at each; still: a still view (progressive
-#                  passes within one epoch: the share of frame 0 stays). Default "light still".
+#                  epoch and the share may change at each; still: a still view after settings
+#                  edits at frames 1–6 (P 20 001 and 20 000 by turns, the last one back to the
+#                  default), whose epochs let the share move, with --frame-budget-ms 0 so that
+#                  every still frame is the same work (one batch per pass, every set, no turns:
+#                  a budget would fill each frame with whatever the clients manage, and its fps
+#                  would say how the budget settled, not what the clients can do); within the
+#                  still view's epoch the share stays. Default "light still".
 #   --scene S      built-in scene (default RING)
 #   --brake B      how the slow client is held: cgroup (default; half a core, see below) or
 #                  slowdown (--slowdown-for-tests 2: twice its work time whatever the machine's
@@ -84,6 +89,12 @@ run() {
     local csv=$work/$name.csv log=$work/$name.server.log n=2 anim=()
     [[ $who != both ]] && n=1
     [[ $mode == light ]] && anim=(--animate light)
+    if [[ $mode == still ]]; then
+        local f
+        : >"$work/still-edits.txt"
+        for f in 1 2 3 4 5 6; do echo "frame $f settings P $((f % 2 ? 20001 : 20000))" >>"$work/still-edits.txt"; done
+        anim=(--edit-script "$work/still-edits.txt" --frame-budget-ms 0)
+    fi
     rm -f "$work/port" "$csv"
     local token
     token=$(od -An -tx1 -N16 /dev/urandom | tr -d ' \n')

@@ -41,6 +41,26 @@ TEST(Balance, AClientTwiceAsSlowGetsAThirdOfTheSets) {
     EXPECT_EQ(movedSets(a, *next), (std::vector<uint32_t>{7}));
 }
 
+TEST(Balance, SetsMoveOneAtATimeAndAreMeasuredAgainBeforeTheNext) {
+    // A client held to half a core, throttled at four sets of nine (41.6 ms a set): the figures
+    // ask for 7/2, but at two sets its frames fit in the quota's burst and it measures as fast as
+    // the other, which would ask for 4/5 — the share swung. One set a step instead: 6/3, then
+    // only what the figures at 6/3 say.
+    Balance b;
+    Assignment a = dealSets(9, std::vector<ClientId>{1, 2});
+    report(b, 1, 5, 16.8);
+    report(b, 2, 4, 41.6);
+    auto step = b.propose(a, {1, 2});
+    ASSERT_TRUE(step);
+    EXPECT_EQ(step->countOf(1), 6u);
+    EXPECT_EQ(step->countOf(2), 3u);
+    EXPECT_EQ(movedSets(a, *step), (std::vector<uint32_t>{7}));
+    EXPECT_FALSE(b.propose(*step, {1, 2})) << "no figures at the new share yet";
+    report(b, 1, 6, 16.5);
+    report(b, 2, 3, 27.0);  // 6 × 16.5 = 99 ms against 3 × 27 = 81 ms: settled
+    EXPECT_FALSE(b.propose(*step, {1, 2}));
+}
+
 TEST(Balance, SmallGainsAndUnmeasuredClientsMoveNothing) {
     Balance b;
     Assignment a = dealSets(16, std::vector<ClientId>{1, 2});  // 8 and 8
