@@ -67,30 +67,34 @@ std::optional<Assignment> Balance::propose(const Assignment& current, const std:
     const double now = frameTime(have);
     if (frameTime(want) > now * (1.0 - options_.minGain)) return std::nullopt;
 
-    // One set a step: the slowest client above its share gives its highest set to the client
-    // furthest below its share (ties: the earlier joiner). A client's cost per set is measured at
-    // the share it holds and need not hold at another: one held to a CPU quota works at full
+    // The smallest move towards that share that gains: one set at a time, the slowest client
+    // above its share giving its highest set to the client furthest below its share (ties: the
+    // earlier joiner), until the predicted frame time falls by minGain (with two clients one set;
+    // more where equally slow clients must each give one). A client's cost per set is measured
+    // at the share it holds and need not hold at another: one held to a CPU quota works at full
     // speed while its frames fit in the quota's burst, so at two sets of nine it looks as fast as
-    // any and at four it is throttled (RESULTS.md, "Load balance by measured cost"). Moving the
-    // whole way on such figures swung between 7/2 and 5/4; a step at a time is measured afresh
-    // before the next one, at the next epoch.
-    size_t donor = n, taker = n;
-    for (size_t i = 0; i < n; ++i) {
-        if (have[i] > want[i] && (donor == n || double(have[i]) * cost[i] > double(have[donor]) * cost[donor])) donor = i;
-        if (have[i] < want[i] && (taker == n || want[i] - have[i] > want[taker] - have[taker])) taker = i;
-    }
-    if (donor == n || taker == n) return std::nullopt;
-    std::vector<size_t> count = have;
-    --count[donor];
-    ++count[taker];
-    if (frameTime(count) > now * (1.0 - options_.minGain)) return std::nullopt;
+    // any and at four it is throttled (tests/bench/RESULTS.md, "Load balance by measured cost").
+    // Moving the whole way on such figures swung between 7/2 and 5/4; the next move waits for
+    // figures at the new share, at a later epoch.
     Assignment next = current;
-    for (uint32_t s = setCount; s-- > 0;)
-        if (next.owner[s] == clients[donor]) {
-            next.owner[s] = clients[taker];
-            break;
+    std::vector<size_t> count = have;
+    while (count != want) {
+        size_t donor = n, taker = n;
+        for (size_t i = 0; i < n; ++i) {
+            if (count[i] > want[i] && (donor == n || double(count[i]) * cost[i] > double(count[donor]) * cost[donor]))
+                donor = i;
+            if (count[i] < want[i] && (taker == n || want[i] - count[i] > want[taker] - count[taker])) taker = i;
         }
-    return next;
+        for (uint32_t s = setCount; s-- > 0;)
+            if (next.owner[s] == clients[donor]) {
+                next.owner[s] = clients[taker];
+                break;
+            }
+        --count[donor];
+        ++count[taker];
+        if (frameTime(count) <= now * (1.0 - options_.minGain)) return next;
+    }
+    return std::nullopt;
 }
 
 }  // namespace rtpm::server

@@ -54,14 +54,14 @@ public:
     /// True when every client in `clients` (at least one) has a cost per set.
     bool measuredAll(const std::vector<ClientId>& clients) const;
 
-    /// One step towards the share that lowers the predicted frame time the most (greedy over
-    /// equal sets, at least one set each): the slowest client above that share gives its highest
-    /// set to the client furthest below it; nullopt unless every client is measured at the share
-    /// it holds in `current` and the step cuts the predicted frame time by minGain. One set a
-    /// step because a cost per set measured at one share need not hold at another (a client
-    /// under a CPU quota runs at full speed while its frames fit in the quota's burst); the next
-    /// step waits for figures at the new share. `clients` must hold every owner in `current`.
-    /// Cost O(sets · clients).
+    /// The smallest move towards the share that lowers the predicted frame time the most
+    /// (greedy over equal sets, at least one set each) that cuts the predicted frame time by
+    /// minGain: one set at a time, the slowest client above that share giving its highest set to
+    /// the client furthest below it; nullopt unless every client is measured at the share it
+    /// holds in `current` and some such move gains. The smallest, because a cost per set
+    /// measured at one share need not hold at another (a client under a CPU quota runs at full
+    /// speed while its frames fit in the quota's burst); the next move waits for figures at the
+    /// new share. `clients` must hold every owner in `current`. Cost O(sets² · clients).
     std::optional<Assignment> propose(const Assignment& current, const std::vector<ClientId>& clients) const;
 
 private:

@@ -67,6 +67,21 @@ TEST(Balance, SetsMoveOneAtATimeAndAreMeasuredAgainBeforeTheNext) {
     EXPECT_FALSE(b.propose(step, {1, 2}));
 }
 
+TEST(Balance, EquallySlowClientsEachGiveASetWhereOneAloneWouldGainNothing) {
+    // Three clients of nine sets, two of them twice as slow: one set from one slow client leaves
+    // the other's 3 × 2 = 6 ms as the frame time; one from each makes it 5 ms.
+    Balance b;
+    Assignment a = dealSets(9, std::vector<ClientId>{1, 2, 3});
+    report(b, 1, 3, 1.0);
+    report(b, 2, 3, 2.0);
+    report(b, 3, 3, 2.0);
+    auto next = b.propose(a, {1, 2, 3});
+    ASSERT_TRUE(next);
+    EXPECT_EQ(next->countOf(1), 5u);
+    EXPECT_EQ(next->countOf(2), 2u);
+    EXPECT_EQ(next->countOf(3), 2u);
+}
+
 TEST(Balance, SmallGainsAndUnmeasuredClientsMoveNothing) {
     Balance b;
     Assignment a = dealSets(16, std::vector<ClientId>{1, 2});  // 8 and 8
