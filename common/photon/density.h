@@ -152,31 +152,15 @@ Vec3 causticRadianceIf(const Index& index, Vec3 x, Vec3 normal, Vec3 albedo, uin
     return causticRadianceFrom(gatherKnn(index, x, normal, k, rMax, heap, visible), albedo, powerScale);
 }
 
-/// Result-set policy of a progressive pass: sums the decoded power and counts the photons
-/// strictly within a fixed radius that arrive from the front of `normal` and pass `visible`.
-/// O(1) per photon, no storage.
+/// Whether a radius search of `radius2` around a point with `normal` keeps photon `i` of `index`
+/// at squared distance `dist2`: strictly within, arriving from the front of `normal`, and visible
+/// (`visible` null: no visibility test, and no photon fetched for one). The test every radius
+/// result set applies (RadiusList here, the passes' binning in progressive.cpp).
 template <class Index, class Visible>
-class RadiusSum {
-public:
-    RadiusSum(const Index& index, Vec3 normal, float radius2, const Visible& visible)
-        : index_(index), normal_(normal), radius2_(radius2), visible_(visible) {}
-    float worstDist2() const { return radius2_; }
-    void add(float dist2, uint32_t i) {
-        if (!(dist2 < radius2_)) return;
-        if (arrivesFromBehind(index_.photonIncoming(i), normal_)) return;
-        if (!visible_(index_.photon(i))) return;
-        power += decodeRgb9e5(index_.photonPower(i));
-        ++count;
-    }
-    Vec3 power{0.0f};   ///< Σ decoded stored power
-    uint32_t count = 0; ///< photons counted
-
-private:
-    const Index& index_;
-    Vec3 normal_;
-    float radius2_;
-    const Visible& visible_;
-};
+bool keptWithin(const Index& index, uint32_t i, float dist2, float radius2, Vec3 normal, const Visible* visible) {
+    return dist2 < radius2 && !arrivesFromBehind(index.photonIncoming(i), normal) &&
+           (visible == nullptr || (*visible)(index.photon(i)));
+}
 
 /// Radius search policy that lists every front-facing, visible photon strictly within
 /// sqrt(radius2): its squared distance and decoded stored power (progressive.h bins them).
@@ -192,10 +176,8 @@ public:
         : index_(index), normal_(normal), radius2_(radius2), visible_(visible), out_(out) {}
     float worstDist2() const { return radius2_; }
     void add(float dist2, uint32_t i) {
-        if (!(dist2 < radius2_)) return;
-        if (arrivesFromBehind(index_.photonIncoming(i), normal_)) return;
-        if (!visible_(index_.photon(i))) return;
-        out_.push_back(FoundPhoton{dist2, decodeRgb9e5(index_.photonPower(i))});
+        if (keptWithin(index_, i, dist2, radius2_, normal_, &visible_))
+            out_.push_back(FoundPhoton{dist2, decodeRgb9e5(index_.photonPower(i))});
     }
 
 private:

@@ -602,14 +602,4 @@ uint32_t PhotonMaps::gatherMapPhotons(const EmbreeScene& scene, uint32_t set, co
     return st->stats.batches;
 }
 
-PassGather PhotonMaps::gatherPass(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
-                                  Vec3 normal, float radius2) const {
-    const SetState* st = find(set);
-    if (!st || !st->pass || st->pass->empty() || !(radius2 > 0.0f)) return {};
-    const VisibleFrom visible(settings_.gatherVisibility, scene, hit, normal);
-    RadiusSum<KdTree, VisibleFrom> sum(*st->pass, normal, radius2, visible);
-    st->pass->search(hit.position, sum);
-    return PassGather{sum.power * powerUnit_, sum.count};
-}
-
 }  // namespace rtpm

@@ -61,12 +61,6 @@ struct PhotonSetStats {
     }
 };
 
-/// The photons of one progressive pass near a point: Σ power in W (of one batch) and count.
-struct PassGather {
-    Vec3 power{0.0f};
-    uint32_t count = 0;
-};
-
 /// One caustic photon map per owned interleaving set, grown batch by batch.
 /// Photon powers are stored relative to one batch; `radiance` divides by the batch count
 /// (docs/ARCHITECTURE.md §5.3), so the estimate is consistent at every accumulation stage.
@@ -93,7 +87,7 @@ public:
     /// Cost: O(photonsPerBatch · maxDepth) ray casts + O(stored · log) insertion.
     void shootBatch(const EmbreeScene& scene, uint32_t set);
     /// A progressive pass of `set` (docs/ARCHITECTURE.md §6.2): shoots its next batch even when the
-    /// set is capped and keeps the batch alone as the set's pass index (gatherPass), replacing the
+    /// set is capped and keeps the batch alone as the set's pass index (passTree), replacing the
     /// previous pass. Unless the set is capped, the batch is also kept for the map (up to the
     /// cap) and inserted by the next flushPasses, so a pass costs the batch's tracing and an
     /// O(b log b) build, independent of the map's size.
@@ -140,11 +134,6 @@ public:
     /// hit), `hint` carried as in radianceGroup. `out` has the size of `queries`. Thread-safe.
     void gatherMapGroup(const EmbreeScene& scene, uint32_t set, std::span<const CausticQuery> queries,
                         std::span<DensityGather> out, GatherHint* hint = nullptr) const;
-    /// The last pass's photons strictly within sqrt(radius2) of `hit` arriving from the front of
-    /// `normal` (and visible, with gatherVisibility): Σ power in W (one batch) and count.
-    /// Cost O(log b + found), independent of the map's size. Thread-safe.
-    PassGather gatherPass(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit,
-                          Vec3 normal, float radius2) const;
 
     /// What `set` traced in its last shootBatch or shootPass since the previous takeShot, for
     /// the other sets (SharedPhotons): the leading whole batches holding at most setShareCap

@@ -95,9 +95,9 @@ private:
     ProgressiveSet::Rings local_;
 };
 
-// A radius search's result set that bins the photons it finds (front-facing, strictly within
-// sqrt(radius2), visible if `visible` is given) straight into PassRings, in the order the search
-// finds them: the tests of density.h RadiusList in its order, without the list between.
+// A radius search's result set that bins the photons it finds (density.h keptWithin: strictly
+// within sqrt(radius2), front-facing, visible if `visible` is given) straight into PassRings, in
+// the order the search finds them: what RadiusList would list, without the list between.
 class BinFound {
 public:
     BinFound(const KdTree& tree, Vec3 normal, float radius2, float powerUnit, const VisibleFrom* visible,
@@ -105,10 +105,8 @@ public:
         : tree_(tree), normal_(normal), radius2_(radius2), powerUnit_(powerUnit), visible_(visible), rings_(rings) {}
     float worstDist2() const { return radius2_; }
     void add(float dist2, uint32_t i) {
-        if (!(dist2 < radius2_)) return;
-        if (arrivesFromBehind(tree_.photonIncoming(i), normal_)) return;
-        if (visible_ && !(*visible_)(tree_.photon(i))) return;
-        rings_.add(dist2, decodeRgb9e5(tree_.photonPower(i)) * powerUnit_);
+        if (keptWithin(tree_, i, dist2, radius2_, normal_, visible_))
+            rings_.add(dist2, decodeRgb9e5(tree_.photonPower(i)) * powerUnit_);
     }
 
 private:

@@ -63,7 +63,7 @@ for scene in "${scenes[@]}"; do
             g = "other"
             if (line ~ /libz|OpenEXR|Imf|stbi|libstb|libpng|writeImages|writeExr|writePng/) g = "output"
             else if (line ~ /libembree|EmbreeScene::(intersect|occluded|completeHit)|fillPacket/) g = "rays"
-            else if (line ~ /searchKdNodes|gatherKnn|gatherGroup|__introselect|RadiusResultSet|KnnHeap|FrontFacingKnn|PhotonOccupancy|PhotonMaps::(radiance|gatherMap|gatherPass)|RadiusSum|causticRadiance|ProgressiveSet/) g = "gather"
+            else if (line ~ /searchKdNodes|gatherKnn|gatherGroup|__introselect|RadiusResultSet|KnnHeap|FrontFacingKnn|PhotonOccupancy|PhotonMaps::(radiance|gatherMap)|causticRadiance|ProgressiveSet/) g = "gather"
             else if (line ~ /KdTree::(insert|build|splitOverfull|relink|buildRange)|PhotonColumns|partition|memmove|memcpy/) g = "insert"
             else if (line ~ /tracePhoton|Halton|radicalInverse|sampleEmission|cosineDirection|PhotonMaps::(traceBatch|toStored|shoot)|Emitter|photon_tracer|hashKeys|mixBits|fresnel|refract|LightSequence|[Ss]pt[A-Z]|sincos|tanf/) g = "shoot"
             else if (line ~ /shadePixel|areaLight|punctualLight|directLight|rayDirection|renderSet|offsetOrigin|baseColorAt|AreaLightSampler|splitMix|hashToUnit|wrap01/) g = "shade"
