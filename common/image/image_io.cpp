@@ -132,6 +132,10 @@ void writeExr(const std::string& path, int width, int height, std::span<const Im
     std::vector<std::vector<::half>> halfPlanes;
     Imf::Header header(width, height);
     header.compression() = Imf::ZIP_COMPRESSION;
+    // zlib's fastest level: the image written at the end of a run is on the run's critical path
+    // (a 320×240 image of four layers: 8.3 ms against 16.2 ms at OpenEXR's default level 6 on
+    // two threads, for a file 12 % larger, 605 against 538 kB).
+    header.zipCompressionLevel() = 1;
     for (const auto& [name, value] : attributes) header.insert(name, Imf::StringAttribute(value));
     Imf::FrameBuffer frameBuffer;
     for (const ImageLayer& layer : layers) {
