@@ -74,7 +74,7 @@ struct OutputResult {
     bool writeFailed = false;
     uint64_t clampedValues = 0;  ///< decoded radiance values above kMaxPixelRadiance, clamped
     /// The caustic's estimated relative error as shown and written: the shown caustic's change
-    /// since half the progression's photons (shown_change.h) where the job's own figure
+    /// since a sixth of the progression's photons, scaled (shown_change.h), where the job's own figure
     /// (OutputJob::errorEstimate) is known; that figure until then; 0 = none.
     double errorEstimate = 0.0;
     /// FrameData of unchanged pixels (FrameData::unchanged) whose frame's pixels this stage did not

@@ -266,7 +266,7 @@ int run(int argc, char** argv) {
         // for the viewer after motion): all sets pass first, as knn's frames (docs/ARCHITECTURE.md).
         budget.record(st.converging, totalMs * 1e-3);
         accumulation.record(knn && f > 0 && !st.walkthrough, totalMs * 1e-3);
-        // The shown caustic's change since half the progression's photons (shown_change.h), where
+        // The shown caustic's change since a sixth of the progression's photons (shown_change.h), where
         // the progressive estimator composed this frame; its own figure until that is known.
         const double own = causticErrorEstimate(st.error);
         const double change = shownChange.add(st.converging, passPeriod, st.error.batches, image.causticFiltered(),

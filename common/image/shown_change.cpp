@@ -1,4 +1,5 @@
-// ShownChange: the shown caustic's change since half the progression's photons (shown_change.h).
+// ShownChange: the shown caustic's change since a sixth of the progression's photons
+// (shown_change.h).
 #include "common/image/shown_change.h"
 
 #include <algorithm>
@@ -15,6 +16,12 @@ bool ShownChange::kept(uint64_t n) {
     return n < 8;
 }
 
+bool ShownChange::keptLong(uint64_t n) {
+    if (n == 0) return false;
+    while (n % 2 == 0) n /= 2;
+    return n == 1 || n == 3;
+}
+
 double ShownChange::add(bool converging, uint32_t period, double work, std::span<const float> caustic, int width,
                         int height) {
     RTPM_CHECK(caustic.size() == size_t(width) * size_t(height) * 3);
@@ -27,18 +34,24 @@ double ShownChange::add(bool converging, uint32_t period, double work, std::span
     }
     const uint64_t n = ++frame_;
     if (!kept(n) || !(work > 0.0) || !std::isfinite(work)) return figure_;
-    // The half: the kept image with the most work at most half this one's, `period` frames back.
-    const double half = 0.5 * work;
-    const Kept* best = nullptr;
+    // The baseline: the kept image with the least work in [tolerance / ratio, 1/2] of this one's,
+    // `period` frames back.
+    const double half = 0.5 * work, least = kBaselineTolerance * work / kBaselineRatio;
+    const Kept* base = nullptr;
     for (const Kept& k : images_)
-        if (k.work <= half && n - k.frame >= uint64_t(std::max<uint32_t>(period, 1)) && (!best || k.work > best->work))
-            best = &k;
-    if (best && best->work >= kHalfTolerance * half) {
-        const ErrorMetrics m = compareRgb(caustic, best->image, caustic, width, height);
-        if (m.caustic.pixels > 0 && std::isfinite(m.caustic.relMae)) figure_ = m.caustic.relMae;
+        if (k.work <= half && k.work >= least && n - k.frame >= uint64_t(std::max<uint32_t>(period, 1)) &&
+            (!base || k.work < base->work))
+            base = &k;
+    if (base) {
+        const ErrorMetrics m = compareRgb(caustic, base->image, caustic, width, height);
+        const double scale = std::sqrt(work / base->work - 1.0);
+        if (m.caustic.pixels > 0 && std::isfinite(m.caustic.relMae) && scale > 0.0) figure_ = m.caustic.relMae / scale;
     }
-    // Work never falls within a progression: no later frame takes a half below this one's.
-    std::erase_if(images_, [&](const Kept& k) { return k.work < kHalfTolerance * half; });
+    // Work never falls within a progression: no later frame takes a baseline below this one's
+    // least, and below half of it only two images per doubling stay.
+    std::erase_if(images_, [&](const Kept& k) {
+        return k.work < least || (k.work < kBaselineTolerance * half && !keptLong(k.frame));
+    });
     images_.push_back(Kept{n, work, std::vector<float>(caustic.begin(), caustic.end())});
     return figure_;
 }

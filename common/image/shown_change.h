@@ -1,33 +1,37 @@
 // The still view's error figure from the shown caustic alone: how much it changed since the
-// progression had half its photons.
+// progression had a sixth of its photons, scaled as the change of a photon estimate's noise.
 //
-// A progressive estimate's error falls as its photons grow; between the image with N photons and
-// the one with N/2 the caustic changes by about its error at N: the noise of the photons in
-// between (the noise at N/2 is √2 × that at N, the two share half their photons) and the blur the
-// shrinking discs have shed (at r² ∝ 1/√N a doubling sheds 1 − 2^(−½) of it). Measured on the four
-// analytic scenes at the defaults (tests/support/progressive_run.h), this change reads 0.56–1.59 ×
-// the true caustic-region rel. MAE from frame 2 on (320×240 with the 16.7 ms budget's turns:
-// 0.95–1.16 from frame 8 on, ring_mirror_bench), where the estimator's own
-// figure (progressive.h causticErrorEstimate: Poisson noise and a blur step per pixel) read
-// 0.43–3.3 ×: its Poisson noise over-counts QMC photons two to three times on smooth glass
-// caustics, and it misses the box filter's blur on a mirror's fold lines.
+// A progressive estimate's error falls as its photons grow. For N photons of which the image
+// with M < N holds M (the passes add photons, the earlier ones stay), Poisson noise of variance
+// v at N gives the two images a difference of variance v · (N/M − 1): the change divided by
+// √(N/M − 1) is the noise at N. Blur, the other part of the error, sheds only a share of itself
+// between M and N (at r² ∝ 1/√N, 1 − (M/N)^½), so the change under-counts it, the less the
+// longer the baseline; QMC noise (smooth glass caustics) changes more than Poisson's between
+// two images, and the longer baseline over-counts it less than the change since half did.
+// Measured on the four analytic scenes at the defaults (tests/support/progressive_run.h, 160×120,
+// frames 4–64), the figure reads 0.61–1.35 × the true caustic-region rel. MAE with the baseline
+// at a sixth of the photons; with the baseline at half (the figure until 2026-11-27) the change
+// read 0.58–1.67 × (the glass slab's QMC noise 1.09–1.67 ×, the flat mirror's blur 0.58 ×), at a
+// quarter 0.62–1.42 ×, at an eighth 0.59–1.31 ×. The estimator's own figure (progressive.h
+// causticErrorEstimate: Poisson noise and a blur step per pixel) read 0.43–3.3 ×.
 //
-// "Half" is measured in photons, not frames: each frame says how far the progression went (`work`,
-// the batches in the sets' estimates, CausticErrorSums::batches), and the image compared is the
-// kept one with the most work at most half the frame's, provided it has at least
-// kHalfTolerance × that half. Frames and photons grow alike with one batch per pass and no
-// turns; where the sets take turns or the restart's map held many batches they do not, and the
-// image of half the frames held far more than half the photons: at the 16.7 ms budget the curved
-// mirror's figure read 0.024 at frame 16 where the true error was 0.051 (ring_mirror_bench), and
-// --target-error 0.03 stopped a cluster at a true 0.051.
+// Photons, not frames: each frame says how far the progression went (`work`, the batches in the
+// sets' estimates, CausticErrorSums::batches). Frames and photons grow alike with one batch per
+// pass and no turns; where the sets take turns or the restart's map held many batches they do not
+// (at the 16.7 ms budget the curved mirror's image at half the frames held far more than half the
+// photons, and a figure of frames read half the true error).
 // Frames are counted from the progression's first frame (1); the image is kept at frames b·2^k
-// with b < 8 (1 … 8, 10, 12, 14, 16, 20, …: four per doubling) while no later frame can need it.
-// At such a frame n ≥ 2 whose half is kept and lies at least `period` frames back (sets take
-// turns, pass_budget.h: a set off its turn shows its last pixels, so fewer frames between would
-// hide change), the figure is rel. MAE(image n, half image) over image n's caustic region
-// (error_metrics.h); between such frames the last figure holds. rtpm-render and the master both
-// feed it their composed image and the sets' batches, so the same frames give the same figure in
-// one process and in a cluster.
+// with b < 8 (1 … 8, 10, 12, 14, 16, 20, …: four per doubling) while it may still be a baseline,
+// and of those holding less than half the last frame's work only the ones with b ∈ {1, 3} (two
+// per doubling), so at most about eight images are held. At such a frame n ≥ 2 the baseline is
+// the kept image with the least work of those with at least kBaselineTolerance / kBaselineRatio
+// and at most half of frame n's work that lie at least `period` frames back (sets take turns,
+// pass_budget.h: a set off its turn shows its last pixels, so fewer frames between would hide
+// change); the figure is rel. MAE(image n, baseline) over image n's caustic region
+// (error_metrics.h) divided by √(work / baseline work − 1). Between such frames the last figure
+// holds. At frame 2 the baseline is frame 1 (half the work): the curved mirror then reads 0.57 ×.
+// rtpm-render and the master both feed it their composed image and the sets' batches, so the
+// same frames give the same figure in one process and in a cluster.
 #pragma once
 
 #include <cstdint>
@@ -47,16 +51,23 @@ public:
     /// the figure (0 while none is known yet).
     /// Cost: a copy of the image at the kept frames, one comparison at those frames.
     double add(bool converging, uint32_t period, double work, std::span<const float> caustic, int width, int height);
-    /// A half image has at least this share of half the frame's work (2^-1/4: the kept frames
-    /// are four per doubling).
-    static constexpr double kHalfTolerance = 0.8408964152537145;
+    /// The baseline holds about 1/kBaselineRatio of the frame's work: at least
+    /// kBaselineTolerance / kBaselineRatio (2^-1/4: images are kept four per doubling) and at
+    /// most half.
+    static constexpr double kBaselineRatio = 6.0;
+    static constexpr double kBaselineTolerance = 0.8408964152537145;
     /// Frames of the current progression so far (the first is 1).
     uint64_t frame() const { return frame_; }
     /// The last figure (0 = none yet).
     double figure() const { return figure_; }
+    /// Images held (the bound on the memory the figure takes: width·height·12 bytes each).
+    size_t keptImages() const { return images_.size(); }
 
     /// Frames whose image is kept: b·2^k with b < 8.
     static bool kept(uint64_t n);
+    /// Kept frames whose image stays while it holds less than half the last frame's work: b·2^k
+    /// with b ∈ {1, 3}.
+    static bool keptLong(uint64_t n);
 
 private:
     uint64_t frame_ = 0;

@@ -147,7 +147,7 @@ struct CausticErrorSums {
     double radiance = 0.0;  ///< Σ over the same pixels of the estimate (luminance)
     uint64_t pixels = 0;    ///< pixels with a caustic estimate
     /// The set's own batches in its estimate (ProgressiveSet::batches): how far the progression
-    /// went, which the shown caustic's change since half of it needs (shown_change.h).
+    /// went, which the shown caustic's change since a share of it needs (shown_change.h).
     double batches = 0.0;
     CausticErrorSums& operator+=(const CausticErrorSums& o) {
         sigma += o.sigma;
@@ -164,8 +164,8 @@ struct CausticErrorSums {
 /// is the caustic-region rel. MAE (common/image/error_metrics.h) that error would give.
 /// On the four analytic scenes at the defaults it read 0.43–3.3 × the true error (Poisson's count
 /// over-states the noise of QMC photons on smooth glass caustics; the box filter's blur is not
-/// in it), so what rtpm-render and the master print is the shown caustic's change since half the
-/// progression's photons (common/image/shown_change.h), and this figure only until that is known
+/// in it), so what rtpm-render and the master print is the shown caustic's change since a sixth
+/// of the progression's photons (common/image/shown_change.h), and this figure only until that is known
 /// (a progression's first frame or first turns). 0 when no pixel has a caustic.
 inline double causticErrorEstimate(const CausticErrorSums& e) {
     return e.radiance > 0.0 ? 0.7978845608028654 * e.sigma / e.radiance : 0.0;

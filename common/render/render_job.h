@@ -89,7 +89,7 @@ struct FrameStats {
     uint32_t passes = 0;           ///< progressive passes since the restart (largest over sets)
     /// Progressive: Σ over owned sets of the caustic error figures (progressive.h):
     /// causticErrorEstimate(error) is the estimator's own figure, shown until the shown caustic's
-    /// change since half the progression's photons is known (common/image/shown_change.h).
+    /// change since a sixth of the progression's photons is known (common/image/shown_change.h).
     CausticErrorSums error;
     EyeStats eye;
 };

@@ -1,7 +1,10 @@
 // ShownChange: which frames it keeps, what it compares them with, and when it restarts.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "common/image/error_metrics.h"
@@ -23,8 +26,8 @@ std::vector<float> image(float bright) {
 // The image at frame n: its brightness falls as 1 + 1/n, so each frame differs from every other.
 std::vector<float> frame(uint64_t n) { return image(float(1.0 + 1.0 / double(n))); }
 
-double changeBetween(uint64_t n, uint64_t half) {
-    const std::vector<float> a = frame(n), b = frame(half);
+double changeBetween(uint64_t n, uint64_t base) {
+    const std::vector<float> a = frame(n), b = frame(base);
     return compareRgb(a, b, a, kW, kH).caustic.relMae;
 }
 
@@ -37,28 +40,37 @@ TEST(ShownChange, KeepsFourFramesPerDoubling) {
     EXPECT_FALSE(ShownChange::kept(0));
 }
 
-TEST(ShownChange, ComparesAKeptFrameWithItsHalfAndHoldsTheFigureBetween) {
+// The figure at frame n against baseline m: their change scaled as nested Poisson noise.
+double figureBetween(uint64_t n, double work, uint64_t base, double baseWork) {
+    return changeBetween(n, base) / std::sqrt(work / baseWork - 1.0);
+}
+
+TEST(ShownChange, ComparesAKeptFrameWithItsBaselineAndHoldsTheFigureBetween) {
     ShownChange change;
-    EXPECT_EQ(change.add(false, 1, double(1), frame(1), kW, kH), 0.0) << "a first frame has no half";
-    // One batch a frame: frame n's half is the last kept frame m ≤ n/2, if m ≥ 2^-1/4 · n/2.
-    auto halfOf = [](uint64_t n) -> uint64_t {
-        uint64_t m = n / 2;
-        while (m > 0 && !ShownChange::kept(m)) --m;
-        return m > 0 && double(m) >= ShownChange::kHalfTolerance * 0.5 * double(n) ? m : 0;
-    };
-    uint64_t lastN = 0, lastHalf = 0;
+    EXPECT_EQ(change.add(false, 1, double(1), frame(1), kW, kH), 0.0) << "a first frame has no baseline";
+    // One batch a frame: frame n's baseline is the oldest image still held with at least
+    // 2^-1/4 · n/6 and at most n/2 batches; below half of the last frame's work only the frames
+    // b·2^k with b ∈ {1, 3} stay (frame 5 goes at frame 12, 7 at 20, 10 at 24, 14 at 32).
+    const std::vector<std::pair<uint64_t, uint64_t>> baseOf{{2, 1},  {3, 1},  {4, 1},  {5, 1},  {6, 1},  {7, 1},
+                                                            {8, 2},  {10, 2}, {12, 2}, {14, 2}, {16, 3}, {20, 3},
+                                                            {24, 4}, {28, 4}, {32, 6}, {40, 6}};
+    size_t next = 0;
+    uint64_t lastN = 0, lastBase = 0;
+    size_t mostImages = 0;
     for (uint64_t n = 2; n <= 40; ++n) {
         const double figure = change.add(true, 1, double(n), frame(n), kW, kH);
         EXPECT_EQ(change.frame(), n);
-        if (ShownChange::kept(n) && halfOf(n) > 0) {
+        mostImages = std::max(mostImages, change.keptImages());
+        if (next < baseOf.size() && baseOf[next].first == n) {
             lastN = n;
-            lastHalf = halfOf(n);
+            lastBase = baseOf[next++].second;
         }
         ASSERT_GT(lastN, 0u);
-        EXPECT_DOUBLE_EQ(figure, changeBetween(lastN, lastHalf)) << "frame " << n;
+        EXPECT_DOUBLE_EQ(figure, figureBetween(lastN, double(lastN), lastBase, double(lastBase))) << "frame " << n;
         EXPECT_GT(figure, 0.0);
     }
-    EXPECT_EQ(lastHalf, 20u) << "frame 40's half";
+    EXPECT_EQ(next, baseOf.size());
+    EXPECT_LE(mostImages, 10u) << "the images held stay about two doublings' worth";
 }
 
 TEST(ShownChange, ANewProgressionStartsAgain) {
@@ -69,34 +81,37 @@ TEST(ShownChange, ANewProgressionStartsAgain) {
     // A moving frame: the next still frame is a progression's first again, with no figure.
     EXPECT_EQ(change.add(false, 1, double(1), frame(1), kW, kH), 0.0);
     EXPECT_EQ(change.frame(), 1u);
-    EXPECT_DOUBLE_EQ(change.add(true, 1, double(2), frame(2), kW, kH), changeBetween(2, 1));
+    EXPECT_DOUBLE_EQ(change.add(true, 1, double(2), frame(2), kW, kH), figureBetween(2, 2.0, 1, 1.0));
 }
 
-TEST(ShownChange, WaitsUntilEverySetTookATurnSinceTheHalf) {
-    // Sets take turns of 4 frames: frame n is compared with its half only once 4 frames lie
+TEST(ShownChange, WaitsUntilEverySetTookATurnSinceTheBaseline) {
+    // Sets take turns of 4 frames: frame n is compared with a baseline only once 4 frames lie
     // between, else a set that has not shot since would show no change.
     ShownChange change;
     change.add(false, 4, double(1), frame(1), kW, kH);
-    for (uint64_t n = 2; n <= 6; ++n) EXPECT_EQ(change.add(true, 4, double(n), frame(n), kW, kH), 0.0) << "frame " << n;
-    EXPECT_DOUBLE_EQ(change.add(true, 4, double(7), frame(7), kW, kH), changeBetween(7, 3));
-    EXPECT_DOUBLE_EQ(change.add(true, 4, double(8), frame(8), kW, kH), changeBetween(8, 4));
+    for (uint64_t n = 2; n <= 4; ++n) EXPECT_EQ(change.add(true, 4, double(n), frame(n), kW, kH), 0.0) << "frame " << n;
+    EXPECT_DOUBLE_EQ(change.add(true, 4, double(5), frame(5), kW, kH), figureBetween(5, 5.0, 1, 1.0));
+    EXPECT_DOUBLE_EQ(change.add(true, 4, double(6), frame(6), kW, kH), figureBetween(6, 6.0, 1, 1.0));
+    EXPECT_DOUBLE_EQ(change.add(true, 4, double(7), frame(7), kW, kH), figureBetween(7, 7.0, 1, 1.0));
+    // Frame 8: frame 1 holds less than 2^-1/4 · 8/6 batches, frame 2 is the oldest baseline left.
+    EXPECT_DOUBLE_EQ(change.add(true, 4, double(8), frame(8), kW, kH), figureBetween(8, 8.0, 2, 2.0));
 }
 
 // Where photons grow more slowly than frames (the sets take turns; a restart from a map of many
-// batches), the half is the kept image with half the photons, not half the frames.
-TEST(ShownChange, TheHalfIsHalfThePhotonsNotHalfTheFrames) {
+// batches), the baseline is chosen by photons, not frames.
+TEST(ShownChange, TheBaselineIsAShareOfThePhotonsNotOfTheFrames) {
     ShownChange change;
     auto work = [](uint64_t n) { return 8.0 + double(n); };  // 8 batches at the restart, one a frame
     change.add(false, 1, work(1), frame(1), kW, kH);
     for (uint64_t n = 2; n <= 9; ++n)
         EXPECT_EQ(change.add(true, 1, work(n), frame(n), kW, kH), 0.0) << "frame " << n << ": no image of half its work";
     // Frame 10 holds 18 batches: frame 1's 9 are half (frame 5's 13 would be half the frames).
-    EXPECT_DOUBLE_EQ(change.add(true, 1, work(10), frame(10), kW, kH), changeBetween(10, 1));
+    EXPECT_DOUBLE_EQ(change.add(true, 1, work(10), frame(10), kW, kH), figureBetween(10, 18.0, 1, 9.0));
     for (uint64_t n = 11; n <= 24; ++n) change.add(true, 1, work(n), frame(n), kW, kH);
-    // Frame 24 (32 batches) against frame 8 (16), not frame 12.
-    EXPECT_DOUBLE_EQ(change.figure(), changeBetween(24, 8));
+    // Frame 24 (32 batches) against frame 1 (9, more than a sixth), not frame 4 (a sixth of the frames).
+    EXPECT_DOUBLE_EQ(change.figure(), figureBetween(24, 32.0, 1, 9.0));
     // A frame whose work is not known (a set missing) is counted, not kept or compared.
-    EXPECT_DOUBLE_EQ(change.add(true, 1, 0.0, frame(1), kW, kH), changeBetween(24, 8));
+    EXPECT_DOUBLE_EQ(change.add(true, 1, 0.0, frame(1), kW, kH), figureBetween(24, 32.0, 1, 9.0));
     EXPECT_EQ(change.frame(), 25u);
 }
 
