@@ -23,7 +23,7 @@
 // Frames are counted from the progression's first frame (1); the image is kept at frames b·2^k
 // with b < 8 (1 … 8, 10, 12, 14, 16, 20, …: four per doubling) while it may still be a baseline,
 // and of those holding less than half the last frame's work only the ones with b ∈ {1, 3} (two
-// per doubling), so at most about eight images are held. At such a frame n ≥ 2 the baseline is
+// per doubling), so about nine images are held. At such a frame n ≥ 2 the baseline is
 // the kept image with the least work of those with at least kBaselineTolerance / kBaselineRatio
 // and at most half of frame n's work that lie at least `period` frames back (sets take turns,
 // pass_budget.h: a set off its turn shows its last pixels, so fewer frames between would hide
