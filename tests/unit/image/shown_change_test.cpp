@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <random>
 #include <utility>
 #include <vector>
 
@@ -113,6 +114,34 @@ TEST(ShownChange, TheBaselineIsAShareOfThePhotonsNotOfTheFrames) {
     // A frame whose work is not known (a set missing) is counted, not kept or compared.
     EXPECT_DOUBLE_EQ(change.add(true, 1, 0.0, frame(1), kW, kH), figureBetween(24, 32.0, 1, 9.0));
     EXPECT_EQ(change.frame(), 25u);
+}
+
+// A progression whose only error is nested noise, as Poisson's: the image of N batches is the
+// truth plus the mean of N independent noise fields, the first M of them shared with the image
+// of M batches. Their change is then √(N/M − 1) × the noise at N, and the figure, the change over
+// that factor, reads the true error whichever baseline it took (a figure without the factor would
+// read √5 ≈ 2.2 × at a sixth).
+TEST(ShownChange, NestedNoiseReadsItsOwnErrorWhateverTheBaseline) {
+    constexpr int w = 96, h = 64;
+    std::vector<float> truth(size_t(w) * h * 3, 0.0f);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const double r2 = (x - 48.0) * (x - 48.0) + (y - 32.0) * (y - 32.0);
+            for (int c = 0; c < 3; ++c) truth[3 * (size_t(y) * w + x) + c] = float(1.0 + 4.0 * std::exp(-r2 / 300.0));
+        }
+    std::mt19937 rng(7);
+    std::normal_distribution<double> unit(0.0, 1.0);
+    std::vector<double> sum(truth.size(), 0.0);
+    ShownChange change;
+    for (int n = 1; n <= 64; ++n) {
+        for (size_t i = 0; i < sum.size(); ++i) sum[i] += 0.5 * double(truth[i]) * unit(rng);
+        std::vector<float> img(truth.size());
+        for (size_t i = 0; i < img.size(); ++i) img[i] = truth[i] + float(sum[i] / double(n));
+        const double figure = change.add(n > 1, 1, double(n), img, w, h);
+        if (n < 4 || !ShownChange::kept(uint64_t(n))) continue;
+        const double truthError = compareRgb(img, truth, img, w, h).caustic.relMae;
+        EXPECT_NEAR(figure / truthError, 1.0, 0.1) << "frame " << n << ": figure " << figure << ", true " << truthError;
+    }
 }
 
 TEST(ShownChange, AnotherImageSizeStartsAgain) {
