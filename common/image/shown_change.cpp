@@ -3,6 +3,7 @@
 #include "common/image/shown_change.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 
 #include "common/core/check.h"
@@ -10,17 +11,16 @@
 
 namespace rtpm {
 
-bool ShownChange::kept(uint64_t n) {
-    if (n == 0) return false;
-    while (n % 2 == 0) n /= 2;
-    return n < 8;
-}
+namespace {
 
-bool ShownChange::keptLong(uint64_t n) {
-    if (n == 0) return false;
-    while (n % 2 == 0) n /= 2;
-    return n == 1 || n == 3;
-}
+/// n without its factors of two: frame b·2^k gives b.
+uint64_t oddPart(uint64_t n) { return n >> std::countr_zero(n); }
+
+}  // namespace
+
+bool ShownChange::kept(uint64_t n) { return n != 0 && oddPart(n) < 8; }
+
+bool ShownChange::keptLong(uint64_t n) { return n != 0 && (oddPart(n) == 1 || oddPart(n) == 3); }
 
 double ShownChange::add(bool converging, uint32_t period, double work, std::span<const float> caustic, int width,
                         int height) {
@@ -44,8 +44,9 @@ double ShownChange::add(bool converging, uint32_t period, double work, std::span
             base = &k;
     if (base) {
         const ErrorMetrics m = compareRgb(caustic, base->image, caustic, width, height);
-        const double scale = std::sqrt(work / base->work - 1.0);
-        if (m.caustic.pixels > 0 && std::isfinite(m.caustic.relMae) && scale > 0.0) figure_ = m.caustic.relMae / scale;
+        // base->work ≤ work / 2: the scale is at least 1.
+        if (m.caustic.pixels > 0 && std::isfinite(m.caustic.relMae))
+            figure_ = m.caustic.relMae / std::sqrt(work / base->work - 1.0);
     }
     // Work never falls within a progression: no later frame takes a baseline below this one's
     // least, and below half of it only two images per doubling stay.
