@@ -1,11 +1,9 @@
 // Message encoding, field-by-field validated decoding and the stream splitter (PROTOCOL.md §5).
 #include "proto/messages.h"
+#include "proto/photon_records.h"
 
 #include <algorithm>
-#include <bit>
-#include <cstddef>
 #include <cstring>
-#include <span>
 #include <bitset>
 #include <cmath>
 #include <cstdio>
@@ -38,31 +36,6 @@ void putCamera(Writer& w, const CameraState& c) {
 void putSets(Writer& w, const std::vector<uint32_t>& sets) {
     w.u32(static_cast<uint32_t>(sets.size()));
     for (uint32_t s : sets) w.u32(s);
-}
-
-// A photon record on the wire: x, y, z, power, incoming, each 4 bytes little-endian. On a
-// little-endian host that is PhotonRecord's own layout, so a shot (up to 2^18 photons, the
-// bulk of a frame's bytes) is one copy each way instead of twenty byte appends per photon.
-constexpr size_t kPhotonWireBytes = 20;
-constexpr bool kPhotonRecordIsWire = std::endian::native == std::endian::little &&
-                                     sizeof(PhotonRecord) == kPhotonWireBytes &&
-                                     offsetof(PhotonRecord, x) == 0 && offsetof(PhotonRecord, y) == 4 &&
-                                     offsetof(PhotonRecord, z) == 8 && offsetof(PhotonRecord, power) == 12 &&
-                                     offsetof(PhotonRecord, incoming) == 16;
-
-void putPhotons(Writer& w, const std::vector<PhotonRecord>& photons) {
-    w.u32(static_cast<uint32_t>(photons.size()));
-    if constexpr (kPhotonRecordIsWire) {
-        w.raw(std::span(reinterpret_cast<const uint8_t*>(photons.data()), photons.size() * sizeof(PhotonRecord)));
-    } else {
-        for (const PhotonRecord& p : photons) {
-            w.f32(p.x);
-            w.f32(p.y);
-            w.f32(p.z);
-            w.u32(p.power);
-            w.u32(p.incoming);
-        }
-    }
 }
 
 void putEdit(Writer& w, const SceneEdit& e) {
@@ -419,27 +392,6 @@ void get(Reader& r, Settings& m) {
     } catch (const std::invalid_argument& e) {
         r.fail(ErrorCode::BadValue, std::string("settings: ") + e.what());
     }
-}
-// Photon records with finite positions; at most `maxCount`.
-bool getPhotons(Reader& r, std::vector<PhotonRecord>& out, size_t maxCount, const char* field) {
-    uint32_t n = 0;
-    if (!r.count(n, maxCount, kPhotonWireBytes, field)) return false;
-    out.resize(n);
-    if constexpr (kPhotonRecordIsWire) {
-        std::span<const uint8_t> bytes;
-        if (!r.view(bytes, size_t(n) * kPhotonWireBytes, field)) return false;
-        std::memcpy(out.data(), bytes.data(), bytes.size());
-        for (const PhotonRecord& p : out)
-            if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-                return r.fail(ErrorCode::NonFinite, std::string(field) + " is not finite");
-    } else {
-        for (PhotonRecord& p : out) {
-            if (!r.f32Finite(p.x, field) || !r.f32Finite(p.y, field) || !r.f32Finite(p.z, field)) return false;
-            r.u32(p.power);
-            r.u32(p.incoming);
-        }
-    }
-    return r.ok();
 }
 void get(Reader& r, FrameBegin& m) {
     r.u64(m.frame);
