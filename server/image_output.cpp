@@ -136,8 +136,11 @@ OutputResult ImageOutput::process(OutputJob& job) {
     }
     // A frame that scattered nothing (every set off its turn, or none arrived) shows the image
     // composed before: filtering it again would give the same bits.
-    if (!composed_) image_.filterAndCompose(opt_.filter);
+    // The edge ratio is a live knob of the output stage alone: a change of it filters again.
+    const float edgeRatio = job.settings.filterEdgeRatio();
+    if (!composed_ || edgeRatio != composedEdgeRatio_) image_.filterAndCompose(opt_.filter, edgeRatio);
     composed_ = true;
+    composedEdgeRatio_ = edgeRatio;
     const double change = change_.add(job.mode == proto::FrameMode::Converging, job.passPeriod, job.estimateBatches,
                                       image_.causticFiltered(), image_.width(), image_.height());
     result.errorEstimate = shownErrorFigure(job.errorEstimate, change);

@@ -121,6 +121,7 @@ private:
     ImageOutputOptions opt_;
     Interleave pattern_;
     FrameImage image_;
+    float composedEdgeRatio_ = 0.0f;  ///< the edge ratio image_ was last filtered with
     bool composed_ = false;  ///< image_ is filtered and composed from everything scattered into it
     std::vector<std::vector<PixelRadiance>> radiance_;  ///< per set, reused
     /// Per set, the frame whose payload was last scattered into the image: a FrameData of

@@ -256,7 +256,7 @@ int run(int argc, char** argv) {
         auto tfilter = Clock::now();
         for (const SetPixels& sp : pixels)
             scatterSet(image, pattern, sp);
-        image.filterAndCompose(rs.filterSize());
+        image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
         auto tend = Clock::now();
         framesDone = f + 1;
         last = st;

@@ -29,8 +29,8 @@ enum class KnobReset : uint8_t {
     Resize,  ///< every structure sized by M² is rebuilt once no frame is in flight, then an epoch
 };
 
-enum class Knob : uint8_t { Interleave, Filter, Photons, K, RMax, Tree, Estimator, Confidence, Exposure, GlossySamples };
-inline constexpr size_t kKnobCount = 10;
+enum class Knob : uint8_t { Interleave, Filter, Photons, K, RMax, Tree, Estimator, Confidence, Exposure, GlossySamples, FilterEdges };
+inline constexpr size_t kKnobCount = 11;
 
 /// How a row travels in the Settings message, little-endian (proto/PROTOCOL.md §5.5): an
 /// unsigned integer of 1, 4 or 8 bytes, or an IEEE-754 binary32. A row's limits fit its type
@@ -139,6 +139,14 @@ inline constexpr std::array<KnobRow, kKnobCount> kKnobs{{
       [](const RenderSettings& s) { return double(s.eye.glossySamples); },
       [](RenderSettings& s, double v) { s.eye.glossySamples = int(v); }},
      Knob::GlossySamples, "glossy", "glossy", KnobReset::Epoch},
+    {{"filter edges", "--filter-edges", "", "image", "ratio", 0, 64, 2, false, {}, WireType::None,
+      "progressive: a pixel's filter window leaves out the neighbours whose caustic is more than this "
+      "factor brighter or darker than its own (a fold line or a caustic's rim; fully counted within "
+      "half of it, faded between), so edges stay sharp; 0 = every neighbour, the paper's box filter "
+      "(knn always uses it)",
+      [](const RenderSettings& s) { return double(s.filterEdges); },
+      [](RenderSettings& s, double v) { s.filterEdges = float(v); }},
+     Knob::FilterEdges, "edges", "edges", KnobReset::Output},
 }};
 
 /// The settings fixed for a run (a flag at start; the edit script and the viewer cannot change

@@ -130,10 +130,21 @@ struct RenderSettings {
     /// Display exposure in stops above the automatic one (1 / 99th-percentile luminance): the PNG's
     /// and the viewer's tone map only; the EXR and every radiance value are unaffected.
     float exposure = 0.0f;
+    /// Progressive: the box filter leaves out of a pixel's window the neighbours whose caustic is
+    /// more than this factor brighter or darker than the pixel's (a fold line or a caustic's rim;
+    /// fully counted within half the factor, faded between), so a window averages its own side of
+    /// an edge instead of blurring both (box_filter.h edgeStoppingBox); 0 = every neighbour, the
+    /// paper's box, which knn always shows.
+    float filterEdges = 2.0f;
     EyeSettings eye;
     PhotonSettings photons;
 
     int filterSize() const { return filter > 0 ? filter : interleave; }
+    /// The edge ratio the image is filtered with: filterEdges for the progressive estimator, 0
+    /// (the plain box) for knn, the paper's estimator.
+    float filterEdgeRatio() const {
+        return photons.estimator == CausticEstimatorKind::Progressive ? filterEdges : 0.0f;
+    }
     bool operator==(const RenderSettings&) const = default;
 };
 

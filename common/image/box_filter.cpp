@@ -5,6 +5,7 @@
 #include <bit>
 #include <cstdint>
 #include <cstring>
+#include <vector>
 
 #include "common/core/check.h"
 
@@ -127,6 +128,50 @@ void BoxFilter::apply(std::span<const float> in, int width, int height, int f,
 void boxFilter(std::span<const float> in, int width, int height, int f, std::span<float> out) {
     BoxFilter filter;
     filter.apply(in, width, height, f, out);
+}
+
+void edgeStoppingBox(std::span<const float> in, std::span<const float> box, int width, int height, int f,
+                     float ratio, std::span<float> out) {
+    checkArgs(in, width, height, f, out);
+    RTPM_CHECK(box.size() == in.size());
+    if (!(ratio > 0.0f)) {
+        std::copy(box.begin(), box.end(), out.begin());
+        return;
+    }
+    const size_t n = static_cast<size_t>(width) * static_cast<size_t>(height);
+    auto luminanceAt = [](const float* px) {
+        return 0.2126f * finiteOrZero(px[0]) + 0.7152f * finiteOrZero(px[1]) + 0.0722f * finiteOrZero(px[2]);
+    };
+    std::vector<float> lum(n);
+    for (size_t i = 0; i < n; ++i) lum[i] = luminanceAt(in.data() + 3 * i);
+    const BoxWindow win(f);
+    for (int y = 0; y < height; ++y) {
+        const int y0 = std::max(0, y - win.r0), y1 = std::min(height - 1, y + win.r1);
+        for (int x = 0; x < width; ++x) {
+            const int x0 = std::max(0, x - win.r0), x1 = std::min(width - 1, x + win.r1);
+            const size_t p = static_cast<size_t>(y) * width + x;
+            const float lp = lum[p];
+            const float floor = kEdgeFloor * luminanceAt(box.data() + 3 * p);
+            double sum[3] = {0.0, 0.0, 0.0};
+            double weights = 0.0;
+            for (int yy = y0; yy <= y1; ++yy) {
+                for (int xx = x0; xx <= x1; ++xx) {
+                    const size_t q = static_cast<size_t>(yy) * width + xx;
+                    const float lq = lum[q];
+                    // 1 within half the ratio, 0 from the ratio on, linear between: a value near
+                    // either end moves the pixel about as little as it moves itself.
+                    const double bound = 0.5 * double(ratio) * std::min(lp, lq) + floor;
+                    const double w = q == p ? 1.0 : std::clamp(2.0 - double(std::max(lp, lq)) / bound, 0.0, 1.0);
+                    if (!(w > 0.0)) continue;
+                    const float* px = in.data() + 3 * q;
+                    for (int c = 0; c < 3; ++c) sum[c] += w * finiteOrZero(px[c]);
+                    weights += w;
+                }
+            }
+            float* o = out.data() + 3 * p;
+            for (int c = 0; c < 3; ++c) o[c] = static_cast<float>(sum[c] / weights);
+        }
+    }
 }
 
 void boxFilterNaive(std::span<const float> in, int width, int height, int f,

@@ -52,8 +52,13 @@ void FrameImage::scatterImpl(const Interleave& pattern, int set, std::span<const
     }
 }
 
-void FrameImage::filterAndCompose(int f) {
+void FrameImage::filterAndCompose(int f, float edgeRatio) {
     filter_.apply(caustic_, width_, height_, f, causticFiltered_);
+    if (edgeRatio > 0.0f && f > 1) {
+        edgeScratch_.resize(causticFiltered_.size());
+        edgeStoppingBox(caustic_, causticFiltered_, width_, height_, f, edgeRatio, edgeScratch_);
+        causticFiltered_.swap(edgeScratch_);
+    }
     for (size_t i = 0; i < final_.size(); ++i) {
         const float w = ownWeight_[i / 3];
         if (w > 0.0f) causticFiltered_[i] = w * caustic_[i] + (1.0f - w) * causticFiltered_[i];

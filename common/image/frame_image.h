@@ -30,8 +30,10 @@ public:
     /// Box-filters the caustic buffer with an f × f window (docs/ARCHITECTURE.md §4) into filtered
     /// B, then composes, per pixel with its set's own weight w: shown = w·caustic + (1 − w)·B
     /// (exactly B where w = 0), causticFiltered = shown, final = direct + shown.
-    /// Cost: O(W·H) independent of f.
-    void filterAndCompose(int f);
+    /// With edgeRatio > 0 (and f > 1) B is the box that stops at the caustic's edges
+    /// (edgeStoppingBox, box_filter.h; RenderSettings::filterEdgeRatio).
+    /// Cost: O(W·H) independent of f; O(W·H·f²) with edgeRatio.
+    void filterAndCompose(int f, float edgeRatio = 0.0f);
 
     int width() const { return width_; }
     int height() const { return height_; }
@@ -50,6 +52,7 @@ private:
     std::vector<float> direct_, caustic_, causticFiltered_, final_;
     std::vector<float> ownWeight_;  ///< per pixel
     BoxFilter filter_;
+    std::vector<float> edgeScratch_;  ///< edgeStoppingBox's output, swapped in
 };
 
 }  // namespace rtpm

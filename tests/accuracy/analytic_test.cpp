@@ -54,7 +54,7 @@ TEST(AnalyticDirect, PointLitPlaneMatchesClosedFormThroughExr) {
     FrameImage frame(rs.width, rs.height);
     const Interleave pattern{rs.width, rs.height, m};
     for (const SetPixels& sp : pixels) frame.scatter(pattern, sp.set, sp.pixels);
-    frame.filterAndCompose(rs.filterSize());
+    frame.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
 
     // L = ρ/π · I cosθ / r² at the floor point each pixel's centre ray hits (docs/ARCHITECTURE.md
     // §9 camera).

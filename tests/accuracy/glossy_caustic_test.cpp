@@ -48,7 +48,7 @@ std::vector<std::vector<float>> caustics(Scene scene, const RenderSettings& rs, 
         job.renderFrame(camera, pixels);
         if (std::find(keep.begin(), keep.end(), f) == keep.end()) continue;
         for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
-        image.filterAndCompose(rs.filterSize());
+        image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
         out.push_back(image.causticFiltered());
     }
     return out;

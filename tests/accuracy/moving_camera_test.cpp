@@ -50,7 +50,7 @@ std::vector<Score> run(CausticEstimatorKind kind, bool moving, int frames) {
         const FrameStats st = job.renderFrame(moving && f % 2 == 0 ? nudged : camera, pixels);
         EXPECT_EQ(st.moving, moving);
         for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
-        image.filterAndCompose(rs.filterSize());
+        image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
         std::vector<float> shown(image.causticFiltered().begin(), image.causticFiltered().end());
         double so = 0.0, sr = 0.0;
         for (size_t p = 0; p < mask.size(); ++p)

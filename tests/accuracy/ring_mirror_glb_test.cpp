@@ -48,7 +48,7 @@ std::vector<float> shownCaustic(Scene scene, int frames) {
         job.renderFrame(camera, pixels);
         for (const SetPixels& sp : pixels)
             scatterSet(image, pattern, sp);
-        image.filterAndCompose(rs.filterSize());
+        image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
     }
     return image.causticFiltered();
 }

@@ -140,7 +140,7 @@ TEST(RingMirror, ProgressiveErrorFallsAsAPowerOfFrames) {
         job.renderFrame(camera, pixels);
         for (const SetPixels& sp : pixels)
             scatterSet(image, pattern, sp);
-        image.filterAndCompose(rs.filterSize());
+        image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
         if ((f & (f - 1)) != 0) continue;
         std::vector<float> shown = image.causticFiltered();
         double so = 0.0, sr = 0.0;

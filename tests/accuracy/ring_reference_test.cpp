@@ -50,7 +50,7 @@ Rendered renderRing(int frames) {
         out.nonFinite += st.eye.nonFinite;
     }
     for (const SetPixels& sp : pixels) out.frame.scatter(pattern, sp.set, sp.pixels);
-    out.frame.filterAndCompose(rs.filterSize());
+    out.frame.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
     return out;
 }
 

@@ -131,7 +131,7 @@ int main(int argc, char** argv) {
         const Interleave pattern{rs.width, rs.height, rs.interleave};
         FrameImage image(rs.width, rs.height);
         for (const SetPixels& sp : out) scatterSet(image, pattern, sp);
-        image.filterAndCompose(rs.filterSize());
+        image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
         writeExr(outPath, image);
     }
     return 0;

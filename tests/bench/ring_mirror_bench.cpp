@@ -158,7 +158,7 @@ int converge(const Options& o) {
                           (o.seconds > 0.0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= o.seconds);
         for (const SetPixels& sp : pixels)
             scatterSet(image, pattern, sp);
-        image.filterAndCompose(rs.filterSize());
+        image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
         // The error figure rtpm-render prints (render_main.cpp, common/image/shown_change.h).
         const double own = causticErrorEstimate(st.error);
         const double changed = change.add(st.converging, passPeriod, st.error.batches, image.causticFiltered(), rs.width,

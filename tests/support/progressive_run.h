@@ -60,7 +60,7 @@ inline Convergence renderConvergence(Scene scene, const RenderSettings& rs, cons
     for (int f = 1; f <= frames; ++f) {
         const FrameStats st = job.renderFrame(camera, pixels, passBatches);
         for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
-        image.filterAndCompose(rs.filterSize());
+        image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
         std::vector<float> shown = image.causticFiltered();
         // The error figure as rtpm-render prints it (render_main.cpp).
         const double own = causticErrorEstimate(st.error);

@@ -142,5 +142,65 @@ TEST(BoxFilter, TallImagesStayExactAcrossPeriodicResums) {
     }
 }
 
+// The edge-stopping box (edgeStoppingBox) over the plain box's output, as FrameImage runs it.
+std::vector<float> edgeStopped(const std::vector<float>& in, int w, int h, int f, float ratio) {
+    std::vector<float> box(in.size()), out(in.size());
+    boxFilter(in, w, h, f, box);
+    edgeStoppingBox(in, box, w, h, f, ratio, out);
+    return out;
+}
+
+TEST(EdgeStoppingBox, KeepsAStepSharpWhereTheBoxBlursIt) {
+    const int w = 12, h = 6;
+    std::vector<float> img(size_t(w * h * 3));
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 3; ++c) img[size_t((y * w + x) * 3 + c)] = x < w / 2 ? 1.0f : 10.0f;
+    const std::vector<float> out = edgeStopped(img, w, h, 3, 2.0f);
+    std::vector<float> box(img.size());
+    boxFilter(img, w, h, 3, box);
+    EXPECT_EQ(out, img);  // each side averages itself only
+    EXPECT_GT(box[size_t((w / 2 - 1) * 3)], 3.0f) << "the box blurs the step (the test's premise)";
+}
+
+TEST(EdgeStoppingBox, EqualsTheBoxWhereNeighboursAreWithinHalfTheRatio) {
+    const int w = 17, h = 9;
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> within(1.0f, 1.2f);  // max/min ≤ 1.2 ≤ 2.5 / 2
+    std::vector<float> img(size_t(w * h * 3));
+    for (float& v : img) v = within(rng);
+    std::vector<float> box(img.size());
+    boxFilterNaive(img, w, h, 3, box);
+    expectNear(edgeStopped(img, w, h, 3, 2.5f), box, 1e-6);
+}
+
+TEST(EdgeStoppingBox, RatioZeroIsThePlainBoxBitForBit) {
+    const int w = 13, h = 7;
+    const std::vector<float> img = randomImage(w, h, 3);
+    std::vector<float> box(img.size());
+    boxFilter(img, w, h, 3, box);
+    EXPECT_EQ(edgeStopped(img, w, h, 3, 0.0f), box);
+}
+
+TEST(EdgeStoppingBox, ANeighbourNearTheRatioMovesThePixelLittle) {
+    // Continuity: the weights fade, so a value that crosses the ratio by a hair (2e-3) moves the
+    // results by a few hairs, not by a step.
+    const int w = 3, h = 1;
+    std::vector<float> a = {1, 1, 1, 1.999f, 1.999f, 1.999f, 1, 1, 1};
+    std::vector<float> b = a;
+    for (int c = 0; c < 3; ++c) b[size_t(3 + c)] = 2.001f;
+    const std::vector<float> oa = edgeStopped(a, w, h, 3, 2.0f), ob = edgeStopped(b, w, h, 3, 2.0f);
+    EXPECT_NEAR(oa[0], ob[0], 5e-3f);
+    EXPECT_NEAR(oa[3], ob[3], 5e-3f);
+}
+
+TEST(EdgeStoppingBox, NonFiniteInputsCountAsZeroAndTheOutputStaysFinite) {
+    const int w = 5, h = 5;
+    std::vector<float> img(size_t(w * h * 3), 1.0f);
+    img[size_t((2 * w + 2) * 3)] = std::numeric_limits<float>::quiet_NaN();
+    img[size_t((1 * w + 1) * 3 + 1)] = std::numeric_limits<float>::infinity();
+    for (float v : edgeStopped(img, w, h, 3, 2.0f)) EXPECT_TRUE(std::isfinite(v));
+}
+
 }  // namespace
 }  // namespace rtpm

@@ -39,7 +39,7 @@ double meanToneMapped(const std::string& nameOrPath) {
     FrameImage image(rs.width, rs.height);
     const Interleave pattern{rs.width, rs.height, rs.interleave};
     for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
-    image.filterAndCompose(rs.filterSize());
+    image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
     const std::vector<float>& rgb = image.final();
     const float scale = autoExposureScale(rgb);
     double sum = 0.0;

@@ -61,7 +61,7 @@ FrameImage renderJob(Scene scene, int w, int h, int frames, CausticEstimatorKind
     std::vector<SetPixels> pixels;
     for (int f = 0; f < frames; ++f) job.renderFrame(camera, pixels);
     for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
-    image.filterAndCompose(rs.filterSize());
+    image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
     return image;
 }
 

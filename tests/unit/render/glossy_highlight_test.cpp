@@ -43,7 +43,7 @@ Vec3 centreDirect(Scene scene) {
     std::vector<SetPixels> pixels;
     job.renderFrame(camera, pixels);
     for (const SetPixels& sp : pixels) image.scatter(pattern, sp.set, sp.pixels);
-    image.filterAndCompose(rs.filterSize());
+    image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
     const std::vector<float>& d = image.direct();
     const size_t i = (1 * 3 + 1) * 3;
     return Vec3(d[i], d[i + 1], d[i + 2]);

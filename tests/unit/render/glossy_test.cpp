@@ -44,7 +44,7 @@ Frame render(Scene scene, const RenderSettings& rs, int frames) {
         EXPECT_EQ(st.eye.nonFinite, 0u);
         for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
     }
-    image.filterAndCompose(rs.filterSize());
+    image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
     return Frame{image.direct(), image.causticFiltered(), image.final()};
 }
 

@@ -65,7 +65,7 @@ Picture render(Scene scene, int w, int h, int frames, uint32_t paths, uint32_t d
     std::vector<SetPixels> pixels;
     for (int f = 0; f < frames; ++f) job.renderFrame(camera, pixels);
     for (const SetPixels& sp : pixels) image.scatter(pattern, sp.set, sp.pixels);
-    image.filterAndCompose(rs.filterSize());
+    image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
     Picture p;
     p.w = w;
     p.h = h;

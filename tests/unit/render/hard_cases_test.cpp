@@ -77,7 +77,7 @@ Frame render(RenderJob& job, int frames) {
     }
     for (const SetPixels& sp : pixels)
         scatterSet(*f.image, pattern, sp);
-    f.image->filterAndCompose(rs.filterSize());
+    f.image->filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
     return f;
 }
 

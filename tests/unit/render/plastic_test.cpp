@@ -113,7 +113,7 @@ Frame render(Scene scene, int frames) {
         EXPECT_EQ(st.eye.nonFinite, 0u);
         for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
     }
-    image.filterAndCompose(rs.filterSize());
+    image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
     return Frame{image.direct(), image.causticFiltered(), image.final()};
 }
 
