@@ -7,6 +7,9 @@
 #include <cstring>
 #include <vector>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "common/core/check.h"
 
 namespace rtpm {
@@ -84,6 +87,26 @@ RTPM_ROW_CLONES void horizontalRow(const double* p, int width, int span, double 
     std::memcpy(o + 3 * x, &v, 3 * sizeof(float));
 }
 
+/// One neighbour offset of the edge-stopping box over a row span: for each x in [x0, x1), the
+/// neighbour at x + dx of the window row (luminance `lq`, finite channels `rq`, `gq`, `bq`) gets
+/// weight clamp(2 − max(l, l_q) / (half · min(l, l_q) + floor), 0, 1) (0 also where that is not
+/// a number: both black), added to the accumulators. Contiguous in x, so it vectorises.
+RTPM_ROW_CLONES void addEdgeNeighbours(const float* __restrict lp, const float* __restrict floor,
+                                       const float* __restrict lq, const float* __restrict rq,
+                                       const float* __restrict gq, const float* __restrict bq, int dx, float half,
+                                       int x0, int x1, float* __restrict accR, float* __restrict accG,
+                                       float* __restrict accB, float* __restrict accW) {
+    for (int x = x0; x < x1; ++x) {
+        const float l = lp[x], m = lq[x + dx];
+        const float w0 = 2.0f - std::max(l, m) / (half * std::min(l, m) + floor[x]);
+        const float w = w0 > 1.0f ? 1.0f : (w0 > 0.0f ? w0 : 0.0f);
+        accR[x] += w * rq[x + dx];
+        accG[x] += w * gq[x + dx];
+        accB[x] += w * bq[x + dx];
+        accW[x] += w;
+    }
+}
+
 }  // namespace
 
 int BoxWindow::validCount(int i, int n) const {
@@ -138,40 +161,63 @@ void edgeStoppingBox(std::span<const float> in, std::span<const float> box, int 
         std::copy(box.begin(), box.end(), out.begin());
         return;
     }
-    const size_t n = static_cast<size_t>(width) * static_cast<size_t>(height);
     auto luminanceAt = [](const float* px) {
-        return 0.2126f * finiteOrZero(px[0]) + 0.7152f * finiteOrZero(px[1]) + 0.0722f * finiteOrZero(px[2]);
+        return float(0.2126 * finiteOrZero(px[0]) + 0.7152 * finiteOrZero(px[1]) + 0.0722 * finiteOrZero(px[2]));
     };
-    std::vector<float> lum(n);
-    for (size_t i = 0; i < n; ++i) lum[i] = luminanceAt(in.data() + 3 * i);
+    // Per row: the pixel itself with weight 1, then every other offset of its window as a
+    // contiguous pass over the row (addEdgeNeighbours), so the division and clamps vectorise.
     const BoxWindow win(f);
-    for (int y = 0; y < height; ++y) {
-        const int y0 = std::max(0, y - win.r0), y1 = std::min(height - 1, y + win.r1);
-        for (int x = 0; x < width; ++x) {
-            const int x0 = std::max(0, x - win.r0), x1 = std::min(width - 1, x + win.r1);
-            const size_t p = static_cast<size_t>(y) * width + x;
-            const float lp = lum[p];
-            const float floor = kEdgeFloor * luminanceAt(box.data() + 3 * p);
-            double sum[3] = {0.0, 0.0, 0.0};
-            double weights = 0.0;
-            for (int yy = y0; yy <= y1; ++yy) {
-                for (int xx = x0; xx <= x1; ++xx) {
-                    const size_t q = static_cast<size_t>(yy) * width + xx;
-                    const float lq = lum[q];
-                    // 1 within half the ratio, 0 from the ratio on, linear between: a value near
-                    // either end moves the pixel about as little as it moves itself.
-                    const double bound = 0.5 * double(ratio) * std::min(lp, lq) + floor;
-                    const double w = q == p ? 1.0 : std::clamp(2.0 - double(std::max(lp, lq)) / bound, 0.0, 1.0);
-                    if (!(w > 0.0)) continue;
-                    const float* px = in.data() + 3 * q;
-                    for (int c = 0; c < 3; ++c) sum[c] += w * finiteOrZero(px[c]);
-                    weights += w;
-                }
+    const float half = 0.5f * ratio;
+    tbb::parallel_for(tbb::blocked_range<int>(0, height, 8), [&](const tbb::blocked_range<int>& rows) {
+        std::vector<float> acc(size_t(width) * 4);
+        // Window rows as planes (luminance, then the finite channels), a ring of F rows.
+        const int ring = win.r0 + win.r1 + 1;
+        std::vector<float> planes(size_t(width) * 4 * size_t(ring));
+        std::vector<float> floors(static_cast<size_t>(width));
+        auto plane = [&](int yy, int k) { return planes.data() + (size_t(yy % ring) * 4 + size_t(k)) * size_t(width); };
+        auto fill = [&](int yy) {
+            const float* px = in.data() + 3 * static_cast<size_t>(yy) * width;
+            float *l = plane(yy, 0), *r = plane(yy, 1), *g = plane(yy, 2), *b = plane(yy, 3);
+            for (int x = 0; x < width; ++x) {
+                r[x] = float(finiteOrZero(px[3 * x]));
+                g[x] = float(finiteOrZero(px[3 * x + 1]));
+                b[x] = float(finiteOrZero(px[3 * x + 2]));
+                l[x] = luminanceAt(px + 3 * x);
             }
-            float* o = out.data() + 3 * p;
-            for (int c = 0; c < 3; ++c) o[c] = static_cast<float>(sum[c] / weights);
+        };
+        int filled = -1;  // the ring holds the rows up to this one
+        for (int y = rows.begin(); y < rows.end(); ++y) {
+            const int y0 = std::max(0, y - win.r0), y1 = std::min(height - 1, y + win.r1);
+            for (int yy = std::max(y0, filled + 1); yy <= y1; ++yy) fill(yy);
+            filled = std::max(filled, y1);
+            const size_t row = static_cast<size_t>(y) * width;
+            const float* lp = plane(y, 0);
+            const float* bx = box.data() + 3 * row;
+            for (int x = 0; x < width; ++x) floors[x] = kEdgeFloor * luminanceAt(bx + 3 * x);
+            float* accR = acc.data();
+            float* accG = accR + width;
+            float* accB = accG + width;
+            float* accW = accB + width;
+            std::copy_n(plane(y, 1), width, accR);
+            std::copy_n(plane(y, 2), width, accG);
+            std::copy_n(plane(y, 3), width, accB);
+            std::fill_n(accW, width, 1.0f);
+            for (int yy = y0; yy <= y1; ++yy)
+                for (int dx = -win.r0; dx <= win.r1; ++dx) {
+                    if (yy == y && dx == 0) continue;
+                    // x with x + dx inside the row.
+                    const int x0 = std::max(0, -dx), x1 = std::min(width, width - dx);
+                    addEdgeNeighbours(lp, floors.data(), plane(yy, 0), plane(yy, 1), plane(yy, 2), plane(yy, 3), dx,
+                                      half, x0, x1, accR, accG, accB, accW);
+                }
+            float* o = out.data() + 3 * row;
+            for (int x = 0; x < width; ++x) {
+                o[3 * x] = accR[x] / accW[x];
+                o[3 * x + 1] = accG[x] / accW[x];
+                o[3 * x + 2] = accB[x] / accW[x];
+            }
         }
-    }
+    });
 }
 
 void boxFilterNaive(std::span<const float> in, int width, int height, int f,
