@@ -104,6 +104,7 @@ void encodeOrRefer(const SetPixels& pixels, SentPixels& sent, proto::PixelEncodi
     fd.encoding = enc.encoding;
     fd.pixels = std::move(enc.bytes);
     fd.ownWeights = pixels.ownWeights;
+    fd.noise = pixels.noise;
     sent = SentPixels{true, requested, enc.encoding, fd.frame};
 }
 

@@ -140,6 +140,7 @@ void putPayload(Writer& w, const FrameData& m) {
     w.f64(m.errorBatches);
     w.u32(m.shotBatches);
     putPhotons(w, m.shot);
+    w.bytes(m.noise);
 }
 void putPayload(Writer& w, const Edit& m) {
     w.u32(m.sceneVersion);
@@ -466,6 +467,15 @@ void get(Reader& r, FrameData& m) {
     if (!getPhotons(r, m.shot, kMaxSharedPhotons, "frameData.shot")) return;
     if (r.ok() && m.shot.empty() != (m.shotBatches == 0))
         r.fail(ErrorCode::BadValue, "frameData.shot: photons and batches must both be present or absent");
+    uint32_t noise = 0;
+    if (!r.count(noise, m.pixelCount, 1, "frameData.noise")) return;
+    if (noise != 0 && (noise != m.pixelCount || m.unchanged)) {
+        r.fail(ErrorCode::BadValue, "frameData.noise: " + std::to_string(noise) + " bytes for " +
+                                        std::to_string(m.pixelCount) + " pixels");
+        return;
+    }
+    std::span<const uint8_t> bytes;
+    if (r.view(bytes, noise, "frameData.noise")) m.noise.assign(bytes.begin(), bytes.end());
 }
 void get(Reader& r, Edit& m) {
     r.u32(m.sceneVersion);

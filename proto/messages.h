@@ -254,6 +254,10 @@ struct FrameData {
     /// `ownWeights` are empty.
     bool unchanged = false;
     uint64_t sameAs = 0;  ///< 0 unless `unchanged`
+    /// Version 11 (last on the wire): empty (always with `unchanged`, and for knn), or one byte per
+    /// pixel: the relative Poisson noise of its caustic in 64ths (ProgressiveSet::noise), which
+    /// the master's filter allows for before it reads an edge.
+    std::vector<uint8_t> noise;
     bool operator==(const FrameData&) const = default;
 };
 

@@ -130,7 +130,7 @@ OutputResult ImageOutput::process(OutputJob& job) {
         // Each pixel's own caustic gets the weight its client chose against the box filter
         // (progressive.h); none for knn (the decoder checked the count).
         if (d.ownWeights.empty()) image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set]);
-        else image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set], d.ownWeights);
+        else image_.scatter(pattern_, static_cast<int>(d.set), radiance_[d.set], d.ownWeights, d.noise);
         composed_ = false;
         last = Scattered{true, d.frame, d.pixelCount};
     }

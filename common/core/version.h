@@ -9,7 +9,7 @@ namespace rtpm {
 /// The wire protocol's version (proto/PROTOCOL.md §2), bumped on any change of a message layout.
 /// Kept here, below every program, so that each one's --version names it (rtpm-render and
 /// rtpm-compare speak no protocol); proto::kProtocolVersion is this number.
-inline constexpr uint16_t kWireProtocolVersion = 10;
+inline constexpr uint16_t kWireProtocolVersion = 11;
 
 /// rtpm's version (CMake's project version), e.g. "0.1.0".
 const char* rtpmVersion();

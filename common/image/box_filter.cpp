@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <vector>
@@ -88,17 +89,22 @@ RTPM_ROW_CLONES void horizontalRow(const double* p, int width, int span, double 
 }
 
 /// One neighbour offset of the edge-stopping box over a row span: for each x in [x0, x1), the
-/// neighbour at x + dx of the window row (luminance `lq`, finite channels `rq`, `gq`, `bq`) gets
-/// weight clamp(2 − max(l, l_q) / (half · min(l, l_q) + floor), 0, 1) (0 also where that is not
-/// a number: both black), added to the accumulators. Contiguous in x, so it vectorises.
-RTPM_ROW_CLONES void addEdgeNeighbours(const float* __restrict lp, const float* __restrict floor,
-                                       const float* __restrict lq, const float* __restrict rq,
+/// neighbour at x + dx of the window row (luminance `lq`, its noise `sq`, finite channels `rq`,
+/// `gq`, `bq`) gets weight clamp(2 − (min + d) / (half · min + floor), 0, 1), where min is the
+/// lesser luminance of the two and d their difference less kEdgeNoise × their combined noise (0
+/// also where that is not a number: both black), added to the accumulators. Contiguous in x, so
+/// it vectorises.
+RTPM_ROW_CLONES void addEdgeNeighbours(const float* __restrict lp, const float* __restrict sp,
+                                       const float* __restrict floor, const float* __restrict lq,
+                                       const float* __restrict sq, const float* __restrict rq,
                                        const float* __restrict gq, const float* __restrict bq, int dx, float half,
                                        int x0, int x1, float* __restrict accR, float* __restrict accG,
                                        float* __restrict accB, float* __restrict accW) {
     for (int x = x0; x < x1; ++x) {
-        const float l = lp[x], m = lq[x + dx];
-        const float w0 = 2.0f - std::max(l, m) / (half * std::min(l, m) + floor[x]);
+        const float l = lp[x], m = lq[x + dx], a = sp[x], b = sq[x + dx];
+        const float low = std::min(l, m);
+        const float d = std::max(0.0f, std::max(l, m) - low - kEdgeNoise * std::sqrt(a * a + b * b));
+        const float w0 = 2.0f - (low + d) / (half * low + floor[x]);
         const float w = w0 > 1.0f ? 1.0f : (w0 > 0.0f ? w0 : 0.0f);
         accR[x] += w * rq[x + dx];
         accG[x] += w * gq[x + dx];
@@ -153,10 +159,11 @@ void boxFilter(std::span<const float> in, int width, int height, int f, std::spa
     filter.apply(in, width, height, f, out);
 }
 
-void edgeStoppingBox(std::span<const float> in, std::span<const float> box, int width, int height, int f,
-                     float ratio, std::span<float> out) {
+void edgeStoppingBox(std::span<const float> in, std::span<const float> box, std::span<const float> noise,
+                     int width, int height, int f, float ratio, std::span<float> out) {
     checkArgs(in, width, height, f, out);
     RTPM_CHECK(box.size() == in.size());
+    RTPM_CHECK(noise.empty() || noise.size() * 3 == in.size());
     if (!(ratio > 0.0f)) {
         std::copy(box.begin(), box.end(), out.begin());
         return;
@@ -172,17 +179,19 @@ void edgeStoppingBox(std::span<const float> in, std::span<const float> box, int 
         std::vector<float> acc(size_t(width) * 4);
         // Window rows as planes (luminance, then the finite channels), a ring of F rows.
         const int ring = win.r0 + win.r1 + 1;
-        std::vector<float> planes(size_t(width) * 4 * size_t(ring));
+        std::vector<float> planes(size_t(width) * 5 * size_t(ring));
         std::vector<float> floors(static_cast<size_t>(width));
-        auto plane = [&](int yy, int k) { return planes.data() + (size_t(yy % ring) * 4 + size_t(k)) * size_t(width); };
+        auto plane = [&](int yy, int k) { return planes.data() + (size_t(yy % ring) * 5 + size_t(k)) * size_t(width); };
         auto fill = [&](int yy) {
             const float* px = in.data() + 3 * static_cast<size_t>(yy) * width;
-            float *l = plane(yy, 0), *r = plane(yy, 1), *g = plane(yy, 2), *b = plane(yy, 3);
+            float *l = plane(yy, 0), *r = plane(yy, 1), *g = plane(yy, 2), *b = plane(yy, 3), *sd = plane(yy, 4);
             for (int x = 0; x < width; ++x) {
                 r[x] = float(finiteOrZero(px[3 * x]));
                 g[x] = float(finiteOrZero(px[3 * x + 1]));
                 b[x] = float(finiteOrZero(px[3 * x + 2]));
                 l[x] = luminanceAt(px + 3 * x);
+                const float rel = noise.empty() ? 0.0f : noise[static_cast<size_t>(yy) * width + x];
+                sd[x] = rel - rel == 0.0f && rel > 0.0f ? rel * l[x] : 0.0f;
             }
         };
         int filled = -1;  // the ring holds the rows up to this one
@@ -207,8 +216,8 @@ void edgeStoppingBox(std::span<const float> in, std::span<const float> box, int 
                     if (yy == y && dx == 0) continue;
                     // x with x + dx inside the row.
                     const int x0 = std::max(0, -dx), x1 = std::min(width, width - dx);
-                    addEdgeNeighbours(lp, floors.data(), plane(yy, 0), plane(yy, 1), plane(yy, 2), plane(yy, 3), dx,
-                                      half, x0, x1, accR, accG, accB, accW);
+                    addEdgeNeighbours(lp, plane(y, 4), floors.data(), plane(yy, 0), plane(yy, 4), plane(yy, 1),
+                                      plane(yy, 2), plane(yy, 3), dx, half, x0, x1, accR, accG, accB, accW);
                 }
             float* o = out.data() + 3 * row;
             for (int x = 0; x < width; ++x) {

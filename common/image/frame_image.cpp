@@ -15,23 +15,27 @@ FrameImage::FrameImage(int width, int height) : width_(width), height_(height) {
     causticFiltered_.assign(n, 0.0f);
     final_.assign(n, 0.0f);
     ownWeight_.assign(size_t(width) * size_t(height), 0.0f);
+    noise_.assign(size_t(width) * size_t(height), 0.0f);
 }
 
 void FrameImage::scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
                          float ownWeight) {
     RTPM_CHECK(ownWeight >= 0.0f && ownWeight <= 1.0f);
-    scatterImpl(pattern, set, pixels, [&](size_t) { return ownWeight; });
+    scatterImpl(pattern, set, pixels, [&](size_t) { return ownWeight; }, [](size_t) { return 0.0f; });
 }
 
 void FrameImage::scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
-                         std::span<const uint8_t> ownWeights) {
+                         std::span<const uint8_t> ownWeights, std::span<const uint8_t> noise) {
     RTPM_CHECK(ownWeights.size() == pixels.size());
-    scatterImpl(pattern, set, pixels, [&](size_t i) { return float(ownWeights[i]) * (1.0f / 255.0f); });
+    RTPM_CHECK(noise.empty() || noise.size() == pixels.size());
+    scatterImpl(
+        pattern, set, pixels, [&](size_t i) { return float(ownWeights[i]) * (1.0f / 255.0f); },
+        [&](size_t i) { return noise.empty() ? 0.0f : float(noise[i]) * (1.0f / 64.0f); });
 }
 
-template <class Weight>
+template <class Weight, class Noise>
 void FrameImage::scatterImpl(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
-                             Weight&& weight) {
+                             Weight&& weight, Noise&& noise) {
     RTPM_CHECK(pattern.width == width_ && pattern.height == height_);
     RTPM_CHECK(pixels.size() == size_t(pattern.pixelCount(set)));
     const int cols = pattern.setColumns(set);
@@ -44,6 +48,7 @@ void FrameImage::scatterImpl(const Interleave& pattern, int set, std::span<const
             const PixelRadiance& p = pixels[size_t(r) * size_t(cols) + size_t(c)];
             const size_t o = (rowBase + size_t(x0 + c * pattern.m)) * 3;
             ownWeight_[o / 3] = weight(size_t(r) * size_t(cols) + size_t(c));
+            noise_[o / 3] = noise(size_t(r) * size_t(cols) + size_t(c));
             for (int k = 0; k < 3; ++k) {
                 direct_[o + k] = p.direct[k];
                 caustic_[o + k] = p.caustic[k];
@@ -56,7 +61,7 @@ void FrameImage::filterAndCompose(int f, float edgeRatio) {
     filter_.apply(caustic_, width_, height_, f, causticFiltered_);
     if (edgeRatio > 0.0f && f > 1) {
         edgeScratch_.resize(causticFiltered_.size());
-        edgeStoppingBox(caustic_, causticFiltered_, width_, height_, f, edgeRatio, edgeScratch_);
+        edgeStoppingBox(caustic_, causticFiltered_, noise_, width_, height_, f, edgeRatio, edgeScratch_);
         causticFiltered_.swap(edgeScratch_);
     }
     for (size_t i = 0; i < final_.size(); ++i) {

@@ -24,9 +24,10 @@ public:
     void scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
                  float ownWeight = 0.0f);
     /// The same with one own weight per pixel of the set, in 255ths (size pixels.size(); the
-    /// progressive estimator's choice, progressive.h).
+    /// progressive estimator's choice, progressive.h), and the relative noise of each caustic
+    /// value in 64ths (empty: none; ProgressiveSet::noise), which the filter's edge test allows.
     void scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
-                 std::span<const uint8_t> ownWeights);
+                 std::span<const uint8_t> ownWeights, std::span<const uint8_t> noise = {});
     /// Box-filters the caustic buffer with an f × f window (docs/ARCHITECTURE.md §4) into filtered
     /// B, then composes, per pixel with its set's own weight w: shown = w·caustic + (1 − w)·B
     /// (exactly B where w = 0), causticFiltered = shown, final = direct + shown.
@@ -43,14 +44,15 @@ public:
     const std::vector<float>& final() const { return final_; }
 
 private:
-    template <class Weight>
+    template <class Weight, class Noise>
     void scatterImpl(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
-                     Weight&& weight);
+                     Weight&& weight, Noise&& noise);
 
     int width_;
     int height_;
     std::vector<float> direct_, caustic_, causticFiltered_, final_;
     std::vector<float> ownWeight_;  ///< per pixel
+    std::vector<float> noise_;      ///< per pixel: the caustic value's relative noise (scatter)
     BoxFilter filter_;
     std::vector<float> edgeScratch_;  ///< edgeStoppingBox's output, swapped in
 };

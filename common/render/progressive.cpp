@@ -21,6 +21,13 @@ namespace {
 double luminance(Vec3 c) { return 0.2126 * double(c.x) + 0.7152 * double(c.y) + 0.0722 * double(c.z); }
 double luminance(const glm::dvec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
 
+// A caustic value's relative noise in 64ths, as the wire carries it: how far the master's filter
+// may see it differ from a neighbour's before it reads an edge there (0 for a black value).
+uint8_t relativeNoise64ths(double noise, double value) {
+    const double rel = noise / value;
+    return value > 0.0 && std::isfinite(rel) ? uint8_t(std::lround(std::clamp(rel * 64.0, 0.0, 255.0))) : 0;
+}
+
 // kBinRatio2^j for every ring.
 const std::array<double, kRadiusBins> kDiscScale = [] {
     std::array<double, kRadiusBins> a{};
@@ -391,6 +398,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
     std::atomic<uint64_t> bad{0};
     std::vector<float> sigma(out.size(), 0.0f);
     ownWeights_.assign(out.size(), 0);
+    noise_.assign(out.size(), 0);
     const size_t cols = size_t(std::max(image_.columns, 1));
     // The world distance between neighbouring pixels of the image (set neighbours are M apart).
     auto footprint = [&](size_t p) {
@@ -409,6 +417,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
             glm::dvec3 direct(fixedDirect_[p]);
             glm::dvec3 caustic(0.0), own(0.0);
             double sd = 0.0, ownSd = 0.0;
+            double noise = 0.0, ownNoise = 0.0;  // Poisson noise alone, of the values as sent
             double radius = 0.0;
             for (uint32_t h = records_.firstHit[p]; h < records_.firstHit[p + 1]; ++h) {
                 const EyeHit& e = records_.hits[h];
@@ -432,15 +441,12 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                     // Noise and the blur the rule saw, added in quadrature.
                     const double rel = c[i].effective > 0.0 ? 1.0 / c[i].effective + c[i].drift * c[i].drift : 0.0;
                     const double sdv = luminance(value) * std::sqrt(rel);
-                    if (i == 0) {
-                        caustic += value;
-                        // The shown filter average: neighbours' shared photons sit at other
-                        // points of their discs, so their noise still averages out.
-                        sd += sdv * filterNoise;
-                    } else {
-                        own += value;
-                        ownSd += sdv;
-                    }
+                    const double poisson = c[i].effective > 0.0 ? luminance(value) / std::sqrt(c[i].effective) : 0.0;
+                    // The shown filter average (i = 0): neighbours' shared photons sit at other
+                    // points of their discs, so their noise still averages out.
+                    (i == 0 ? caustic : own) += value;
+                    (i == 0 ? sd : ownSd) += i == 0 ? sdv * filterNoise : sdv;
+                    (i == 0 ? noise : ownNoise) += poisson;
                 }
                 if (h == records_.firstHit[p]) radius = std::sqrt(double(s.outer2) * c[0].scale);
                 const Choice& shown = c[0];
@@ -457,7 +463,9 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 ownWeights_[p] = w255;
                 caustic = w * own + (1.0 - w) * caustic;
                 sd = w * ownSd + (1.0 - w) * sd;
+                noise = w * ownNoise + (1.0 - w) * noise;
             }
+            noise_[p] = relativeNoise64ths(noise, luminance(caustic));
             // A pixel whose disc is narrower than the filter's window shows (some of) its own
             // estimate: from the next pass on its hits bin the other sets' photons too. One
             // that the filter alone shows has every set's photons through it already.

@@ -202,6 +202,10 @@ public:
     }
     /// Per pixel of the set, the weight its own estimate gets against the box filter (frame_image.h).
     const std::vector<uint8_t>& ownWeights() const { return ownWeights_; }
+    /// Per pixel of the set, the Poisson noise of its caustic value (the filtered choice's and its
+    /// own, by the own weight) relative to that value, in 64ths (0..255: up to 4 ×): the master's
+    /// filter takes a difference within it for noise, not an edge (box_filter.h edgeStoppingBox).
+    const std::vector<uint8_t>& noise() const { return noise_; }
 
     /// Restart from a record-mode eye pass of `set` (`records`, and `out` with its direct values
     /// without the area-light term) and `maps`' accumulated map: the ladder's outer disc has
@@ -305,6 +309,7 @@ private:
         int m = 1, f = 1, columns = 1;
     } image_;
     std::vector<uint8_t> ownWeights_;
+    std::vector<uint8_t> noise_;
     std::vector<PixelRadiance> shown_;  ///< the pixels of the last compose (skip)
     EyeRecords records_;
     std::vector<HitState> state_;     ///< per hit

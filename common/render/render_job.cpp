@@ -169,12 +169,9 @@ FrameStats RenderJob::renderFrame(const Camera& camera, FrameMode mode, std::vec
         }
         const bool progression = progressive && !moving && !edit;
         out[i].passes = progression ? progressive_[i].passes() : 0;
-        out[i].ownWeights.clear();
-        out[i].error = CausticErrorSums{};
-        if (progression) {
-            out[i].ownWeights = progressive_[i].ownWeights();
-            out[i].error = progressive_[i].errorSums();
-        }
+        out[i].ownWeights = progression ? progressive_[i].ownWeights() : std::vector<uint8_t>{};
+        out[i].noise = progression ? progressive_[i].noise() : std::vector<uint8_t>{};
+        out[i].error = progression ? progressive_[i].errorSums() : CausticErrorSums{};
         out[i].shot = progressive ? photons_->takeShot(sets_[i]) : SetPhotons{sets_[i], 0, {}};
         stats.error += out[i].error;
         stats.passes = std::max(stats.passes, out[i].passes);
@@ -206,7 +203,7 @@ uint64_t RenderJob::pathsTraced() const {
 
 void scatterSet(FrameImage& image, const Interleave& pattern, const SetPixels& pixels) {
     if (pixels.ownWeights.empty()) image.scatter(pattern, pixels.set, pixels.pixels);
-    else image.scatter(pattern, pixels.set, pixels.pixels, pixels.ownWeights);
+    else image.scatter(pattern, pixels.set, pixels.pixels, pixels.ownWeights, pixels.noise);
 }
 
 void RenderJob::applyEdit(const SceneEdit& edit) {

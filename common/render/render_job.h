@@ -28,6 +28,9 @@ struct SetPixels {
     /// Progressive estimator: per pixel, the weight of its own caustic against the box filter in
     /// 255ths (progressive.h); empty for knn (the filter alone).
     std::vector<uint8_t> ownWeights;
+    /// Progressive estimator: per pixel, the relative noise of its caustic in 64ths
+    /// (ProgressiveSet::noise); empty for knn.
+    std::vector<uint8_t> noise;
     /// Progressive estimator: the set's caustic error figures (progressive.h).
     CausticErrorSums error;
     /// Progressive estimator: the photons the set shot this frame, for the other sets' passes

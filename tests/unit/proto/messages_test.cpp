@@ -81,7 +81,7 @@ TEST(Messages, HelloGoldenBytes) {
     auto bytes = encode(Hello{5, 8, "c1", 0x0123456789abcdefull});
     EXPECT_EQ(hex(bytes),
               "5254504d"   // magic 'RTPM'
-              "0a00"       // version 10
+              "0b00"       // version 11
               "0100"       // type Hello
               "00000000"   // flags
               "14000000"   // payload 20 bytes
@@ -92,7 +92,7 @@ TEST(Messages, HelloGoldenBytes) {
 }
 
 TEST(Messages, HeartbeatIsABareHeaderAndRefusesAnyPayload) {
-    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0a00" "0d00" "00000000" "00000000");
+    EXPECT_EQ(hex(encode(Heartbeat{})), "5254504d" "0b00" "0d00" "00000000" "00000000");
     EXPECT_FALSE(decodePayload(MessageType::Heartbeat, std::vector<uint8_t>{0}).ok());
 }
 
@@ -108,11 +108,11 @@ TEST(Messages, OnlyBusyRefusalsAreTransient) {
 TEST(Messages, ChallengeAndAuthGoldenBytes) {
     Challenge c;
     for (size_t i = 0; i < c.nonce.size(); ++i) c.nonce[i] = uint8_t(i);
-    EXPECT_EQ(hex(encode(c)), "5254504d0a000b0000000000" "20000000"  // type 11, payload 32
+    EXPECT_EQ(hex(encode(c)), "5254504d0b000b0000000000" "20000000"  // type 11, payload 32
                               "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f");
     Auth a;
     a.mac.fill(0xab);
-    EXPECT_EQ(hex(encode(a)).substr(0, 32), "5254504d0a000c000000000020000000");  // type 12, payload 32
+    EXPECT_EQ(hex(encode(a)).substr(0, 32), "5254504d0b000c000000000020000000");  // type 12, payload 32
 }
 
 TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
@@ -161,7 +161,7 @@ TEST(FrameSplitter, AllowOnlyRefusesOtherTypesAndSizesFromTheHeaderAlone) {
 TEST(Messages, FrameBeginGoldenBytes) {
     FrameBegin fb{5, 2, 3, {{1, 2, 3}, {0, 0, -1}, {0, 1, 0}, 0.5f}, FrameMode::Accumulate, {0, 7}};
     EXPECT_EQ(hex(encode(fb)),
-              "5254504d0a000600" "00000000" "51000000"  // header v10, type 6, payload 81 bytes
+              "5254504d0b000600" "00000000" "51000000"  // header v11, type 6, payload 81 bytes
               "0500000000000000"                        // frame 5
               "02000000" "03000000"                     // epoch 2, sceneVersion 3
               "0000803f" "00000040" "00004040"          // position (1, 2, 3)
@@ -235,12 +235,15 @@ TEST(Messages, UnchangedPixelsRoundTripAndInconsistentOnesAreRefused) {
     fd.errorRadiance = 2.0;
     fd.errorPixels = 1;
     expectRoundTrips(fd);
-    EXPECT_EQ(encode(fd).size(), kHeaderBytes + 8 + 4 + 1 + 4 + 1 + 8 + 4 + 4 + 4 + 8 + 8 + 4 + 8 + 4 + 4);
+    EXPECT_EQ(encode(fd).size(), kHeaderBytes + 8 + 4 + 1 + 4 + 1 + 8 + 4 + 4 + 4 + 8 + 8 + 4 + 8 + 4 + 4 + 4);
     FrameData bad = fd;
     bad.pixels.assign(48, 0);
     reject(bad, ErrorCode::BadValue);
     bad = fd;
     bad.ownWeights.assign(2, 255);
+    reject(bad, ErrorCode::BadValue);
+    bad = fd;
+    bad.noise.assign(2, 64);  // version 11: no noise without pixels either
     reject(bad, ErrorCode::BadValue);
     bad = fd;
     bad.sameAs = 9;  // not before its own frame

@@ -139,7 +139,7 @@ std::vector<uint8_t> header(uint32_t magic, uint16_t version, uint16_t type, uin
 TEST(Wire, HeaderIsSixteenBytesStartingWithRTPM) {
     Writer w;
     encodeHeader(Header{kMagic, kProtocolVersion, MessageType::FrameData, 0, 0x01020304u}, w);
-    const std::vector<uint8_t> want = {'R', 'T', 'P', 'M', 10, 0, 7, 0, 0, 0, 0, 0, 4, 3, 2, 1};
+    const std::vector<uint8_t> want = {'R', 'T', 'P', 'M', 11, 0, 7, 0, 0, 0, 0, 0, 4, 3, 2, 1};
     EXPECT_EQ(w.data(), want);
     auto h = decodeHeader(w.data());
     ASSERT_TRUE(h.ok()) << h.error().message;
@@ -151,7 +151,8 @@ TEST(Wire, HeaderErrorsAreTyped) {
     auto code = [](const std::vector<uint8_t>& b) { return decodeHeader(b).error().code; };
     EXPECT_EQ(code({1, 2, 3}), ErrorCode::Truncated);
     EXPECT_EQ(code(header(0x4D505453u, 1, 1, 0, 0)), ErrorCode::BadMagic);
-    EXPECT_EQ(code(header(kMagic, 11, 1, 0, 0)), ErrorCode::BadVersion);
+    EXPECT_EQ(code(header(kMagic, 12, 1, 0, 0)), ErrorCode::BadVersion);
+    EXPECT_EQ(code(header(kMagic, 10, 1, 0, 0)), ErrorCode::BadVersion);  // version 10 peers (no per-pixel noise)
     EXPECT_EQ(code(header(kMagic, 9, 1, 0, 0)), ErrorCode::BadVersion);  // version 9 peers (every waiting set's pixels resent)
     EXPECT_EQ(code(header(kMagic, 8, 1, 0, 0)), ErrorCode::BadVersion);  // version 8 peers (no Relight frames)
     EXPECT_EQ(code(header(kMagic, 7, 1, 0, 0)), ErrorCode::BadVersion);  // version 7 peers (Settings by field, no plastics)
