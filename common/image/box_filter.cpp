@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include "common/core/check.h"
@@ -175,12 +176,21 @@ void edgeStoppingBox(std::span<const float> in, std::span<const float> box, std:
     // contiguous pass over the row (addEdgeNeighbours), so the division and clamps vectorise.
     const BoxWindow win(f);
     const float half = 0.5f * ratio;
+    // Per worker: the accumulators, a ring of F window rows as planes (luminance, the finite
+    // channels, the noise) and the row's floors; kept for the whole image, not per band of rows.
+    const int ring = win.r0 + win.r1 + 1;
+    struct Scratch {
+        std::vector<float> acc, planes, floors;
+    };
+    tbb::enumerable_thread_specific<Scratch> scratch;
     tbb::parallel_for(tbb::blocked_range<int>(0, height, 8), [&](const tbb::blocked_range<int>& rows) {
-        std::vector<float> acc(size_t(width) * 4);
-        // Window rows as planes (luminance, then the finite channels), a ring of F rows.
-        const int ring = win.r0 + win.r1 + 1;
-        std::vector<float> planes(size_t(width) * 5 * size_t(ring));
-        std::vector<float> floors(static_cast<size_t>(width));
+        Scratch& mine = scratch.local();
+        mine.acc.resize(size_t(width) * 4);
+        mine.planes.resize(size_t(width) * 5 * size_t(ring));
+        mine.floors.resize(size_t(width));
+        std::vector<float>& acc = mine.acc;
+        std::vector<float>& planes = mine.planes;
+        std::vector<float>& floors = mine.floors;
         auto plane = [&](int yy, int k) { return planes.data() + (size_t(yy % ring) * 5 + size_t(k)) * size_t(width); };
         auto fill = [&](int yy) {
             const float* px = in.data() + 3 * static_cast<size_t>(yy) * width;
