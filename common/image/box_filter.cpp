@@ -91,21 +91,21 @@ RTPM_ROW_CLONES void horizontalRow(const double* p, int width, int span, double 
 
 /// One neighbour offset of the edge-stopping box over a row span: for each x in [x0, x1), the
 /// neighbour at x + dx of the window row (luminance `lq`, its noise `sq`, finite channels `rq`,
-/// `gq`, `bq`) gets weight clamp(2 − (min + d) / (half · min + floor), 0, 1), where min is the
-/// lesser luminance of the two and d their difference less kEdgeNoise × their combined noise (0
-/// also where that is not a number: both black), added to the accumulators. Contiguous in x, so
-/// it vectorises.
+/// `gq`, `bq`) gets weight clamp(1 + (floor − d) / (excess · min + floor), 0, 1), where min is
+/// the lesser luminance of the two and d their difference less kEdgeNoise × their combined noise
+/// (0 also where that is not a number: both black), added to the accumulators. Contiguous in x,
+/// so it vectorises.
 RTPM_ROW_CLONES void addEdgeNeighbours(const float* __restrict lp, const float* __restrict sp,
                                        const float* __restrict floor, const float* __restrict lq,
                                        const float* __restrict sq, const float* __restrict rq,
-                                       const float* __restrict gq, const float* __restrict bq, int dx, float half,
+                                       const float* __restrict gq, const float* __restrict bq, int dx, float excess,
                                        int x0, int x1, float* __restrict accR, float* __restrict accG,
                                        float* __restrict accB, float* __restrict accW) {
     for (int x = x0; x < x1; ++x) {
         const float l = lp[x], m = lq[x + dx], a = sp[x], b = sq[x + dx];
         const float low = std::min(l, m);
         const float d = std::max(0.0f, std::max(l, m) - low - kEdgeNoise * std::sqrt(a * a + b * b));
-        const float w0 = 2.0f - (low + d) / (half * low + floor[x]);
+        const float w0 = 1.0f + (floor[x] - d) / (excess * low + floor[x]);
         const float w = w0 > 1.0f ? 1.0f : (w0 > 0.0f ? w0 : 0.0f);
         accR[x] += w * rq[x + dx];
         accG[x] += w * gq[x + dx];
@@ -175,7 +175,7 @@ void edgeStoppingBox(std::span<const float> in, std::span<const float> box, std:
     // Per row: the pixel itself with weight 1, then every other offset of its window as a
     // contiguous pass over the row (addEdgeNeighbours), so the division and clamps vectorise.
     const BoxWindow win(f);
-    const float half = 0.5f * ratio;
+    const float excess = std::max(ratio, 1.0f) - 1.0f;  // (0, 1) acts as 1: a near step
     // Per worker: the accumulators, a ring of F window rows as planes (luminance, the finite
     // channels, the noise) and the row's floors; kept for the whole image, not per band of rows.
     const int ring = win.r0 + win.r1 + 1;
@@ -200,8 +200,9 @@ void edgeStoppingBox(std::span<const float> in, std::span<const float> box, std:
                 g[x] = float(finiteOrZero(px[3 * x + 1]));
                 b[x] = float(finiteOrZero(px[3 * x + 2]));
                 l[x] = luminanceAt(px + 3 * x);
+                // Infinite noise (unknown) makes every difference noise: the box's weight.
                 const float rel = noise.empty() ? 0.0f : noise[static_cast<size_t>(yy) * width + x];
-                sd[x] = rel - rel == 0.0f && rel > 0.0f ? rel * l[x] : 0.0f;
+                sd[x] = std::isinf(rel) ? rel : (rel > 0.0f ? rel * l[x] : 0.0f);
             }
         };
         int filled = -1;  // the ring holds the rows up to this one
@@ -227,7 +228,7 @@ void edgeStoppingBox(std::span<const float> in, std::span<const float> box, std:
                     // x with x + dx inside the row.
                     const int x0 = std::max(0, -dx), x1 = std::min(width, width - dx);
                     addEdgeNeighbours(lp, plane(y, 4), floors.data(), plane(yy, 0), plane(yy, 4), plane(yy, 1),
-                                      plane(yy, 2), plane(yy, 3), dx, half, x0, x1, accR, accG, accB, accW);
+                                      plane(yy, 2), plane(yy, 3), dx, excess, x0, x1, accR, accG, accB, accW);
                 }
             float* o = out.data() + 3 * row;
             for (int x = 0; x < width; ++x) {

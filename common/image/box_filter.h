@@ -60,18 +60,19 @@ void boxFilter(std::span<const float> in, int width, int height, int f, std::spa
 
 /// The box filter that stops at a caustic's edges (docs/ARCHITECTURE.md §4): pixel p averages the
 /// neighbours q of its F×F window (same window and border rule as the box) weighted by how far
-/// their luminances l_p, l_q differ beyond noise: with low = min(l_p, l_q), d = max(0, |l_p − l_q|
-/// − kEdgeNoise·√(σ_p² + σ_q²)) (σ = the pixel's relative `noise` × its luminance) and b =
-/// ratio/2 · low + floor, weight 1 while low + d ≤ b, 0 from 2b on (about `ratio` × the dimmer of
-/// the two, once noise is allowed for), linear between; floor = kEdgeFloor × the luminance of p's
+/// their luminances l_p, l_q differ beyond noise: with low = min(l_p, l_q) and d = max(0, |l_p −
+/// l_q| − kEdgeNoise·√(σ_p² + σ_q²)) (σ = the pixel's relative `noise` × its luminance), weight 1
+/// while d ≤ floor, 0 from d = (ratio − 1)·low + 2·floor on (the brighter about `ratio` × the
+/// dimmer, once noise is allowed for), linear between; floor = kEdgeFloor × the luminance of p's
 /// plain box average `box`, so that near-black neighbours of a dark pixel still average; p
-/// itself has weight 1. Where every neighbour is within half the ratio or within the noise (a
+/// itself has weight 1. Where every neighbour differs by no more than the noise and the floor (a
 /// smooth caustic, a noisy one) the result is the box's; across a fold line or a caustic's rim
-/// the window keeps the pixel's own side instead of blurring the two. The weights are
-/// continuous in the values, so a value that moves a little moves the result a little.
+/// the window keeps the pixel's own side instead of blurring the two. The weights are continuous
+/// in the values, so a value that moves a little moves the result a little.
 /// Non-finite values count as 0, as in the box. `box` is BoxFilter::apply's output for `in` and
-/// the same f; `noise` has one relative noise per pixel, or is empty (none). ratio ≤ 0 copies
-/// `box` (the paper's filter). O(W·H·F²), rows in parallel.
+/// the same f; `noise` has one relative noise per pixel (infinite: unknown, every difference
+/// there is noise), or is empty (none at all). ratio ≤ 0 copies `box` (the paper's filter); a
+/// ratio in (0, 1) acts as 1. O(W·H·F²), rows in parallel.
 inline constexpr float kEdgeFloor = 0.05f;
 inline constexpr float kEdgeNoise = 2.0f;
 void edgeStoppingBox(std::span<const float> in, std::span<const float> box, std::span<const float> noise,

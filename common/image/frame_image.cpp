@@ -2,6 +2,7 @@
 #include "common/image/frame_image.h"
 
 #include <algorithm>
+#include <limits>
 
 #include "common/core/check.h"
 
@@ -21,7 +22,9 @@ FrameImage::FrameImage(int width, int height) : width_(width), height_(height) {
 void FrameImage::scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
                          float ownWeight) {
     RTPM_CHECK(ownWeight >= 0.0f && ownWeight <= 1.0f);
-    scatterImpl(pattern, set, pixels, [&](size_t) { return ownWeight; }, [](size_t) { return 0.0f; });
+    // No noise known (knn, a moving view's frames): infinite, so the filter reads no edge there.
+    scatterImpl(pattern, set, pixels, [&](size_t) { return ownWeight; },
+                [](size_t) { return std::numeric_limits<float>::infinity(); });
 }
 
 void FrameImage::scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
@@ -30,7 +33,7 @@ void FrameImage::scatter(const Interleave& pattern, int set, std::span<const Pix
     RTPM_CHECK(noise.empty() || noise.size() == pixels.size());
     scatterImpl(
         pattern, set, pixels, [&](size_t i) { return float(ownWeights[i]) * (1.0f / 255.0f); },
-        [&](size_t i) { return noise.empty() ? 0.0f : float(noise[i]) * (1.0f / 64.0f); });
+        [&](size_t i) { return noise.empty() ? std::numeric_limits<float>::infinity() : float(noise[i]) * (1.0f / 64.0f); });
 }
 
 template <class Weight, class Noise>

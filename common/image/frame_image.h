@@ -25,7 +25,8 @@ public:
                  float ownWeight = 0.0f);
     /// The same with one own weight per pixel of the set, in 255ths (size pixels.size(); the
     /// progressive estimator's choice, progressive.h), and the relative noise of each caustic
-    /// value in 64ths (empty: none; ProgressiveSet::noise), which the filter's edge test allows.
+    /// value in 64ths (ProgressiveSet::noise), which the filter's edge test allows for; empty,
+    /// or the other overload: unknown, taken as infinite (no edge read at those pixels).
     void scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
                  std::span<const uint8_t> ownWeights, std::span<const uint8_t> noise = {});
     /// Box-filters the caustic buffer with an f × f window (docs/ARCHITECTURE.md §4) into filtered

@@ -164,15 +164,25 @@ TEST(EdgeStoppingBox, KeepsAStepSharpWhereTheBoxBlursIt) {
     EXPECT_GT(box[size_t((w / 2 - 1) * 3)], 3.0f) << "the box blurs the step (the test's premise)";
 }
 
-TEST(EdgeStoppingBox, EqualsTheBoxWhereNeighboursAreWithinHalfTheRatio) {
+TEST(EdgeStoppingBox, EqualsTheBoxWhereDifferencesAreWithinTheFloor) {
     const int w = 17, h = 9;
     std::mt19937 rng(7);
-    std::uniform_real_distribution<float> within(1.0f, 1.2f);  // max/min ≤ 1.2 ≤ 2.5 / 2
+    // Grey values within 4 % of each other: below the floor (kEdgeFloor of the window's mean).
+    std::uniform_real_distribution<float> within(1.0f, 1.04f);
     std::vector<float> img(size_t(w * h * 3));
-    for (float& v : img) v = within(rng);
+    for (size_t p = 0; p < size_t(w * h); ++p) img[3 * p] = img[3 * p + 1] = img[3 * p + 2] = within(rng);
     std::vector<float> box(img.size());
     boxFilterNaive(img, w, h, 3, box);
     expectNear(edgeStopped(img, w, h, 3, 2.5f), box, 1e-6);
+}
+
+TEST(EdgeStoppingBox, UnknownNoiseIsInfiniteAndGivesTheBox) {
+    const int w = 13, h = 7;
+    const std::vector<float> img = randomImage(w, h, 5);  // four decades: edges everywhere
+    std::vector<float> box(img.size());
+    boxFilterNaive(img, w, h, 3, box);
+    const std::vector<float> unknown(size_t(w * h), std::numeric_limits<float>::infinity());
+    expectNear(edgeStopped(img, w, h, 3, 2.0f, unknown), box, 1e-6);
 }
 
 TEST(EdgeStoppingBox, DifferencesWithinTheNoiseAreAveragedAsTheBoxDoes) {
