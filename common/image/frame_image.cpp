@@ -8,6 +8,11 @@
 
 namespace rtpm {
 
+namespace {
+// A pixel's noise when its set sent none: infinite, every difference there is noise.
+constexpr float kUnknownNoise = std::numeric_limits<float>::infinity();
+}  // namespace
+
 FrameImage::FrameImage(int width, int height) : width_(width), height_(height) {
     RTPM_CHECK(width > 0 && height > 0);
     const size_t n = size_t(width) * size_t(height) * 3;
@@ -16,7 +21,7 @@ FrameImage::FrameImage(int width, int height) : width_(width), height_(height) {
     causticFiltered_.assign(n, 0.0f);
     final_.assign(n, 0.0f);
     ownWeight_.assign(size_t(width) * size_t(height), 0.0f);
-    noise_.assign(size_t(width) * size_t(height), 0.0f);
+    noise_.assign(size_t(width) * size_t(height), kUnknownNoise);
 }
 
 void FrameImage::scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
@@ -24,7 +29,7 @@ void FrameImage::scatter(const Interleave& pattern, int set, std::span<const Pix
     RTPM_CHECK(ownWeight >= 0.0f && ownWeight <= 1.0f);
     // No noise known (knn, a moving view's frames): infinite, so the filter reads no edge there.
     scatterImpl(pattern, set, pixels, [&](size_t) { return ownWeight; },
-                [](size_t) { return std::numeric_limits<float>::infinity(); });
+                [](size_t) { return kUnknownNoise; });
 }
 
 void FrameImage::scatter(const Interleave& pattern, int set, std::span<const PixelRadiance> pixels,
@@ -33,7 +38,7 @@ void FrameImage::scatter(const Interleave& pattern, int set, std::span<const Pix
     RTPM_CHECK(noise.empty() || noise.size() == pixels.size());
     scatterImpl(
         pattern, set, pixels, [&](size_t i) { return float(ownWeights[i]) * (1.0f / 255.0f); },
-        [&](size_t i) { return noise.empty() ? std::numeric_limits<float>::infinity() : float(noise[i]) * (1.0f / 64.0f); });
+        [&](size_t i) { return noise.empty() ? kUnknownNoise : float(noise[i]) * (1.0f / 64.0f); });
 }
 
 template <class Weight, class Noise>
@@ -62,7 +67,9 @@ void FrameImage::scatterImpl(const Interleave& pattern, int set, std::span<const
 
 void FrameImage::filterAndCompose(int f, float edgeRatio) {
     filter_.apply(caustic_, width_, height_, f, causticFiltered_);
-    if (edgeRatio > 0.0f && f > 1) {
+    // Where no set sent its noise (a moving view's frames) every weight is 1: the box as it is.
+    const bool anyNoise = std::any_of(noise_.begin(), noise_.end(), [](float n) { return n < kUnknownNoise; });
+    if (edgeRatio > 0.0f && f > 1 && anyNoise) {
         edgeScratch_.resize(causticFiltered_.size());
         edgeStoppingBox(caustic_, causticFiltered_, noise_, width_, height_, f, edgeRatio, edgeScratch_);
         causticFiltered_.swap(edgeScratch_);
