@@ -89,6 +89,44 @@ RTPM_ROW_CLONES void horizontalRow(const double* p, int width, int span, double 
     std::memcpy(o + 3 * x, &v, 3 * sizeof(float));
 }
 
+/// A row of RGB triples split into finite channel planes (NaN and ±Inf to 0: v − v is 0 exactly
+/// for finite v) and their luminance; the noise plane's absolute noise σ = rel · l (infinite
+/// stays infinite: unknown). Separate loops so each vectorises.
+RTPM_ROW_CLONES void splitRow(const float* __restrict px, const float* __restrict rel, int width, float* __restrict r,
+                              float* __restrict g, float* __restrict b, float* __restrict l, float* __restrict sd) {
+    for (int x = 0; x < width; ++x) {
+        const float vr = px[3 * x], vg = px[3 * x + 1], vb = px[3 * x + 2];
+        r[x] = vr - vr == 0.0f ? vr : 0.0f;
+        g[x] = vg - vg == 0.0f ? vg : 0.0f;
+        b[x] = vb - vb == 0.0f ? vb : 0.0f;
+        l[x] = 0.2126f * r[x] + 0.7152f * g[x] + 0.0722f * b[x];
+    }
+    if (!rel) {
+        std::fill_n(sd, width, 0.0f);
+        return;
+    }
+    for (int x = 0; x < width; ++x) {
+        const float n = rel[x];
+        sd[x] = n > 0.0f ? (n - n == 0.0f ? n * l[x] : n) : 0.0f;
+    }
+}
+
+/// out[3x + c] = acc_c[x] / w[x], and the floors of a row of the box: kEdgeFloor × its luminance.
+RTPM_ROW_CLONES void divideRow(const float* __restrict accR, const float* __restrict accG,
+                               const float* __restrict accB, const float* __restrict accW, int x0, int x1,
+                               float* __restrict out) {
+    for (int x = x0; x < x1; ++x) {
+        const float inverse = 1.0f / accW[x];
+        out[3 * x] = accR[x] * inverse;
+        out[3 * x + 1] = accG[x] * inverse;
+        out[3 * x + 2] = accB[x] * inverse;
+    }
+}
+RTPM_ROW_CLONES void floorRow(const float* __restrict box, int width, float* __restrict floor) {
+    for (int x = 0; x < width; ++x)
+        floor[x] = kEdgeFloor * (0.2126f * box[3 * x] + 0.7152f * box[3 * x + 1] + 0.0722f * box[3 * x + 2]);
+}
+
 /// One neighbour offset of the edge-stopping box over a row span: for each x in [x0, x1), the
 /// neighbour at x + dx of the window row (luminance `lq`, its noise `sq`, finite channels `rq`,
 /// `gq`, `bq`) gets weight clamp(1 + (floor − d) / (excess · min + floor), 0, 1), where min is
@@ -169,9 +207,6 @@ void edgeStoppingBox(std::span<const float> in, std::span<const float> box, std:
         std::copy(box.begin(), box.end(), out.begin());
         return;
     }
-    auto luminanceAt = [](const float* px) {
-        return float(0.2126 * finiteOrZero(px[0]) + 0.7152 * finiteOrZero(px[1]) + 0.0722 * finiteOrZero(px[2]));
-    };
     // Per row: the pixel itself with weight 1, then every other offset of its window as a
     // contiguous pass over the row (addEdgeNeighbours), so the division and clamps vectorise.
     const BoxWindow win(f);
@@ -193,17 +228,10 @@ void edgeStoppingBox(std::span<const float> in, std::span<const float> box, std:
         std::vector<float>& floors = mine.floors;
         auto plane = [&](int yy, int k) { return planes.data() + (size_t(yy % ring) * 5 + size_t(k)) * size_t(width); };
         auto fill = [&](int yy) {
-            const float* px = in.data() + 3 * static_cast<size_t>(yy) * width;
-            float *l = plane(yy, 0), *r = plane(yy, 1), *g = plane(yy, 2), *b = plane(yy, 3), *sd = plane(yy, 4);
-            for (int x = 0; x < width; ++x) {
-                r[x] = float(finiteOrZero(px[3 * x]));
-                g[x] = float(finiteOrZero(px[3 * x + 1]));
-                b[x] = float(finiteOrZero(px[3 * x + 2]));
-                l[x] = luminanceAt(px + 3 * x);
-                // Infinite noise (unknown) makes every difference noise: the box's weight.
-                const float rel = noise.empty() ? 0.0f : noise[static_cast<size_t>(yy) * width + x];
-                sd[x] = std::isinf(rel) ? rel : (rel > 0.0f ? rel * l[x] : 0.0f);
-            }
+            // Infinite noise (unknown) makes every difference noise: the box's weight.
+            splitRow(in.data() + 3 * static_cast<size_t>(yy) * width,
+                     noise.empty() ? nullptr : noise.data() + static_cast<size_t>(yy) * width, width, plane(yy, 1),
+                     plane(yy, 2), plane(yy, 3), plane(yy, 0), plane(yy, 4));
         };
         int filled = -1;  // the ring holds the rows up to this one
         for (int y = rows.begin(); y < rows.end(); ++y) {
@@ -213,7 +241,7 @@ void edgeStoppingBox(std::span<const float> in, std::span<const float> box, std:
             const size_t row = static_cast<size_t>(y) * width;
             const float* lp = plane(y, 0);
             const float* bx = box.data() + 3 * row;
-            for (int x = 0; x < width; ++x) floors[x] = kEdgeFloor * luminanceAt(bx + 3 * x);
+            floorRow(bx, width, floors.data());
             float* accR = acc.data();
             float* accG = accR + width;
             float* accB = accG + width;
@@ -231,11 +259,7 @@ void edgeStoppingBox(std::span<const float> in, std::span<const float> box, std:
                                       plane(yy, 2), plane(yy, 3), dx, excess, x0, x1, accR, accG, accB, accW);
                 }
             float* o = out.data() + 3 * row;
-            for (int x = 0; x < width; ++x) {
-                o[3 * x] = accR[x] / accW[x];
-                o[3 * x + 1] = accG[x] / accW[x];
-                o[3 * x + 2] = accB[x] / accW[x];
-            }
+            divideRow(accR, accG, accB, accW, 0, width, o);
         }
     });
 }
