@@ -142,7 +142,7 @@ inline constexpr std::array<KnobRow, kKnobCount> kKnobs{{
     {{"filter edges", "--filter-edges", "", "image", "ratio", 0, 64, 2, false, {}, WireType::None,
       "progressive: a pixel's filter window leaves out the neighbours whose caustic is more than this "
       "factor brighter or darker than its own beyond their noise (a fold line or a caustic's rim; "
-      "faded from equal on), so edges stay sharp; 0 = every neighbour, the paper's box filter (knn "
+      "faded from 5 % of the window's mean on), so edges stay sharp; 0 = every neighbour, the paper's box filter (knn "
       "always uses it); below 1 acts as 1",
       [](const RenderSettings& s) { return double(s.filterEdges); },
       [](RenderSettings& s, double v) { s.filterEdges = float(v); }},

@@ -132,9 +132,9 @@ struct RenderSettings {
     float exposure = 0.0f;
     /// Progressive: the box filter leaves out of a pixel's window the neighbours whose caustic is
     /// more than this factor brighter or darker than the pixel's beyond their noise (a fold line
-    /// or a caustic's rim; faded from equal on), so a window averages its own side of an edge
-    /// instead of blurring both (box_filter.h edgeStoppingBox); 0 = every neighbour, the paper's
-    /// box, which knn always shows.
+    /// or a caustic's rim; faded from 5 % of the window's mean on), so a window averages its own
+    /// side of an edge instead of blurring both (box_filter.h edgeStoppingBox); 0 = every
+    /// neighbour, the paper's box, which knn always shows.
     float filterEdges = 2.0f;
     EyeSettings eye;
     PhotonSettings photons;
