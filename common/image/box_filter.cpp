@@ -111,7 +111,7 @@ RTPM_ROW_CLONES void splitRow(const float* __restrict px, const float* __restric
     }
 }
 
-/// out[3x + c] = acc_c[x] / w[x], and the floors of a row of the box: kEdgeFloor × its luminance.
+/// out[3x + c] = acc_c[x] / w[x] over [x0, x1): the weighted averages, interleaved again.
 RTPM_ROW_CLONES void divideRow(const float* __restrict accR, const float* __restrict accG,
                                const float* __restrict accB, const float* __restrict accW, int x0, int x1,
                                float* __restrict out) {
@@ -122,6 +122,7 @@ RTPM_ROW_CLONES void divideRow(const float* __restrict accR, const float* __rest
         out[3 * x + 2] = accB[x] * inverse;
     }
 }
+/// The floors of a row of the box's output: kEdgeFloor × each pixel's luminance.
 RTPM_ROW_CLONES void floorRow(const float* __restrict box, int width, float* __restrict floor) {
     for (int x = 0; x < width; ++x)
         floor[x] = kEdgeFloor * (0.2126f * box[3 * x] + 0.7152f * box[3 * x + 1] + 0.0722f * box[3 * x + 2]);
