@@ -3,7 +3,6 @@
 #include "proto/photon_records.h"
 
 #include <algorithm>
-#include <cstring>
 #include <bitset>
 #include <cmath>
 #include <cstdio>
@@ -422,6 +421,18 @@ void get(Reader& r, FrameBegin& m) {
         total += shot.photons.size();
     }
 }
+// A FrameData's per-pixel byte plane (own weights, noise): empty, or one byte per pixel, and
+// empty when the set's pixels are unchanged.
+bool getPixelBytes(Reader& r, const FrameData& m, std::vector<uint8_t>& out, const char* field) {
+    uint32_t n = 0;
+    if (!r.count(n, m.pixelCount, 1, field)) return false;
+    if (n != 0 && (n != m.pixelCount || m.unchanged))
+        return r.fail(ErrorCode::BadValue, std::string(field) + ": " + std::to_string(n) + " bytes for " +
+                                               std::to_string(m.pixelCount) + " pixels");
+    std::span<const uint8_t> v;
+    if (r.view(v, n, field)) out.assign(v.begin(), v.end());
+    return r.ok();
+}
 void get(Reader& r, FrameData& m) {
     r.u64(m.frame);
     r.u32(m.set);
@@ -448,14 +459,7 @@ void get(Reader& r, FrameData& m) {
     std::span<const uint8_t> v;
     if (r.view(v, len, "frameData.pixels")) m.pixels.assign(v.begin(), v.end());
     r.u32(m.passes);
-    uint32_t weights = 0;
-    if (!r.count(weights, m.pixelCount, 1, "frameData.ownWeights")) return;
-    if (weights != 0 && (weights != m.pixelCount || m.unchanged)) {
-        r.fail(ErrorCode::BadValue, "frameData.ownWeights: " + std::to_string(weights) +
-                                        " bytes for " + std::to_string(m.pixelCount) + " pixels");
-        return;
-    }
-    if (r.view(v, weights, "frameData.ownWeights")) m.ownWeights.assign(v.begin(), v.end());
+    if (!getPixelBytes(r, m, m.ownWeights, "frameData.ownWeights")) return;
     r.f64Finite(m.errorSigma, "frameData.errorSigma");
     r.f64Finite(m.errorRadiance, "frameData.errorRadiance");
     r.u32(m.errorPixels);
@@ -467,15 +471,7 @@ void get(Reader& r, FrameData& m) {
     if (!getPhotons(r, m.shot, kMaxSharedPhotons, "frameData.shot")) return;
     if (r.ok() && m.shot.empty() != (m.shotBatches == 0))
         r.fail(ErrorCode::BadValue, "frameData.shot: photons and batches must both be present or absent");
-    uint32_t noise = 0;
-    if (!r.count(noise, m.pixelCount, 1, "frameData.noise")) return;
-    if (noise != 0 && (noise != m.pixelCount || m.unchanged)) {
-        r.fail(ErrorCode::BadValue, "frameData.noise: " + std::to_string(noise) + " bytes for " +
-                                        std::to_string(m.pixelCount) + " pixels");
-        return;
-    }
-    std::span<const uint8_t> bytes;
-    if (r.view(bytes, noise, "frameData.noise")) m.noise.assign(bytes.begin(), bytes.end());
+    getPixelBytes(r, m, m.noise, "frameData.noise");
 }
 void get(Reader& r, Edit& m) {
     r.u32(m.sceneVersion);

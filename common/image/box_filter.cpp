@@ -20,11 +20,15 @@ namespace {
 // NaN and ±Inf become 0. A bit test (exponent all ones) rather than std::isfinite, written as an
 // integer mask so the row loops have no branch and GCC vectorises them; it is the same test for
 // the add and the subtract of a row, so what enters a sum is exactly what later leaves it.
-inline double finiteOrZero(float v) {
+inline float finiteOrZeroFloat(float v) {
     const uint32_t bits = std::bit_cast<uint32_t>(v);
     const uint32_t keep = (bits & 0x7f800000u) == 0x7f800000u ? 0u : ~0u;
-    return static_cast<double>(std::bit_cast<float>(bits & keep));
+    return std::bit_cast<float>(bits & keep);
 }
+inline double finiteOrZero(float v) { return static_cast<double>(finiteOrZeroFloat(v)); }
+
+// Rec. 709 luminance, in float, as the edge test weighs pixels.
+inline float luminance(float r, float g, float b) { return 0.2126f * r + 0.7152f * g + 0.0722f * b; }
 
 // One pixel's running sums: R, G, B and a fourth lane that rides along unused, so a pixel is one
 // 256-bit operation (two 128-bit ones on plain x86-64) instead of three scalar chains.
@@ -89,17 +93,16 @@ RTPM_ROW_CLONES void horizontalRow(const double* p, int width, int span, double 
     std::memcpy(o + 3 * x, &v, 3 * sizeof(float));
 }
 
-/// A row of RGB triples split into finite channel planes (NaN and ±Inf to 0: v − v is 0 exactly
-/// for finite v) and their luminance; the noise plane's absolute noise σ = rel · l (infinite
-/// stays infinite: unknown). Separate loops so each vectorises.
+/// A row of RGB triples split into finite channel planes (NaN and ±Inf to 0) and their
+/// luminance; the noise plane's absolute noise σ = rel · l (infinite stays infinite: unknown).
+/// Separate loops so each vectorises.
 RTPM_ROW_CLONES void splitRow(const float* __restrict px, const float* __restrict rel, int width, float* __restrict r,
                               float* __restrict g, float* __restrict b, float* __restrict l, float* __restrict sd) {
     for (int x = 0; x < width; ++x) {
-        const float vr = px[3 * x], vg = px[3 * x + 1], vb = px[3 * x + 2];
-        r[x] = vr - vr == 0.0f ? vr : 0.0f;
-        g[x] = vg - vg == 0.0f ? vg : 0.0f;
-        b[x] = vb - vb == 0.0f ? vb : 0.0f;
-        l[x] = 0.2126f * r[x] + 0.7152f * g[x] + 0.0722f * b[x];
+        r[x] = finiteOrZeroFloat(px[3 * x]);
+        g[x] = finiteOrZeroFloat(px[3 * x + 1]);
+        b[x] = finiteOrZeroFloat(px[3 * x + 2]);
+        l[x] = luminance(r[x], g[x], b[x]);
     }
     if (!rel) {
         std::fill_n(sd, width, 0.0f);
@@ -107,7 +110,7 @@ RTPM_ROW_CLONES void splitRow(const float* __restrict px, const float* __restric
     }
     for (int x = 0; x < width; ++x) {
         const float n = rel[x];
-        sd[x] = n > 0.0f ? (n - n == 0.0f ? n * l[x] : n) : 0.0f;
+        sd[x] = n > 0.0f ? (std::isinf(n) ? n : n * l[x]) : 0.0f;
     }
 }
 
@@ -125,7 +128,7 @@ RTPM_ROW_CLONES void divideRow(const float* __restrict accR, const float* __rest
 /// The floors of a row of the box's output: kEdgeFloor × each pixel's luminance.
 RTPM_ROW_CLONES void floorRow(const float* __restrict box, int width, float* __restrict floor) {
     for (int x = 0; x < width; ++x)
-        floor[x] = kEdgeFloor * (0.2126f * box[3 * x] + 0.7152f * box[3 * x + 1] + 0.0722f * box[3 * x + 2]);
+        floor[x] = kEdgeFloor * luminance(box[3 * x], box[3 * x + 1], box[3 * x + 2]);
 }
 
 /// One neighbour offset of the edge-stopping box over a row span: for each x in [x0, x1), the
