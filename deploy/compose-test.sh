@@ -214,13 +214,19 @@ fi
 say "$("${compose[@]}" version 2>/dev/null | head -n 1)"
 compose+=(-p "$project" -f "$root/deploy/docker-compose.yml")
 
-# freePorts: sets RTPM_PORT and RTPM_HTTP_PORT to two free high ports (nothing listens there), so
-# parallel runs and other services never collide. No traffic is sent to them.
+# freePorts: sets RTPM_PORT and RTPM_HTTP_PORT to two free ports (no socket of any state uses them),
+# so parallel runs and other services never collide. They are taken below the kernel's ephemeral
+# range: a port inside it can be the local end of any outgoing connection (the daemon's, apt's),
+# and Docker's proxy then fails to bind it ("address already in use") although nothing listens
+# there. No traffic is sent to them.
 freePorts() {
-    local p i
+    local p i lo hi span base
+    read -r lo hi </proc/sys/net/ipv4/ip_local_port_range 2>/dev/null || { lo=32768; hi=60999; }
+    if ((lo > 12000)); then span=$((lo - 10002)); base=10000; else span=$((65000 - hi)); base=$((hi + 1)); fi
+    ((span > 100)) || { base=10000; span=20000; }
     for ((i = 0; i < 50; i++)); do
-        p=$((20000 + RANDOM % 40000))
-        ss -Htln "( sport = :$p or sport = :$((p + 1)) )" | grep -q . || break
+        p=$((base + RANDOM % span))
+        ss -Htan "( sport = :$p or sport = :$((p + 1)) )" | grep -q . || break
     done
     export RTPM_PORT=$p RTPM_HTTP_PORT=$((p + 1))
 }
