@@ -17,6 +17,14 @@ using asio::ip::tcp;
 constexpr auto kWaitNoticeInterval = std::chrono::seconds(5);
 /// One connection attempt may not take longer than this (a silent host drops SYNs).
 constexpr auto kAttemptTimeout = std::chrono::seconds(5);
+/// A port file that does not exist yet (or holds no port yet) is read again this often, without
+/// backoff: a client started beside its master connects within this of the master listening
+/// (the master takes about 9 ms to listen; a first backoff of 100 ms was most of a short run's
+/// start). Reading a small file is one open and one read.
+constexpr auto kPortFilePoll = std::chrono::milliseconds(2);
+/// How long a client waits for a port file before it says so: started with its master (as
+/// deploy/run-local.sh starts them), it finds the file well within this and stays quiet.
+constexpr auto kPortFileQuiet = std::chrono::milliseconds(500);
 
 }  // namespace
 
@@ -83,15 +91,15 @@ bool Connector::readPortFile(uint16_t& out) {
 void Connector::attempt() {
     if (!active_) return;
     if (windowClosed()) {
-        std::fprintf(stderr, "rtpm-client: could not %s %s within %.1f s (%d attempts): %s\n",
+        std::fprintf(stderr, "rtpm-client: could not %s %s within %.1f s (%d connection attempts): %s\n",
                      rejoin_ ? "rejoin" : "connect to", address().c_str(),
                      rejoin_ ? opt_.rejoinTimeoutSeconds : opt_.connectTimeoutSeconds, attempts_, lastError_.c_str());
         active_ = false;
         return gaveUp_();
     }
-    ++attempts_;
     port_ = opt_.port;
     if (port_ == 0 && !readPortFile(port_)) return scheduleRetry();
+    ++attempts_;  // connection attempts: a port file read again is not one
     asio::error_code ec;
     tcp::resolver resolver(io_);
     auto endpoints = resolver.resolve(opt_.host, std::to_string(port_), ec);
@@ -122,22 +130,29 @@ void Connector::attempt() {
 }
 
 void Connector::scheduleRetry() {
-    // Says whom it waits for and why, at the first failed attempt and every few seconds after,
-    // so a client started before its master is not silent for the whole window.
+    // Says whom it waits for and why, at the first failed attempt (for a port file, once it has
+    // waited kPortFileQuiet) and every few seconds after, so a client started before its master
+    // is not silent for the whole window.
     const auto now = Clock::now();
+    const bool portFile = port_ == 0 && opt_.port == 0;  // the port file gave no port yet
+    if (portFile && nextWaitNotice_ == Clock::time_point{}) nextWaitNotice_ = now + kPortFileQuiet;
     if (now >= nextWaitNotice_ && deadline_ > now) {
         nextWaitNotice_ = now + kWaitNoticeInterval;
         const double left = std::chrono::duration<double>(deadline_ - now).count();
-        if (port_ == 0 && opt_.port == 0)
+        if (portFile)
             std::fprintf(stderr, "rtpm-client: waiting for the server at %s, port from %s (%s); retrying for %.0f s "
                          "more\n", opt_.host.c_str(), opt_.portFile.c_str(), lastError_.c_str(), left);
         else
             std::fprintf(stderr, "rtpm-client: waiting for the server at %s (%s); retrying for %.0f s more\n",
                          address().c_str(), lastError_.c_str(), left);
     }
-    const auto wait = std::min<Clock::duration>(backoff_, std::max<Clock::duration>(deadline_ - Clock::now(), {}));
-    backoff_ = std::min<Clock::duration>(backoff_ * 2, kMaxBackoff);
-    retryTimer_.expires_after(wait);
+    const auto remaining = std::max<Clock::duration>(deadline_ - Clock::now(), {});
+    if (portFile) {
+        retryTimer_.expires_after(std::min<Clock::duration>(kPortFilePoll, remaining));
+    } else {
+        retryTimer_.expires_after(std::min<Clock::duration>(backoff_, remaining));
+        backoff_ = std::min<Clock::duration>(backoff_ * 2, kMaxBackoff);
+    }
     retryTimer_.async_wait([this](const asio::error_code& e) {
         if (!e && active_) attempt();
     });

@@ -11,7 +11,7 @@
 # programs need (RTPM_BUILD_SCOPE=programs: install-deps.sh build, and a new build folder is
 # configured without tests and benchmarks; deploy/test.sh adds them later).
 # The server listens on an ephemeral port (--port 0) and announces it through a port file; the
-# clients start once that file exists (bounded poll, no sleep-as-readiness). The token is
+# clients start with it and connect once that file exists (they poll it; no sleep-as-readiness). The token is
 # $RTPM_TOKEN, or a fresh random one. Each client gets max(1, cores / N) render threads so N
 # clients share the machine instead of oversubscribing it (override: RTPM_CLIENT_THREADS).
 # By default the server writes out/<scene>.exr and out/<scene>.png (relative to the current
@@ -105,7 +105,20 @@ setsid "$server_bin" --port 0 --port-file "$port_file" --min-clients "$clients" 
 server_pid=$!
 pids+=("$server_pid")
 
-# Readiness: the port file appears (atomically) once the server listens. Bounded poll.
+# The clients start beside the server: each reads the port file every 2 ms until the server has
+# written it (rtpm-client --port-file), so they connect as soon as it listens, their own start-up
+# (about 6 ms each) overlapping the server's. Waiting for the file here first added this loop's
+# poll and the clients' start to every run.
+cores=$(nproc 2>/dev/null || echo 1)
+threads=${RTPM_CLIENT_THREADS:-$(((cores / clients) > 0 ? cores / clients : 1))}
+for ((c = 1; c <= clients; c++)); do
+    setsid "$client_bin" --port-file "$port_file" --name "local-$c" --threads "$threads" \
+        >"$work/client-$c.log" 2>&1 &
+    pids+=("$!")
+done
+
+# Readiness (for the viewer's URL, and a server that fails to start): the port file appears
+# (atomically) once the server listens. Bounded poll.
 for ((i = 0; i < 600; i++)); do
     [[ -s $port_file ]] && break
     if ! kill -0 "$server_pid" 2>/dev/null; then
@@ -136,13 +149,6 @@ if ((view)); then
     echo
 fi
 
-cores=$(nproc 2>/dev/null || echo 1)
-threads=${RTPM_CLIENT_THREADS:-$(((cores / clients) > 0 ? cores / clients : 1))}
-for ((c = 1; c <= clients; c++)); do
-    setsid "$client_bin" --port-file "$port_file" --name "local-$c" --threads "$threads" \
-        >"$work/client-$c.log" 2>&1 &
-    pids+=("$!")
-done
 
 status=0
 wait "$server_pid" || status=$?
