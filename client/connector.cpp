@@ -18,12 +18,12 @@ constexpr auto kWaitNoticeInterval = std::chrono::seconds(5);
 /// One connection attempt may not take longer than this (a silent host drops SYNs).
 constexpr auto kAttemptTimeout = std::chrono::seconds(5);
 /// A port file that does not exist yet (or holds no port yet) is read again this often, without
-/// backoff: a client started beside its master connects within this of the master listening
-/// (the master takes about 9 ms to listen; a first backoff of 100 ms was most of a short run's
-/// start). Reading a small file is one open and one read.
+/// backoff, for the first kPortFileQuiet: a client started beside its master connects within
+/// this of the master listening (the master takes about 9 ms to listen; a first backoff of
+/// 100 ms was most of a short run's start). Reading a small file is one open and one read.
 constexpr auto kPortFilePoll = std::chrono::milliseconds(2);
-/// How long a client waits for a port file before it says so: started with its master (as
-/// deploy/run-local.sh starts them), it finds the file well within this and stays quiet.
+/// How long a client polls for a port file before it says so and backs off: started with its
+/// master (as deploy/run-local.sh starts them), it finds the file well within this and stays quiet.
 constexpr auto kPortFileQuiet = std::chrono::milliseconds(500);
 
 }  // namespace
@@ -136,6 +136,9 @@ void Connector::scheduleRetry() {
     const auto now = Clock::now();
     const bool portFile = port_ == 0 && opt_.port == 0;  // the port file gave no port yet
     if (portFile && nextWaitNotice_ == Clock::time_point{}) nextWaitNotice_ = now + kPortFileQuiet;
+    // Read at once again while a master started beside this client may still be starting; after
+    // that, the backoff (a client waiting for a master that is not there uses no CPU to speak of).
+    const bool poll = portFile && now < nextWaitNotice_;
     if (now >= nextWaitNotice_ && deadline_ > now) {
         nextWaitNotice_ = now + kWaitNoticeInterval;
         const double left = std::chrono::duration<double>(deadline_ - now).count();
@@ -147,7 +150,7 @@ void Connector::scheduleRetry() {
                          address().c_str(), lastError_.c_str(), left);
     }
     const auto remaining = std::max<Clock::duration>(deadline_ - Clock::now(), {});
-    if (portFile) {
+    if (poll) {
         retryTimer_.expires_after(std::min<Clock::duration>(kPortFilePoll, remaining));
     } else {
         retryTimer_.expires_after(std::min<Clock::duration>(backoff_, remaining));

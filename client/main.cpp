@@ -45,7 +45,7 @@ int main(int argc, char** argv) {
         ->capture_default_str()
         ->check(CLI::Range(0, 4096));
     app.add_option("--connect-timeout", o.connectTimeoutSeconds,
-                   "seconds to keep retrying the connection (backoff 100 ms to 2 s; a port file not written yet is read again every 2 ms)")
+                   "seconds to keep retrying the connection (backoff 100 ms to 2 s; a port file not written yet is read again every 2 ms for the first 0.5 s)")
         ->capture_default_str()
         ->check(CLI::NonNegativeNumber);
     app.add_option("--rejoin-timeout", o.rejoinTimeoutSeconds,
