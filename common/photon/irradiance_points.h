@@ -80,7 +80,8 @@ public:
 
     /// Caustic radiance ρ/π · Ē at `hit`, Ē the mean irradiance of the kLookupPoints nearest
     /// points of `set` within the map's gather radius whose normal faces `normal` (fewer when
-    /// fewer lie there; 0 when none). `hint` is not used. Thread-safe.
+    /// fewer lie there; 0 when none). `hint` (GatherHint::lastReach) bounds the search from the
+    /// previous query's points; the answer is the same without it. Thread-safe.
     Vec3 radiance(const EmbreeScene& scene, uint32_t set, const SurfaceHit& hit, Vec3 normal,
                   Vec3 albedo, GatherHint* hint = nullptr) const override;
     /// `radiance` for each of `queries` (the counters are added once per group). Thread-safe.
@@ -93,7 +94,8 @@ public:
 private:
     struct SetPoints;
     const SetPoints* find(uint32_t set) const;
-    static Vec3 lookup(const SetPoints& sp, Vec3 position, Vec3 normal, Vec3 albedo, uint64_t& offered);
+    static Vec3 lookup(const SetPoints& sp, Vec3 position, Vec3 normal, Vec3 albedo, uint64_t& offered,
+                       GatherHint* hint);
     std::vector<uint32_t> sets_;
     std::vector<std::unique_ptr<SetPoints>> points_;
     mutable std::atomic<uint64_t> gathers_{0}, lookups_{0}, candidates_{0};

@@ -16,6 +16,13 @@ namespace rtpm {
 /// depend on the thread count or the set split.
 struct GatherHint {
     float radius2 = 0.0f;
+    /// For lookups among a few nearest points (IrradiancePoints): the last query's position and
+    /// normal and the distance of the farthest of the points it held, negative when it held
+    /// fewer. The next query with the same normal searches no farther than that distance plus
+    /// the step between the two: the same points face it, so its nearest lie within.
+    Vec3 lastPosition{0.0f};
+    Vec3 lastNormal{0.0f};
+    float lastReach = -1.0f;
 };
 
 /// One query of a group (CausticEstimator::radianceGroup): a diffuse hit, its shading normal
