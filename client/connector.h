@@ -14,10 +14,10 @@ namespace rtpm::client {
 /// Makes TCP connections to the master for the worker, one attempt at a time on the io thread.
 /// An attempt reads the port from --port-file when no port was given (a file that does not exist
 /// yet, or holds no port yet, is read again every 2 ms for half a second, so a client started
-/// beside its master connects as soon as the master listens; then as a failed connection), resolves the host and connects within
-/// kAttemptTimeout. A failed connection waits the backoff (100 ms, doubling to 2 s) and tries
-/// again until the window closes; then it prints why and calls `gaveUp`. Not thread-safe (io
-/// thread).
+/// beside its master connects as soon as the master listens; after that, it waits the backoff
+/// as a failed connection does), resolves the host and connects within kAttemptTimeout. A failed
+/// connection waits the backoff (100 ms, doubling to 2 s) and tries again until the window
+/// closes; then it prints why and calls `gaveUp`. Not thread-safe (io thread).
 class Connector {
 public:
     using Clock = std::chrono::steady_clock;

@@ -11,9 +11,10 @@
 # programs need (RTPM_BUILD_SCOPE=programs: install-deps.sh build, and a new build folder is
 # configured without tests and benchmarks; deploy/test.sh adds them later).
 # The server listens on an ephemeral port (--port 0) and announces it through a port file; the
-# clients start with it and connect once that file exists (they poll it; no sleep-as-readiness). The token is
-# $RTPM_TOKEN, or a fresh random one. Each client gets max(1, cores / N) render threads so N
-# clients share the machine instead of oversubscribing it (override: RTPM_CLIENT_THREADS).
+# clients start with it and connect once that file exists (they poll it; no sleep-as-readiness).
+# The token is $RTPM_TOKEN, or a fresh random one. Each client gets max(1, cores / N) render
+# threads so N clients share the machine instead of oversubscribing it (override:
+# RTPM_CLIENT_THREADS).
 # By default the server writes out/<scene>.exr and out/<scene>.png (relative to the current
 # directory). At the end the per-frame figures are printed as a table. Every process this
 # script started is stopped on exit, Ctrl-C or TERM. Exit status: the server's.
@@ -148,7 +149,6 @@ if ((view)); then
     echo "run-local.sh: open ${url}#token=${RTPM_TOKEN}   (rendering until Ctrl-C)"
     echo
 fi
-
 
 status=0
 wait "$server_pid" || status=$?

@@ -328,8 +328,9 @@ TEST(GridResolution, CellsAreAtMostRMaxAndTheTableStaysSmall) {
         EXPECT_GE(r, 1u);
         EXPECT_LE(r, kMax);
         EXPECT_LE(cells(r, e), std::max(2.0 * double(n), 4096.0)) << n;
-        if (r < kMax)  // the largest resolution that fits
+        if (r < kMax) {  // the largest resolution that fits
             EXPECT_GT(cells(r + 1, e), std::max(2.0 * double(n), 4096.0)) << n;
+        }
     }
     EXPECT_LE(gridResolution(1ull << 40, Vec3(1.0f, 0.0f, 0.0f), 1, 1e-9f), kMax);
     // Degenerate bounds and radii.

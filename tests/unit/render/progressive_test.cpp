@@ -465,7 +465,9 @@ TEST(PassBudget, TakingTurnsEverySetShootsOncePerPeriod) {
         // A pass's shooting sets: about 9 / period of the nine, never all of them but with period 1.
         int shooting = 0;
         for (uint32_t set = 0; set < 9; ++set) shooting += passShoots(7, set, 9, period) ? 1 : 0;
-        if (period > 1) EXPECT_LT(shooting, 9);
+        if (period > 1) {
+            EXPECT_LT(shooting, 9);
+        }
     }
 }
 
