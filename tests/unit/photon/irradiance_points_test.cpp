@@ -43,6 +43,19 @@ Lookups lookUp(const IrradiancePoints& points, const EmbreeScene& es) {
     return out;
 }
 
+// The curved mirror's map after four batches, and its points.
+struct FourBatches {
+    testscenes::RingMirror rm;
+    const Scene scene;
+    const EmbreeScene es;
+    PhotonMaps maps;
+    IrradiancePoints points;
+    FourBatches() : scene(rm.scene()), es(scene), maps(mirrorSettings(), {0}), points({0}) {
+        for (int b = 0; b < 4; ++b) maps.shootBatch(es, 0);
+        points.update(es, maps, 0);
+    }
+};
+
 // A map grown 8× beyond the points' cap (6 → 48 batches, 53 000 → 420 000 photons) costs a
 // rebuild at most kMaxPoints gathers, and a lookup searches a tree of at most kMaxPoints points:
 // the points offered per lookup stay within 1.5× (measured: 7.5 and 7.4), where a k-NN gather's
@@ -128,13 +141,9 @@ TEST(IrradiancePoints, AGrowingMapIsRebuiltWhenItsBatchesDoubled) {
 // (Few are offered either way; what the bound saves is the tree's far cells visited before the
 // heap held its points: an orbiting camera's eye pass over RING ran 4 % faster.)
 TEST(IrradiancePoints, ARowsHintBoundsTheSearchAndChangesNoAnswer) {
-    testscenes::RingMirror rm;
-    const Scene scene = rm.scene();
-    const EmbreeScene es(scene);
-    PhotonMaps maps(mirrorSettings(), {0});
-    for (int b = 0; b < 4; ++b) maps.shootBatch(es, 0);
-    IrradiancePoints points({0});
-    points.update(es, maps, 0);
+    FourBatches f;
+    const EmbreeScene& es = f.es;
+    IrradiancePoints& points = f.points;
     const Lookups plain = lookUp(points, es);
     std::vector<Vec3> hinted;
     uint64_t offeredWithout = 0, offeredWith = 0;  // points offered to the searches
@@ -171,13 +180,10 @@ TEST(IrradiancePoints, ARowsHintBoundsTheSearchAndChangesNoAnswer) {
 // the two estimates' noise (k = 64: about 1/√64 = 12 % each): the mean over a patch of the
 // floor far from the fold lines agrees within 5 %, and no point of it is off by more than 40 %.
 TEST(IrradiancePoints, MatchesTheKnnEstimateWhereTheCausticIsSmooth) {
-    testscenes::RingMirror rm;
-    const Scene scene = rm.scene();
-    const EmbreeScene es(scene);
-    PhotonMaps maps(mirrorSettings(), {0});
-    for (int b = 0; b < 4; ++b) maps.shootBatch(es, 0);
-    IrradiancePoints points({0});
-    points.update(es, maps, 0);
+    FourBatches f;
+    const EmbreeScene& es = f.es;
+    PhotonMaps& maps = f.maps;
+    IrradiancePoints& points = f.points;
     double sumPoints = 0.0, sumKnn = 0.0;
     int n = 0;
     // A patch on the far side of the ring from the light (x < 0): bright and smooth.
