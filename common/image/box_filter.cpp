@@ -114,11 +114,11 @@ RTPM_ROW_CLONES void splitRow(const float* __restrict px, const float* __restric
     }
 }
 
-/// out[3x + c] = acc_c[x] / w[x] over [x0, x1): the weighted averages, interleaved again.
+/// out[3x + c] = acc_c[x] / w[x] over the row: the weighted averages, interleaved again.
 RTPM_ROW_CLONES void divideRow(const float* __restrict accR, const float* __restrict accG,
-                               const float* __restrict accB, const float* __restrict accW, int x0, int x1,
+                               const float* __restrict accB, const float* __restrict accW, int width,
                                float* __restrict out) {
-    for (int x = x0; x < x1; ++x) {
+    for (int x = 0; x < width; ++x) {
         const float inverse = 1.0f / accW[x];
         out[3 * x] = accR[x] * inverse;
         out[3 * x + 1] = accG[x] * inverse;
@@ -263,7 +263,7 @@ void edgeStoppingBox(std::span<const float> in, std::span<const float> box, std:
                                       plane(yy, 2), plane(yy, 3), dx, excess, x0, x1, accR, accG, accB, accW);
                 }
             float* o = out.data() + 3 * row;
-            divideRow(accR, accG, accB, accW, 0, width, o);
+            divideRow(accR, accG, accB, accW, width, o);
         }
     });
 }

@@ -126,6 +126,21 @@ private:
 };
 static_assert(ResultSet<BinFound>);
 
+// The world distance between neighbouring pixels of the image at a set's pixel p (of `pixels`,
+// `cols` a row; set neighbours are M apart): from its first hit to the next pixel's in its row or
+// column, the nearer; infinite without hits.
+double pixelFootprint(const EyeRecords& records, size_t p, size_t pixels, size_t cols, int m) {
+    double best = std::numeric_limits<double>::infinity();
+    if (records.firstHit[p] == records.firstHit[p + 1]) return best;
+    const Vec3 x = records.hits[records.firstHit[p]].hit.position;
+    for (size_t q : {p + 1, p + cols}) {
+        if (q >= pixels || (q == p + 1 && q % cols == 0)) continue;
+        if (records.firstHit[q] == records.firstHit[q + 1]) continue;
+        best = std::min(best, double(glm::length(records.hits[records.firstHit[q]].hit.position - x)));
+    }
+    return best / double(m);
+}
+
 }  // namespace
 
 void ProgressiveSet::choose(const Rings& rings, int active, double gamma, const double (&noiseScale)[2],
@@ -400,18 +415,6 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
     ownWeights_.assign(out.size(), 0);
     noise_.assign(out.size(), 0);
     const size_t cols = size_t(std::max(image_.columns, 1));
-    // The world distance between neighbouring pixels of the image (set neighbours are M apart).
-    auto footprint = [&](size_t p) {
-        double best = std::numeric_limits<double>::infinity();
-        if (records_.firstHit[p] == records_.firstHit[p + 1]) return best;
-        const Vec3 x = records_.hits[records_.firstHit[p]].hit.position;
-        for (size_t q : {p + 1, p + cols}) {
-            if (q >= out.size() || (q == p + 1 && q % cols == 0)) continue;
-            if (records_.firstHit[q] == records_.firstHit[q + 1]) continue;
-            best = std::min(best, double(glm::length(records_.hits[records_.firstHit[q]].hit.position - x)));
-        }
-        return best / double(image_.m);
-    };
     tbb::parallel_for(tbb::blocked_range<size_t>(0, out.size()), [&](const auto& range) {
         for (size_t p = range.begin(); p < range.end(); ++p) {
             glm::dvec3 direct(fixedDirect_[p]);
@@ -442,11 +445,17 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                     const double rel = c[i].effective > 0.0 ? 1.0 / c[i].effective + c[i].drift * c[i].drift : 0.0;
                     const double sdv = luminance(value) * std::sqrt(rel);
                     const double poisson = c[i].effective > 0.0 ? luminance(value) / std::sqrt(c[i].effective) : 0.0;
-                    // The shown filter average (i = 0): neighbours' shared photons sit at other
-                    // points of their discs, so their noise still averages out.
-                    (i == 0 ? caustic : own) += value;
-                    (i == 0 ? sd : ownSd) += i == 0 ? sdv * filterNoise : sdv;
-                    (i == 0 ? noise : ownNoise) += poisson;
+                    if (i == 0) {
+                        caustic += value;
+                        // The shown filter average: neighbours' shared photons sit at other
+                        // points of their discs, so their noise still averages out.
+                        sd += sdv * filterNoise;
+                        noise += poisson;
+                    } else {
+                        own += value;
+                        ownSd += sdv;
+                        ownNoise += poisson;
+                    }
                 }
                 if (h == records_.firstHit[p]) radius = std::sqrt(double(s.outer2) * c[0].scale);
                 const Choice& shown = c[0];
@@ -455,7 +464,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 s.active = std::max(s.active, shown.capped ? shown.disc - 1 : shown.disc - kActiveMargin);
             }
             if (image_.f > 1 && radius > 0.0) {
-                const double half = 0.5 * double(image_.f) * footprint(p);
+                const double half = 0.5 * double(image_.f) * pixelFootprint(records_, p, out.size(), cols, image_.m);
                 const double t = radius / half;
                 // In 255ths, as the wire carries it, so one process and a cluster agree.
                 const uint8_t w255 = uint8_t(std::lround(std::clamp((kOwnNone - t) / (kOwnNone - kOwnFull), 0.0, 1.0) * 255.0));
