@@ -12,15 +12,16 @@
 # configured without tests and benchmarks; deploy/test.sh adds them later).
 # The server listens on an ephemeral port (--port 0) and announces it through a port file; the
 # clients start with it and connect once that file exists (they poll it; no sleep-as-readiness).
-# The token is $RTPM_TOKEN, or a fresh random one. Each client gets max(1, cores / N) render
-# threads so N clients share the machine instead of oversubscribing it (override:
-# RTPM_CLIENT_THREADS).
+# The token is $RTPM_TOKEN, or a fresh random one. Each client gets twice its share of the cores
+# in render threads (at least 1, at most all: deploy/paths.sh rtpmClientThreads), so a client
+# whose sets are done lends its core to one still rendering (override: RTPM_CLIENT_THREADS).
 # By default the server writes out/<scene>.exr and out/<scene>.png (relative to the current
 # directory). At the end the per-frame figures are printed as a table. Every process this
 # script started is stopped on exit, Ctrl-C or TERM. Exit status: the server's.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+source "$root/deploy/paths.sh"
 build=${RTPM_BUILD_DIR:-$root/build}
 clients=2
 scene=RING
@@ -110,8 +111,7 @@ pids+=("$server_pid")
 # written it (rtpm-client --port-file), so they connect as soon as it listens, their own start-up
 # (about 6 ms each) overlapping the server's. Waiting for the file here first added this loop's
 # poll and the clients' start to every run.
-cores=$(nproc 2>/dev/null || echo 1)
-threads=${RTPM_CLIENT_THREADS:-$(((cores / clients) > 0 ? cores / clients : 1))}
+threads=${RTPM_CLIENT_THREADS:-$(rtpmClientThreads "$clients")}
 for ((c = 1; c <= clients; c++)); do
     setsid "$client_bin" --port-file "$port_file" --name "local-$c" --threads "$threads" \
         >"$work/client-$c.log" 2>&1 &

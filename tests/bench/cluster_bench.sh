@@ -30,8 +30,8 @@
 #
 # Binaries come from ${RTPM_BUILD_DIR:-<repo>/build-clusterbench} (built here if missing: only
 # rtpm-server, rtpm-client, rtpm-render, rtpm-compare, ring_mirror_bench, -j2). Clusters start as deploy/run-local.sh
-# starts them (server on port 0 with a port file, random token, each client max(1, cores/N)
-# render threads), but the processes are started here so their PIDs can be sampled.
+# starts them (server on port 0 with a port file, random token, render threads per client by
+# deploy/paths.sh rtpmClientThreads), but the processes are started here so their PIDs can be sampled.
 #
 # Modes. interaction: P = 20 000 paths per set are shot every frame and accumulate (no cap is
 # reached); the photon count and error are those of the last frame. walkthrough (--walkthrough):
@@ -55,6 +55,7 @@
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+source "$root/deploy/paths.sh"
 build=${RTPM_BUILD_DIR:-$root/build-clusterbench}
 refs=${REFS:-$build/refs}
 scenes="MIRROR RING GLASS HEADLIGHT"
@@ -183,7 +184,8 @@ start_cluster() {
         sleep 0.05
     done
     [[ -s $work/port ]] || { echo "server did not listen within 30 s" >&2; return 1; }
-    local threads=$(((cores / n) > 0 ? cores / n : 1))
+    local threads
+    threads=$(rtpmClientThreads "$n")
     client_pids=()
     for ((i = 1; i <= n; i++)); do
         "$client_bin" --port-file "$work/port" --name "bench-$i" --threads "$threads" >"$work/client-$i.log" 2>&1 &
@@ -310,7 +312,7 @@ scaling() {
     local sw=${scalingSize%x*} sh=${scalingSize#*x}
     echo "### fps vs clients, $scalingSize, estimator $estimator (paper Table 6)"
     echo
-    echo "Clients on loopback with max(1, $cores / N) render threads each, plus the master, on $cores cores:"
+    echo "Clients on loopback with min($cores, max(1, 2·$cores / N)) render threads each, plus the master, on $cores cores:"
     echo "N = 4 oversubscribes the machine. Interaction: $frames frames of P = 20 000 paths/set;"
     echo "walkthrough: --walkthrough, frame 0 shoots $walkPhotons paths/set, $((walkFrames - 1)) walkthrough frames."
     echo

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Error against time of the cluster as shipped: rtpm-server and two rtpm-client processes on this
-# machine (each client cores/2 render threads, as deploy/run-local.sh starts them), the default
+# machine (render threads per client as deploy/run-local.sh gives them), the default
 # settings (M 3, P 20 000, still frames held to the 16.7 ms budget), on the curved-mirror scene with
 # its closed-form reference (tests/support/ring_mirror.h; no photon estimator in the reference).
 # One cluster per frame count; the time is the whole run's wall clock, from starting the server
@@ -16,9 +16,11 @@
 # the median wall and CPU time and the median error (a still view's photons depend on how its
 # frames met the budget, so the error varies a little from run to run); whole runs of a quarter
 # of a second vary by ±20 % on this machine, so a single run says little about a 10 % change.
+# Render threads per client: $RTPM_BENCH_THREADS if set.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+source "$root/deploy/paths.sh"
 build=$root/build
 estimators=(progressive knn)
 frames="1 2 4 8 16 32 64 128 256"
@@ -47,8 +49,7 @@ for b in "$server_bin" "$client_bin" "$bench_bin"; do
 done
 width=${size%x*}
 height=${size#*x}
-threads=${RTPM_BENCH_THREADS:-$(( $(nproc) / clients ))}
-((threads >= 1)) || threads=1
+threads=${RTPM_BENCH_THREADS:-$(rtpmClientThreads "$clients")}
 
 work=$(mktemp -d /tmp/rtpm-convergence.XXXXXX)
 pids=()

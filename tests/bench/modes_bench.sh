@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The frame rate a person steering the viewer gets: one rtpm-server and two rtpm-client processes
-# on this machine (each cores/2 render threads, as deploy/run-local.sh starts them), per scene in
+# on this machine (render threads as deploy/run-local.sh gives them), per scene in
 # five modes, the server's own figures; prints one markdown row per scene.
 #
 #   tests/bench/modes_bench.sh [--scenes "RING GLASS HEADLIGHT"] [--size WxH] [--frames N]
@@ -21,9 +21,10 @@
 # pass work (batches per set, or 1/p when the sets take turns). The moving modes have no error
 # figure: a moving light or camera has no converged reference to compare against, and the knn
 # estimator reports none.
-# Binaries from ${RTPM_BUILD_DIR:-<repo>/build}.
+# Binaries from ${RTPM_BUILD_DIR:-<repo>/build}; render threads per client: $RTPM_BENCH_THREADS if set.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+source "$root/deploy/paths.sh"
 build=${RTPM_BUILD_DIR:-$root/build}
 scenes="RING GLASS HEADLIGHT" size=640x480 frames=30
 if [[ ${RTPM_BENCH_SMOKE:-0} == 1 ]]; then scenes=RING size=64x48 frames=4; fi
@@ -44,8 +45,7 @@ server_bin=$build/server/rtpm-server client_bin=$build/client/rtpm-client
 for b in "$server_bin" "$client_bin"; do
     [[ -x $b ]] || { echo "modes_bench.sh: $b missing (build rtpm-server and rtpm-client)" >&2; exit 2; }
 done
-threads=$(( $(nproc) / 2 ))
-((threads >= 1)) || threads=1
+threads=${RTPM_BENCH_THREADS:-$(rtpmClientThreads 2)}
 
 work=$(mktemp -d "${TMPDIR:-/tmp}/rtpm-modes.XXXXXX")
 pids=()
