@@ -75,7 +75,7 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
         if (p->set == set) sp = p.get();
     RTPM_CHECK(sp != nullptr);
     const PhotonSetStats& stats = maps.stats(set);
-    if (sp->built && !needsRebuild(sp->batches, sp->photons, stats.batches, stats.photonsStored)) return;
+    if (sp->built && !needsRebuild(sp->batches, sp->photons, stats.batches, stats.photonsStored, set)) return;
     sp->built = true;
     sp->batches = stats.batches;
     sp->photons = stats.photonsStored;

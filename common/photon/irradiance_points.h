@@ -36,21 +36,37 @@ inline constexpr uint32_t kPointStride = 4;
 inline constexpr uint32_t kMaxPoints = 8192;
 /// Points averaged per lookup.
 inline constexpr uint32_t kLookupPoints = 4;
-/// A growing map's points are rebuilt once its batch count reached this many times the count
-/// they were built from (batches 1, 2, 4, 8, …), not at every batch: a camera orbiting while the
-/// photons accumulate would otherwise pay up to kMaxPoints k-NN gathers per set in every frame
-/// (HEADLIGHT, whose dense map made each frame's eye pass 0.8–1 s). Points are per-batch
-/// irradiance, so a lagging rebuild shows fewer photons' estimate (at worst half the map's: √2 ×
-/// its noise), never a wrong level.
+/// A growing map's points are rebuilt once its batch count doubled since they were built, not at
+/// every batch: a camera orbiting while the photons accumulate would otherwise pay up to
+/// kMaxPoints k-NN gathers per set in every frame (HEADLIGHT, whose dense map made each frame's
+/// eye pass 0.8–1 s). Points are per-batch irradiance, so a lagging rebuild shows fewer photons'
+/// estimate (at worst about half the map's: √2 × its noise), never a wrong level.
 inline constexpr uint32_t kRebuildGrowth = 2;
+/// The doublings of each set are offset by a phase of its own, so the sets of an orbit, which all
+/// gain a batch a frame, rebuild in different frames: set s at ⌈2^j · (16 + φ)/16⌉ batches, φ =
+/// 7s mod 16 (distinct for up to 16 sets, spread over the doubling for any M). Rebuilt together,
+/// RING's nine sets added 175 ms of CPU to frame 127 of an orbit (one frame of 2.4 × the others),
+/// an 8-frame dip of the cluster to 9.4 fps; spread, a doubling's rebuilds fall one or two sets a
+/// frame.
+inline constexpr uint32_t kRebuildPhases = 16;
+inline constexpr uint32_t kRebuildPhaseStep = 7;
 
-/// Whether points built from a map of `builtBatches` batches and `builtPhotons` photons are
-/// rebuilt for the map as it is now: when it was reset or replaced (fewer batches, or the same
-/// batches with other photons) or grew to kRebuildGrowth × the batches.
-constexpr bool needsRebuild(uint32_t builtBatches, uint64_t builtPhotons, uint32_t batches, uint64_t photons) {
+/// The first batch count above `builtBatches` at which `set`'s points are rebuilt as its map grows.
+constexpr uint64_t nextRebuild(uint32_t builtBatches, uint32_t set) {
+    const uint64_t scale = kRebuildPhases + (uint64_t(set) * kRebuildPhaseStep) % kRebuildPhases;
+    uint64_t doubling = 1;
+    while ((doubling * scale + kRebuildPhases - 1) / kRebuildPhases <= builtBatches) doubling *= kRebuildGrowth;
+    return (doubling * scale + kRebuildPhases - 1) / kRebuildPhases;
+}
+
+/// Whether `set`'s points built from a map of `builtBatches` batches and `builtPhotons` photons
+/// are rebuilt for the map as it is now: when it was reset or replaced (fewer batches, or the same
+/// batches with other photons) or grew to nextRebuild's count.
+constexpr bool needsRebuild(uint32_t builtBatches, uint64_t builtPhotons, uint32_t batches, uint64_t photons,
+                            uint32_t set) {
     if (batches < builtBatches || builtBatches == 0) return batches != builtBatches || photons != builtPhotons;
     if (batches == builtBatches) return photons != builtPhotons;
-    return uint64_t(batches) >= uint64_t(kRebuildGrowth) * builtBatches;
+    return batches >= nextRebuild(builtBatches, set);
 }
 
 /// Counters of the work done (added to, never reset but by resetCounters; thread-safe).
@@ -68,7 +84,7 @@ public:
     ~IrradiancePoints() override;
 
     /// Rebuilds `set`'s points when its map changed since they were built (needsRebuild: reset,
-    /// replaced, or grown to kRebuildGrowth × its batches; or invalidate() was called). `scene` is the one the photons were
+    /// replaced, or grown to nextRebuild's batches; or invalidate() was called). `scene` is the one the photons were
     /// shot in. Cost: up to kMaxPoints k-NN gathers and short rays, O(points log points) to
     /// build their tree; nothing when the map did not change. Parallel (TBB); the points do not
     /// depend on the thread count.

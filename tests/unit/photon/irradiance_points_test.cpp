@@ -2,6 +2,7 @@
 // and answers what the k-NN estimate answers where the caustic is smooth.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <vector>
 
@@ -126,13 +127,37 @@ TEST(IrradiancePoints, AGrowingMapIsRebuiltWhenItsBatchesDoubled) {
     EXPECT_EQ(rebuiltAt, (std::vector<uint32_t>{1, 2, 4, 8, 16}));
 
     // The rule itself: a reset or replaced map is rebuilt whatever its size.
-    EXPECT_FALSE(needsRebuild(4, 1000, 7, 1900));
-    EXPECT_TRUE(needsRebuild(4, 1000, 8, 2000));
-    EXPECT_TRUE(needsRebuild(4, 1000, 3, 700)) << "reset and regrown";
-    EXPECT_TRUE(needsRebuild(4, 1000, 4, 990)) << "same batches, other photons";
-    EXPECT_FALSE(needsRebuild(4, 1000, 4, 1000));
-    EXPECT_TRUE(needsRebuild(0, 0, 1, 200));
-    EXPECT_FALSE(needsRebuild(0, 0, 0, 0));
+    EXPECT_FALSE(needsRebuild(4, 1000, 7, 1900, 0));
+    EXPECT_TRUE(needsRebuild(4, 1000, 8, 2000, 0));
+    EXPECT_TRUE(needsRebuild(4, 1000, 3, 700, 0)) << "reset and regrown";
+    EXPECT_TRUE(needsRebuild(4, 1000, 4, 990, 0)) << "same batches, other photons";
+    EXPECT_FALSE(needsRebuild(4, 1000, 4, 1000, 0));
+    EXPECT_TRUE(needsRebuild(0, 0, 1, 200, 0));
+    EXPECT_FALSE(needsRebuild(0, 0, 0, 0, 0));
+}
+
+// The sets of an orbit gain a batch every frame; their doublings are offset so that they rebuild
+// in different frames: within one doubling (128 to 256 batches) each of nine sets rebuilds once,
+// no two in the same frame, and every set's points still lag its map by less than a doubling.
+TEST(IrradiancePoints, TheSetsRebuildInDifferentFrames) {
+    std::vector<uint64_t> at;
+    for (uint32_t set = 0; set < 9; ++set) {
+        uint32_t built = 1;
+        for (int i = 0; i < 40 && built < 128; ++i) {
+            const uint64_t next = nextRebuild(built, set);
+            ASSERT_GT(next, built);
+            EXPECT_LE(next, 2u * built + 1u) << "set " << set << " after " << built;
+            built = uint32_t(next);
+        }
+        ASSERT_GE(built, 128u);
+        ASSERT_LT(built, 256u) << "set " << set;
+        at.push_back(built);
+        EXPECT_GE(nextRebuild(built, set), 2u * built - 1u) << "set " << set << ": a doubling, not less";
+        EXPECT_TRUE(needsRebuild(built, 1, uint32_t(nextRebuild(built, set)), 2, set));
+        EXPECT_FALSE(needsRebuild(built, 1, uint32_t(nextRebuild(built, set)) - 1u, 2, set));
+    }
+    std::sort(at.begin(), at.end());
+    EXPECT_EQ(std::adjacent_find(at.begin(), at.end()), at.end()) << "two sets rebuild in one frame";
 }
 
 // A row's hint (the previous lookup's farthest point plus the step) bounds the search without
