@@ -30,6 +30,7 @@ double ShownChange::add(bool converging, uint32_t period, double work, std::span
         height_ = height;
         frame_ = 0;
         figure_ = 0.0;
+        figureWork_ = 0.0;
         images_.clear();
     }
     const uint64_t n = ++frame_;
@@ -45,8 +46,13 @@ double ShownChange::add(bool converging, uint32_t period, double work, std::span
     if (base) {
         const ErrorMetrics m = compareRgb(caustic, base->image, caustic, width, height);
         // base->work ≤ work / 2: the scale is at least 1.
-        if (m.caustic.pixels > 0 && std::isfinite(m.caustic.relMae))
-            figure_ = m.caustic.relMae / std::sqrt(work / base->work - 1.0);
+        if (m.caustic.pixels > 0 && std::isfinite(m.caustic.relMae)) {
+            const double change = m.caustic.relMae / std::sqrt(work / base->work - 1.0);
+            // Falling no faster than photon noise from the last figure (shown_change.h).
+            const double floor = figure_ > 0.0 && figureWork_ > 0.0 ? figure_ * std::sqrt(figureWork_ / work) : 0.0;
+            figure_ = std::max(change, floor);
+            figureWork_ = work;
+        }
     }
     // Work never falls within a progression: no later frame takes a baseline below this one's
     // least, and below half of it only two images per doubling stay.

@@ -46,6 +46,17 @@ double figureBetween(uint64_t n, double work, uint64_t base, double baseWork) {
     return changeBetween(n, base) / std::sqrt(work / baseWork - 1.0);
 }
 
+// The figures of successive comparisons as ShownChange gives them: each one's scaled change, but
+// no less than the last figure × √(its work / this work).
+struct Floored {
+    double figure = 0.0, work = 0.0;
+    double next(double change, double atWork) {
+        figure = figure > 0.0 ? std::max(change, figure * std::sqrt(work / atWork)) : change;
+        work = atWork;
+        return figure;
+    }
+};
+
 TEST(ShownChange, ComparesAKeptFrameWithItsBaselineAndHoldsTheFigureBetween) {
     ShownChange change;
     EXPECT_EQ(change.add(false, 1, double(1), frame(1), kW, kH), 0.0) << "a first frame has no baseline";
@@ -56,19 +67,18 @@ TEST(ShownChange, ComparesAKeptFrameWithItsBaselineAndHoldsTheFigureBetween) {
                                                             {8, 2},  {10, 2}, {12, 2}, {14, 2}, {16, 3}, {20, 3},
                                                             {24, 4}, {28, 4}, {32, 6}, {40, 6}};
     size_t next = 0;
-    uint64_t lastN = 0, lastBase = 0;
+    Floored expected;
     size_t mostImages = 0;
     for (uint64_t n = 2; n <= 40; ++n) {
         const double figure = change.add(true, 1, double(n), frame(n), kW, kH);
         EXPECT_EQ(change.frame(), n);
         mostImages = std::max(mostImages, change.keptImages());
         if (next < baseOf.size() && baseOf[next].first == n) {
-            lastN = n;
-            lastBase = baseOf[next++].second;
+            const uint64_t base = baseOf[next++].second;
+            expected.next(figureBetween(n, double(n), base, double(base)), double(n));
         }
-        ASSERT_GT(lastN, 0u);
-        EXPECT_DOUBLE_EQ(figure, figureBetween(lastN, double(lastN), lastBase, double(lastBase))) << "frame " << n;
-        EXPECT_GT(figure, 0.0);
+        ASSERT_GT(expected.figure, 0.0);
+        EXPECT_DOUBLE_EQ(figure, expected.figure) << "frame " << n;
     }
     EXPECT_EQ(next, baseOf.size());
     EXPECT_LE(mostImages, 10u) << "the images held stay about two doublings' worth";
@@ -89,13 +99,15 @@ TEST(ShownChange, WaitsUntilEverySetTookATurnSinceTheBaseline) {
     // Sets take turns of 4 frames: frame n is compared with a baseline only once 4 frames lie
     // between, else a set that has not shot since would show no change.
     ShownChange change;
+    Floored expected;
     change.add(false, 4, double(1), frame(1), kW, kH);
     for (uint64_t n = 2; n <= 4; ++n) EXPECT_EQ(change.add(true, 4, double(n), frame(n), kW, kH), 0.0) << "frame " << n;
-    EXPECT_DOUBLE_EQ(change.add(true, 4, double(5), frame(5), kW, kH), figureBetween(5, 5.0, 1, 1.0));
-    EXPECT_DOUBLE_EQ(change.add(true, 4, double(6), frame(6), kW, kH), figureBetween(6, 6.0, 1, 1.0));
-    EXPECT_DOUBLE_EQ(change.add(true, 4, double(7), frame(7), kW, kH), figureBetween(7, 7.0, 1, 1.0));
+    for (uint64_t n = 5; n <= 7; ++n)
+        EXPECT_DOUBLE_EQ(change.add(true, 4, double(n), frame(n), kW, kH),
+                         expected.next(figureBetween(n, double(n), 1, 1.0), double(n)))
+            << "frame " << n;
     // Frame 8: frame 1 holds less than 2^-1/4 · 8/6 batches, frame 2 is the oldest baseline left.
-    EXPECT_DOUBLE_EQ(change.add(true, 4, double(8), frame(8), kW, kH), figureBetween(8, 8.0, 2, 2.0));
+    EXPECT_DOUBLE_EQ(change.add(true, 4, double(8), frame(8), kW, kH), expected.next(figureBetween(8, 8.0, 2, 2.0), 8.0));
 }
 
 // Where photons grow more slowly than frames (the sets take turns; a restart from a map of many
@@ -108,12 +120,35 @@ TEST(ShownChange, TheBaselineIsAShareOfThePhotonsNotOfTheFrames) {
         EXPECT_EQ(change.add(true, 1, work(n), frame(n), kW, kH), 0.0) << "frame " << n << ": no image of half its work";
     // Frame 10 holds 18 batches: frame 1's 9 are half (frame 5's 13 would be half the frames).
     EXPECT_DOUBLE_EQ(change.add(true, 1, work(10), frame(10), kW, kH), figureBetween(10, 18.0, 1, 9.0));
-    for (uint64_t n = 11; n <= 24; ++n) change.add(true, 1, work(n), frame(n), kW, kH);
-    // Frame 24 (32 batches) against frame 1 (9, more than a sixth), not frame 4 (a sixth of the frames).
-    EXPECT_DOUBLE_EQ(change.figure(), figureBetween(24, 32.0, 1, 9.0));
+    // Every kept frame from 12 to 24 takes frame 1 (9 batches: more than a sixth of 32, the most
+    // work by frame 24; frame 4 would be a sixth of the frames).
+    Floored expected{figureBetween(10, 18.0, 1, 9.0), 18.0};
+    for (uint64_t n = 11; n <= 24; ++n) {
+        change.add(true, 1, work(n), frame(n), kW, kH);
+        if (ShownChange::kept(n)) expected.next(figureBetween(n, work(n), 1, 9.0), work(n));
+    }
+    EXPECT_DOUBLE_EQ(change.figure(), expected.figure);
     // A frame whose work is not known (a set missing) is counted, not kept or compared.
-    EXPECT_DOUBLE_EQ(change.add(true, 1, 0.0, frame(1), kW, kH), figureBetween(24, 32.0, 1, 9.0));
+    EXPECT_DOUBLE_EQ(change.add(true, 1, 0.0, frame(1), kW, kH), expected.figure);
     EXPECT_EQ(change.frame(), 25u);
+}
+
+// The change since a baseline misses what both images share: where the image stops changing, the
+// figure falls from the last one no faster than photon noise does, as √(its work / work).
+TEST(ShownChange, TheFigureFallsNoFasterThanPhotonNoise) {
+    ShownChange change;
+    change.add(false, 1, 1.0, frame(1), kW, kH);
+    const double first = change.add(true, 1, 2.0, frame(2), kW, kH);
+    EXPECT_DOUBLE_EQ(first, changeBetween(2, 1));
+    // Frame 3 shows frame 2's image: its change since frame 1 over √2 is less than the floor.
+    const double third = change.add(true, 1, 3.0, frame(2), kW, kH);
+    EXPECT_LT(changeBetween(2, 1) / std::sqrt(2.0), third);
+    EXPECT_DOUBLE_EQ(third, first * std::sqrt(2.0 / 3.0));
+    // A frame that changed more than the floor says reads its own change.
+    const std::vector<float> far = image(3.0f);
+    const double fourth = change.add(true, 1, 4.0, far, kW, kH);
+    EXPECT_DOUBLE_EQ(fourth, compareRgb(far, frame(1), far, kW, kH).caustic.relMae / std::sqrt(3.0));
+    EXPECT_GT(fourth, third * std::sqrt(3.0 / 4.0));
 }
 
 // A progression whose only error is nested noise, as Poisson's: the image of N batches is the
