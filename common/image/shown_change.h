@@ -30,11 +30,10 @@
 // change); the figure is rel. MAE(image n, baseline) over image n's caustic region
 // (error_metrics.h) divided by √(work / baseline work − 1), but no less than the last such figure
 // × √(its work / work): the figure falls no faster than photon noise does (the change since a
-// baseline misses the error both images share, and a dip of the change read
-// the glass slab's error at 0.61 × over frames 5–7, 0.69 × with the floor; the asymptotic rate of
-// both parts of the error is N^-½: noise, and blur at r² ∝ 1/√N). Between such frames the last
-// figure holds. At frame 2 the baseline is frame 1 (half the work): the curved mirror then reads
-// 0.64 ×.
+// baseline misses the error both images share, and its dip read the glass slab's error at 0.61 ×
+// over frames 5–7, 0.69 × with the floor; both parts of the error fall as N^-½ in the end: noise,
+// and blur at r² ∝ 1/√N). Between such frames the last figure holds. At frame 2 the baseline is
+// frame 1 (half the work): the curved mirror then reads 0.64 ×.
 // rtpm-render and the master both feed it their composed image and the sets' batches, so the
 // same frames give the same figure in one process and in a cluster.
 #pragma once
