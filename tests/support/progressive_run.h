@@ -85,20 +85,19 @@ inline Convergence renderConvergence(Scene scene, const RenderSettings& rs, cons
 }
 
 /// The error figure rtpm-render and the master print (the shown caustic's change since a sixth of
-/// the progression's photons, scaled as Poisson noise changes: common/image/shown_change.h)
-/// against the true rel. MAE, from the second frame on (the first has no baseline: the
-/// estimator's own figure, 0.43–3.2 × the true error on these scenes): within [0.55, 1.5] ×.
-/// Measured at the defaults: curved mirror 0.57–1.41, flat mirror 0.64–1.03, glass slab
-/// 0.61–1.18, glass ball 0.73–1.00 (with the change since half, the figure before 2026-11-27:
-/// 0.57–1.36, 0.58–1.02, 1.10–1.89, 0.91–1.46). The 1/1.5 is missed at the curved
-/// mirror's frame 2 (0.57: its only baseline is frame 1, half the photons, which sees a small
-/// share of the blur), the slab's frames 5–7 (0.61–0.66: its error does not fall over its first
-/// six frames, so their change is less than noise would make) and the flat mirror's frame 24
-/// (0.64).
+/// the progression's photons, scaled as Poisson noise changes and falling no faster than it:
+/// common/image/shown_change.h) against the true rel. MAE, from the second frame on (the first
+/// has no baseline: the estimator's own figure, 0.43–3.2 × the true error on these scenes): within
+/// [0.6, 1.5] ×. Measured at the defaults (f0cb59b): curved mirror 0.64–1.47, flat mirror
+/// 0.78–1.03 (0.78–1.49 to frame 64, where its error falls faster than noise), glass slab
+/// 0.69–1.18, glass ball 0.79–1.01 (0.70–1.01 to 64); without the floor 0.64–1.47, 0.78–1.03,
+/// 0.61–1.18, 0.73–1.01; with the change since half, the figure before 2026-11-27, 0.57–1.36,
+/// 0.58–1.02, 1.10–1.89, 0.91–1.46. The 1/1.5 is missed at the curved mirror's frame 2
+/// (0.64: its only baseline is frame 1, half the photons, which sees a small share of the blur).
 inline void expectErrorFigureTracks(const Convergence& run, const char* label) {
     for (size_t f = 1; f < run.relMae.size(); ++f) {
         const double ratio = run.estimate[f] / run.relMae[f];
-        EXPECT_GE(ratio, 0.55) << label << ", frame " << f + 1 << ": estimate " << run.estimate[f] << ", true "
+        EXPECT_GE(ratio, 0.6) << label << ", frame " << f + 1 << ": estimate " << run.estimate[f] << ", true "
                               << run.relMae[f];
         EXPECT_LE(ratio, 1.5) << label << ", frame " << f + 1 << ": estimate " << run.estimate[f] << ", true "
                               << run.relMae[f];
