@@ -25,6 +25,7 @@ rtpmProgram() {
 # tests/bench/RESULTS.md). More than twice would only add threads that wait for a core.
 rtpmClientThreads() {
     local clients=$1 cores
+    [[ $clients =~ ^[0-9]+$ ]] && ((clients >= 1)) || clients=1
     cores=$(nproc 2>/dev/null || echo 1)
     local t=$((2 * cores / clients))
     ((t > cores)) && t=$cores

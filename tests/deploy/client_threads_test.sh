@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # deploy/paths.sh rtpmClientThreads: the render threads each of N clients sharing a machine gets
-# (twice its share of the cores, at least 1, at most all), on machines of 1, 2 and 8 cores (a
-# stand-in `nproc` first on PATH). Usage: client_threads_test.sh REPO
+# (twice its share of the cores, at least 1, at most all; a count that is not a positive number
+# counts as one client), on machines of 1, 2 and 8 cores (a stand-in `nproc` first on PATH).
+# Usage: client_threads_test.sh REPO
 set -euo pipefail
 repo=${1:?usage: client_threads_test.sh REPO}
 fake=$(mktemp -d "${TMPDIR:-/tmp}/rtpm-threads.XXXXXX")
@@ -31,6 +32,8 @@ done <<'TABLE'
 8 3 5
 8 4 4
 8 16 1
+8 0 8
+8 x 8
 TABLE
-((failed == 0)) && echo "rtpmClientThreads: all 12 cases as expected"
+((failed == 0)) && echo "rtpmClientThreads: all 14 cases as expected"
 exit "$failed"
