@@ -152,9 +152,10 @@ TEST(IrradiancePoints, TheSetsRebuildInDifferentFrames) {
         ASSERT_GE(built, 128u);
         ASSERT_LT(built, 256u) << "set " << set;
         at.push_back(built);
-        EXPECT_GE(nextRebuild(built, set), 2u * built - 1u) << "set " << set << ": a doubling, not less";
-        EXPECT_TRUE(needsRebuild(built, 1, uint32_t(nextRebuild(built, set)), 2, set));
-        EXPECT_FALSE(needsRebuild(built, 1, uint32_t(nextRebuild(built, set)) - 1u, 2, set));
+        const uint32_t after = uint32_t(nextRebuild(built, set));
+        EXPECT_GE(after, 2u * built - 1u) << "set " << set << ": a doubling, not less";
+        EXPECT_TRUE(needsRebuild(built, 1, after, 2, set));
+        EXPECT_FALSE(needsRebuild(built, 1, after - 1u, 2, set));
     }
     std::sort(at.begin(), at.end());
     EXPECT_EQ(std::adjacent_find(at.begin(), at.end()), at.end()) << "two sets rebuild in one frame";
