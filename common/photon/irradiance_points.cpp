@@ -1,6 +1,7 @@
 // Irradiance points: a bounded subset of a photon map's photons with their k-NN irradiance.
 #include "common/photon/irradiance_points.h"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -10,6 +11,7 @@
 #include "common/core/check.h"
 #include "common/photon/density.h"
 #include "common/photon/knn.h"
+#include "common/photon/visible_from.h"
 
 namespace rtpm {
 
@@ -18,13 +20,38 @@ struct IrradiancePoints::SetPoints {
     bool built = false;
     uint32_t batches = 0;          ///< the map's batch count when built
     uint64_t photons = 0;          ///< the map's photon count when built
+    uint32_t heldBatches = 0;      ///< the batches the points' flux holds (built + added)
+    uint64_t heldPhotons = 0;      ///< the map's photon count then
     float rMax2 = 0.0f;            ///< the map's gather radius², the lookup's bound
     KdTree tree;                   ///< one entry per point; its power word is the point's id
     std::vector<Vec3> irradiance;  ///< W/m² per point id (one batch's flux per unit area)
     std::vector<float> radius2;    ///< per point id: where it answers (m², its estimate's disc or wider)
+    // Per point id, for adding later batches (addBatch): where it lies, the normal it faces, its
+    // estimate's disc (r_k² at the build; 0: none) and the flux within it, W summed over the
+    // held batches.
+    std::vector<Vec3> position, normal;
+    std::vector<float> disc2;
+    std::vector<Vec3> flux;
+    /// Per point id: the flux within the disc of half its estimate's area (kInnerArea), W summed
+    /// over the held batches.
+    std::vector<Vec3> innerFlux;
 };
 
 namespace {
+
+/// The area of a point's inner disc relative to its estimate's disc.
+constexpr float kInnerArea = 0.5f;
+
+/// A point's irradiance from its fluxes over `held` batches, the estimate's disc having been the
+/// k-NN disc of the map's `built` batches: the k-NN disc of held batches has about built/held of
+/// its area, and a kernel's blur grows with its area, so the estimate blends the whole disc
+/// (weight 1 − a) and the inner one (weight a) to that area's blur: a = (1 − built/held) /
+/// (1 − kInnerArea), 0 at the build, 1 once the map doubled (where the points are rebuilt).
+Vec3 blendedIrradiance(Vec3 flux, Vec3 innerFlux, float disc2, uint32_t built, uint32_t held) {
+    const float a = std::clamp((1.0f - float(built) / float(held)) / (1.0f - kInnerArea), 0.0f, 1.0f);
+    const float whole = 1.0f / (kPi * disc2 * float(held));
+    return flux * ((1.0f - a) * whole) + innerFlux * (a * whole / kInnerArea);
+}
 
 /// A k-NN result set over the points that keeps only points facing the query's normal (the
 /// density gather's front/back rule: a point's `incoming` is its normal reversed) and counts the
@@ -75,13 +102,26 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
         if (p->set == set) sp = p.get();
     RTPM_CHECK(sp != nullptr);
     const PhotonSetStats& stats = maps.stats(set);
-    if (sp->built && !needsRebuild(sp->batches, sp->photons, stats.batches, stats.photonsStored, set)) return;
+    if (sp->built) {
+        // A map reset or replaced since the points last took in its photons.
+        const bool changed = stats.batches < sp->heldBatches ||
+                             (stats.batches == sp->heldBatches && stats.photonsStored != sp->heldPhotons);
+        if (!changed && !needsRebuild(sp->batches, sp->photons, stats.batches, stats.photonsStored, set)) {
+            if (stats.batches == sp->heldBatches + 1) addBatch(*sp, maps, set);
+            return;
+        }
+    }
     sp->built = true;
-    sp->batches = stats.batches;
-    sp->photons = stats.photonsStored;
+    sp->batches = sp->heldBatches = stats.batches;
+    sp->photons = sp->heldPhotons = stats.photonsStored;
     sp->rMax2 = maps.gatherRadius() * maps.gatherRadius();
     sp->irradiance.clear();
     sp->radius2.clear();
+    sp->position.clear();
+    sp->normal.clear();
+    sp->disc2.clear();
+    sp->flux.clear();
+    sp->innerFlux.clear();
     const PhotonIndex* index = maps.indexOf(set);
     const size_t n = index ? index->size() : 0;
     if (stats.batches == 0 || n == 0) {
@@ -103,6 +143,11 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
     std::vector<Vec3> normals(count);
     sp->irradiance.assign(count, Vec3(0.0f));
     sp->radius2.assign(count, 0.0f);
+    sp->position.resize(count);
+    sp->normal.resize(count);
+    sp->disc2.assign(count, 0.0f);
+    sp->flux.assign(count, Vec3(0.0f));
+    sp->innerFlux.assign(count, Vec3(0.0f));
     const float delta = 1e-4f * scene.bounds().diagonal();
     // A point answers within its estimate's disc, widened once the stride leaves fewer than
     // kLookupPoints points in a disc (k photons hold about k / stride points): the disc then
@@ -125,7 +170,10 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
             h.shadingNormal = nrm;
             hits[i] = h;
             normals[i] = nrm;
+            sp->position[i] = at[i].position;
+            sp->normal[i] = nrm;
         }
+        thread_local std::vector<FoundPhoton> inner;
         CausticQuery queries[kGroup];
         DensityGather gathers[kGroup];
         GatherHint hint;
@@ -137,6 +185,13 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
                 if (gathers[i].radius2 > 0.0f) {
                     sp->irradiance[g0 + i] = gathers[i].power * (1.0f / (kPi * gathers[i].radius2));
                     sp->radius2[g0 + i] = gathers[i].radius2 * reach;
+                    sp->disc2[g0 + i] = gathers[i].radius2;
+                    sp->flux[g0 + i] = gathers[i].power * float(stats.batches);
+                    inner.clear();
+                    maps.gatherMapPhotons(scene, set, hits[g0 + i], normals[g0 + i], kInnerArea * gathers[i].radius2, inner);
+                    Vec3 sum(0.0f);
+                    for (const FoundPhoton& f : inner) sum += f.power;
+                    sp->innerFlux[g0 + i] = sum;
                 }
         }
     });
@@ -150,6 +205,44 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
     }
     sp->tree = KdTree(scene.bounds());
     sp->tree.build(at);
+}
+
+void IrradiancePoints::addBatch(SetPoints& sp, const PhotonMaps& maps, uint32_t set) {
+    const std::span<const Photon> batch = maps.lastBatch(set);
+    // Without the batch's photons (it came as flushed passes) or with a visibility test (which
+    // the points' build applies with the scene at each point), the points keep the batches they
+    // hold: their estimate stays a correct one of fewer photons until the next rebuild.
+    if (batch.empty() || maps.settings().gatherVisibility) return;
+    KdTree tree(sp.tree.bounds());
+    tree.build(batch);
+    const float unit = maps.powerUnit();
+    sp.heldBatches += 1;
+    sp.heldPhotons = maps.stats(set).photonsStored;
+    // Each point on its own: the sums do not depend on the thread count.
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, sp.flux.size(), 256), [&](const auto& range) {
+        for (size_t i = range.begin(); i < range.end(); ++i) {
+            const float r2 = sp.disc2[i];
+            if (!(r2 > 0.0f)) continue;
+            Vec3 added(0.0f), addedInner(0.0f);
+            struct Within {
+                const KdTree& tree;
+                Vec3 normal;
+                float r2, inner2;
+                Vec3 &sum, &innerSum;
+                float worstDist2() const { return r2; }
+                void add(float d2, uint32_t j) {
+                    if (!keptWithin<KdTree, VisibleFrom>(tree, j, d2, r2, normal, nullptr)) return;
+                    const Vec3 power = decodeRgb9e5(tree.photonPower(j));
+                    sum += power;
+                    if (d2 < inner2) innerSum += power;
+                }
+            } within{tree, sp.normal[i], r2, kInnerArea * r2, added, addedInner};
+            tree.search(sp.position[i], within);
+            sp.flux[i] += added * unit;
+            sp.innerFlux[i] += addedInner * unit;
+            sp.irradiance[i] = blendedIrradiance(sp.flux[i], sp.innerFlux[i], r2, sp.batches, sp.heldBatches);
+        }
+    });
 }
 
 Vec3 IrradiancePoints::lookup(const SetPoints& sp, Vec3 position, Vec3 normal, Vec3 albedo,

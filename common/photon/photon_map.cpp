@@ -158,6 +158,8 @@ struct PhotonMaps::SetState {
     uint32_t passBatches = 0;          // batches in `pass`
     std::vector<Photon> pending;       // passes' photons not yet in `index` (flushPasses)
     SetPhotons shot;                   // what the last shootBatch / shootPass traced (takeShot)
+    std::vector<Photon> lastBatch;     // the last shootBatch's photons (lastBatch)
+    uint32_t lastBatchNumber = 0;      // stats.batches after it inserted them (0: none)
     PhotonSetStats stats;
     std::vector<LightSequence> lights;
     bool capped = false;
@@ -330,12 +332,21 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     std::vector<Photon> batch = traceBatch(scene, *st);
     st->shot = SetPhotons{set, 0, {}};
     if (sharesShots() && batch.size() <= shareCap_) st->shot = SetPhotons{set, 1, batch};
+    st->lastBatch.assign(batch.begin(), batch.end());
     insertBatch(*st, std::move(batch));
+    st->lastBatchNumber = st->stats.batches;
+}
+
+std::span<const Photon> PhotonMaps::lastBatch(uint32_t set) const {
+    const SetState* st = find(set);
+    if (!st || st->lastBatchNumber == 0 || st->lastBatchNumber != st->stats.batches) return {};
+    return st->lastBatch;
 }
 
 void PhotonMaps::shootPass(const EmbreeScene& scene, uint32_t set, uint32_t batches) {
     SetState* st = find(set);
     RTPM_CHECK(st != nullptr && batches >= 1);
+    st->lastBatchNumber = 0;
     std::vector<Photon> batch = traceBatch(scene, *st);
     // The shot handed to the other sets: the whole batches that fit shareCap_.
     uint32_t sharedBatches = batch.size() <= shareCap_ ? 1 : 0;
@@ -371,6 +382,7 @@ void PhotonMaps::flushPasses(uint32_t set) {
     std::vector<Photon> photons = std::move(st->pending);
     st->pending = {};
     st->stats.pendingBatches = 0;
+    st->lastBatchNumber = 0;
     insertBatch(*st, std::move(photons));
     st->stats.batches += batches - 1;  // insertBatch counted one
 }

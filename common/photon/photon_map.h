@@ -6,6 +6,7 @@
 #include <memory>
 #include <optional>
 #include <string_view>
+#include <span>
 #include <vector>
 
 #include "common/core/render_settings.h"
@@ -140,6 +141,11 @@ public:
     /// photons (batches 0 and no photon when nothing, when they stored no photon, or when one
     /// batch holds more).
     SetPhotons takeShot(uint32_t set);
+    /// The photons `set`'s last shootBatch inserted into its map as its batch number
+    /// stats(set).batches, as it inserted them (stored powers, in the maps' power unit); empty
+    /// when the map's last batch came otherwise (passes flushed, a reset) or stored no photon.
+    /// Valid until the set's next shootBatch, shootPass, flushPasses or reset.
+    std::span<const Photon> lastBatch(uint32_t set) const;
     /// Photons per set and frame takeShot hands over at most (default: no limit).
     void setShareCap(size_t photons) { shareCap_ = photons; }
     /// The same over `set`'s accumulated map (any index variant); powers in W per batch of the

@@ -64,19 +64,23 @@ std::vector<Score> run(CausticEstimatorKind kind, bool moving, int frames) {
     return scores;
 }
 
-// Frames 1, 2, 4, 8 of a moving camera against k-NN from the same photons: rel. MAE within 10 %
-// of k-NN's (measured 0.118/0.086/0.066/0.054 against 0.113/0.085/0.067/0.056: 1.04, 1.01, 0.99,
-// 0.96; 32 frames 0.043 against 0.047, tests/bench/RESULTS.md), energy within 12 % of the
-// reference (k-NN's own is 1.07-1.08, the points' 1.06-1.10). Cost: about 9 s of CPU.
+// Frames 1–32 of a moving camera against k-NN from the same photons: rel. MAE within 10 % of
+// k-NN's up to frame 8, and at least 8 % below it from frame 12 on. There the points were last
+// rebuilt from a map of up to half the photons; they take in every batch since (the flux within
+// their estimate's disc and within its inner half) and blend the two discs to the blur of the
+// k-NN disc of the grown map. Measured 0.893 / 0.870 / 0.875 / 0.862 × k-NN at frames 12 / 16 /
+// 24 / 32; rebuilt only at the doublings 0.998 / 0.970 / 0.962 / 0.944 (at 640 × 480, 8–12 %
+// above k-NN at frames 12–31: tests/bench/RESULTS.md). Energy within 12 % of the reference (k-NN's
+// own is 1.05-1.08). Cost: about 16 s of CPU.
 TEST(MovingCamera, IrradiancePointsMatchKnnOnTheCurvedMirror) {
-    const std::vector<Score> knn = run(CausticEstimatorKind::Knn, false, 8);
-    const std::vector<Score> moving = run(CausticEstimatorKind::Progressive, true, 8);
-    for (int f : {1, 2, 4, 8}) {
+    const std::vector<Score> knn = run(CausticEstimatorKind::Knn, false, 32);
+    const std::vector<Score> moving = run(CausticEstimatorKind::Progressive, true, 32);
+    for (int f : {1, 2, 4, 8, 12, 16, 24, 32}) {
         const Score& k = knn[size_t(f - 1)];
         const Score& m = moving[size_t(f - 1)];
         std::printf("frame %d: knn %.4f (energy %.3f), moving %.4f (energy %.3f)\n", f, k.relMae, k.energy,
                     m.relMae, m.energy);
-        EXPECT_LE(m.relMae, 1.10 * k.relMae) << "frame " << f;
+        EXPECT_LE(m.relMae, (f <= 8 ? 1.10 : 0.92) * k.relMae) << "frame " << f;
         EXPECT_NEAR(m.energy, 1.0, 0.12) << "frame " << f;
     }
 }

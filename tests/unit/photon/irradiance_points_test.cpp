@@ -229,5 +229,61 @@ TEST(IrradiancePoints, MatchesTheKnnEstimateWhereTheCausticIsSmooth) {
     EXPECT_NEAR(sumPoints / sumKnn, 1.0, 0.05);
 }
 
+// Between rebuilds the points take in each new batch's photons (PhotonMaps::lastBatch): from 4
+// to 7 batches no point is rebuilt, yet the values change, and over the smooth patch their mean
+// stays that of the k-NN estimate of the grown map (the flux divided by the batches it holds).
+TEST(IrradiancePoints, PointsTakeInTheBatchesBetweenRebuilds) {
+    FourBatches f;
+    const EmbreeScene& es = f.es;
+    PhotonMaps& maps = f.maps;
+    IrradiancePoints& points = f.points;
+    auto patch = [&](auto&& value) {
+        std::vector<float> out;
+        for (int j = 0; j < 16; ++j)
+            for (int i = 0; i < 16; ++i) {
+                SurfaceHit hit;
+                hit.position = Vec3(-0.75f + 0.2f * float(i) / 15.0f, 0.0f, -0.1f + 0.2f * float(j) / 15.0f);
+                hit.geometricNormal = hit.shadingNormal = Vec3(0, 1, 0);
+                out.push_back(value(hit));
+            }
+        return out;
+    };
+    auto fromPoints = [&](const SurfaceHit& hit) { return points.radiance(es, 0, hit, Vec3(0, 1, 0), Vec3(1.0f)).x; };
+    const std::vector<float> before = patch(fromPoints);
+    points.resetCounters();
+    for (int b = 4; b < 7; ++b) {
+        maps.shootBatch(es, 0);
+        ASSERT_FALSE(maps.lastBatch(0).empty());
+        points.update(es, maps, 0);
+    }
+    EXPECT_EQ(points.counts().gathers, 0u) << "no rebuild before the map doubled";
+    const std::vector<float> after = patch(fromPoints);
+    const std::vector<float> knn =
+        patch([&](const SurfaceHit& hit) { return maps.radiance(es, 0, hit, Vec3(0, 1, 0), Vec3(1.0f)).x; });
+    int changed = 0;
+    double sumPoints = 0.0, sumKnn = 0.0;
+    for (size_t i = 0; i < after.size(); ++i) {
+        changed += after[i] != before[i] ? 1 : 0;
+        sumPoints += after[i];
+        sumKnn += knn[i];
+    }
+    EXPECT_GT(changed, int(after.size()) * 9 / 10);
+    EXPECT_NEAR(sumPoints / sumKnn, 1.0, 0.05);
+
+    // A pass flushed into the map (4 → 5 batches) is not a batch the points can take in: they
+    // keep the batches they hold, unchanged.
+    FourBatches g;
+    auto fromG = [&](const SurfaceHit& hit) { return g.points.radiance(g.es, 0, hit, Vec3(0, 1, 0), Vec3(1.0f)).x; };
+    const std::vector<float> held = patch(fromG);
+    g.maps.shootPass(g.es, 0);
+    EXPECT_TRUE(g.maps.lastBatch(0).empty());
+    g.maps.flushPasses(0);
+    EXPECT_TRUE(g.maps.lastBatch(0).empty());
+    g.points.resetCounters();
+    g.points.update(g.es, g.maps, 0);
+    EXPECT_EQ(g.points.counts().gathers, 0u);
+    EXPECT_EQ(patch(fromG), held);
+}
+
 }  // namespace
 }  // namespace rtpm
