@@ -25,7 +25,23 @@ struct IrradiancePoints::SetPoints {
     float rMax2 = 0.0f;            ///< the map's gather radius², the lookup's bound
     KdTree tree;                   ///< one entry per point; its power word is the point's id
     std::vector<Vec3> irradiance;  ///< W/m² per point id (one batch's flux per unit area)
-    std::vector<float> radius2;    ///< per point id: where it answers (m², its estimate's disc or wider)
+    /// What a lookup reads of a point, per point id, in one place: where it answers (m², its
+    /// estimate's disc or wider), whether its irradiance is above 0, and its inverse per channel
+    /// (1/max(10⁻³⁰, E)) for the harmonic mean, computed once when it changes rather than at
+    /// every lookup (RING's orbit: the lookups are a quarter of a frame).
+    struct Answer {
+        glm::dvec3 inverse{0.0};
+        float radius2 = 0.0f;
+        bool lit = false;
+    };
+    std::vector<Answer> answers;
+    /// Sets point i's irradiance and the inverse a lookup reads.
+    void setIrradiance(size_t i, Vec3 v) {
+        irradiance[i] = v;
+        answers[i].lit = v.x > 0.0f || v.y > 0.0f || v.z > 0.0f;
+        answers[i].inverse = glm::dvec3(1.0 / std::max(1e-30, double(v.x)), 1.0 / std::max(1e-30, double(v.y)),
+                                        1.0 / std::max(1e-30, double(v.z)));
+    }
     // Per point id, for adding later batches (addBatch): where it lies, the normal it faces, its
     // estimate's disc (r_k² at the build; 0: none) and the flux within it, W summed over the
     // held batches.
@@ -116,7 +132,7 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
     sp->photons = sp->heldPhotons = stats.photonsStored;
     sp->rMax2 = maps.gatherRadius() * maps.gatherRadius();
     sp->irradiance.clear();
-    sp->radius2.clear();
+    sp->answers.clear();
     sp->position.clear();
     sp->normal.clear();
     sp->disc2.clear();
@@ -142,7 +158,7 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
     std::vector<SurfaceHit> hits(count);
     std::vector<Vec3> normals(count);
     sp->irradiance.assign(count, Vec3(0.0f));
-    sp->radius2.assign(count, 0.0f);
+    sp->answers.assign(count, SetPoints::Answer{});
     sp->position.resize(count);
     sp->normal.resize(count);
     sp->disc2.assign(count, 0.0f);
@@ -183,8 +199,8 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
             maps.gatherMapGroup(scene, set, std::span(queries, m), std::span(gathers, m), &hint);
             for (size_t i = 0; i < m; ++i)
                 if (gathers[i].radius2 > 0.0f) {
-                    sp->irradiance[g0 + i] = gathers[i].power * (1.0f / (kPi * gathers[i].radius2));
-                    sp->radius2[g0 + i] = gathers[i].radius2 * reach;
+                    sp->setIrradiance(g0 + i, gathers[i].power * (1.0f / (kPi * gathers[i].radius2)));
+                    sp->answers[g0 + i].radius2 = gathers[i].radius2 * reach;
                     sp->disc2[g0 + i] = gathers[i].radius2;
                     sp->flux[g0 + i] = gathers[i].power * float(stats.batches);
                     inner.clear();
@@ -240,7 +256,7 @@ void IrradiancePoints::addBatch(SetPoints& sp, const PhotonMaps& maps, uint32_t 
             tree.search(sp.position[i], within);
             sp.flux[i] += added * unit;
             sp.innerFlux[i] += addedInner * unit;
-            sp.irradiance[i] = blendedIrradiance(sp.flux[i], sp.innerFlux[i], r2, sp.batches, sp.heldBatches);
+            sp.setIrradiance(i, blendedIrradiance(sp.flux[i], sp.innerFlux[i], r2, sp.batches, sp.heldBatches));
         }
     });
 }
@@ -277,10 +293,9 @@ Vec3 IrradiancePoints::lookup(const SetPoints& sp, Vec3 position, Vec3 normal, V
     uint32_t used = 0;
     for (const KnnEntry& e : heap.entries()) {
         const uint32_t id = sp.tree.photonPower(e.index);
-        const Vec3 v = sp.irradiance[id];
-        if (!(e.dist2 < sp.radius2[id]) || !(v.x > 0.0f || v.y > 0.0f || v.z > 0.0f)) continue;
-        inverse += glm::dvec3(1.0 / std::max(1e-30, double(v.x)), 1.0 / std::max(1e-30, double(v.y)),
-                              1.0 / std::max(1e-30, double(v.z)));
+        const SetPoints::Answer& a = sp.answers[id];
+        if (!(e.dist2 < a.radius2) || !a.lit) continue;
+        inverse += a.inverse;
         ++used;
     }
     if (used == 0) return Vec3(0.0f);
