@@ -22,7 +22,8 @@
 // only at the doublings, a moving camera's caustic on the curved mirror at 640 × 480 read 8–12 %
 // farther from the reference than the k-NN gather per pixel at frames 12–31 (the points' disc up
 // to twice the gather's area); with the batches taken in it reads 0–17 % closer from frame 12
-// on (1 % farther at frame 8), for 0.5 % more CPU a frame on RING's orbit.
+// on (1 % farther at frame 8), for 2–2.5 % more CPU a frame on RING's orbit (3 % fewer fps in
+// the two-client cluster).
 // The image is the k-NN estimate blurred by the points' spacing: measured figures (speed, error
 // against knn on the curved-mirror reference) are in tests/bench/RESULTS.md.
 #pragma once
