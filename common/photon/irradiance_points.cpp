@@ -24,20 +24,19 @@ struct IrradiancePoints::SetPoints {
     uint64_t heldPhotons = 0;      ///< the map's photon count then
     float rMax2 = 0.0f;            ///< the map's gather radius², the lookup's bound
     KdTree tree;                   ///< one entry per point; its power word is the point's id
-    std::vector<Vec3> irradiance;  ///< W/m² per point id (one batch's flux per unit area)
     /// What a lookup reads of a point, per point id, in one place: where it answers (m², its
-    /// estimate's disc or wider), whether its irradiance is above 0, and its inverse per channel
-    /// (1/max(10⁻³⁰, E)) for the harmonic mean, computed once when it changes rather than at
-    /// every lookup (RING's orbit: the lookups are a quarter of a frame).
+    /// estimate's disc or wider), whether its irradiance (W/m², one batch's flux per unit area)
+    /// is above 0, and its inverse per channel (1/max(10⁻³⁰, E)) for the harmonic mean,
+    /// computed once when it changes rather than at every lookup (RING's orbit: the lookups are
+    /// a quarter of a frame).
     struct Answer {
         glm::dvec3 inverse{0.0};
         float radius2 = 0.0f;
         bool lit = false;
     };
     std::vector<Answer> answers;
-    /// Sets point i's irradiance and the inverse a lookup reads.
+    /// Sets what a lookup reads of point i's irradiance `v`.
     void setIrradiance(size_t i, Vec3 v) {
-        irradiance[i] = v;
         answers[i].lit = v.x > 0.0f || v.y > 0.0f || v.z > 0.0f;
         answers[i].inverse = glm::dvec3(1.0 / std::max(1e-30, double(v.x)), 1.0 / std::max(1e-30, double(v.y)),
                                         1.0 / std::max(1e-30, double(v.z)));
@@ -109,7 +108,7 @@ void IrradiancePoints::invalidate() {
 
 size_t IrradiancePoints::pointCount(uint32_t set) const {
     const SetPoints* p = find(set);
-    return p && p->built ? p->irradiance.size() : 0;
+    return p && p->built ? p->answers.size() : 0;
 }
 
 void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set) {
@@ -131,7 +130,6 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
     sp->batches = sp->heldBatches = stats.batches;
     sp->photons = sp->heldPhotons = stats.photonsStored;
     sp->rMax2 = maps.gatherRadius() * maps.gatherRadius();
-    sp->irradiance.clear();
     sp->answers.clear();
     sp->position.clear();
     sp->normal.clear();
@@ -157,7 +155,6 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
     // runs through fixed blocks of groups, so the result does not depend on the thread count.
     std::vector<SurfaceHit> hits(count);
     std::vector<Vec3> normals(count);
-    sp->irradiance.assign(count, Vec3(0.0f));
     sp->answers.assign(count, SetPoints::Answer{});
     sp->position.resize(count);
     sp->normal.resize(count);
@@ -263,7 +260,7 @@ void IrradiancePoints::addBatch(SetPoints& sp, const PhotonMaps& maps, uint32_t 
 
 Vec3 IrradiancePoints::lookup(const SetPoints& sp, Vec3 position, Vec3 normal, Vec3 albedo,
                               uint64_t& offered, GatherHint* hint) {
-    if (sp.irradiance.empty()) return Vec3(0.0f);
+    if (sp.answers.empty()) return Vec3(0.0f);
     // The previous query's kLookupPoints points face this one too when its normal is the same
     // (a flat receiver's), so they lie within their farthest distance plus the step: its nearest
     // points do as well, and a search bounded there finds the same points as one bounded by rMax

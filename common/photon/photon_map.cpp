@@ -332,8 +332,8 @@ void PhotonMaps::shootBatch(const EmbreeScene& scene, uint32_t set) {
     std::vector<Photon> batch = traceBatch(scene, *st);
     st->shot = SetPhotons{set, 0, {}};
     if (sharesShots() && batch.size() <= shareCap_) st->shot = SetPhotons{set, 1, batch};
-    st->lastBatch.assign(batch.begin(), batch.end());
-    insertBatch(*st, std::move(batch));
+    insertBatch(*st, batch);
+    st->lastBatch = std::move(batch);
     st->lastBatchNumber = st->stats.batches;
 }
 
@@ -383,7 +383,7 @@ void PhotonMaps::flushPasses(uint32_t set) {
     st->pending = {};
     st->stats.pendingBatches = 0;
     st->lastBatchNumber = 0;
-    insertBatch(*st, std::move(photons));
+    insertBatch(*st, photons);
     st->stats.batches += batches - 1;  // insertBatch counted one
 }
 
@@ -462,7 +462,7 @@ std::vector<Photon> PhotonMaps::traceBatch(const EmbreeScene& scene, SetState& s
     return batch;
 }
 
-void PhotonMaps::insertBatch(SetState& state, std::vector<Photon> batch) {
+void PhotonMaps::insertBatch(SetState& state, std::span<const Photon> batch) {
     SetState* st = &state;
     PhotonSetStats& stats = st->stats;
     const Clock::time_point t0 = Clock::now();

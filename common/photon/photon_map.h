@@ -217,7 +217,7 @@ private:
     /// sequences and counters, but inserts nothing.
     std::vector<Photon> traceBatch(const EmbreeScene& scene, SetState& state);
     /// Insert stage: the batch into the set's map; updates the count and the cap.
-    void insertBatch(SetState& state, std::vector<Photon> batch);
+    void insertBatch(SetState& state, std::span<const Photon> batch);
     /// Plan stage, first SPT batch only: traces one pilot period (not stored) to choose the
     /// refine set; adds its cost to `traced`.
     void probeRefineSet(const EmbreeScene& scene, const TraceSettings& ts, const PhotonSource& source,
