@@ -55,13 +55,16 @@ public:
     /// frames planned before its last change of turns are not counted).
     /// `shootMs`: the slowest client's shooting in that frame; a frame in which every set shot
     /// one batch (an epoch's first, an edit, an Accumulate frame without turns) predicts the
-    /// next still view's first period (PassBudget::expectShooting).
+    /// next still view's first period (PassBudget::expectShooting), and with `workMs` the first
+    /// period of a still camera's Accumulate frames (PassBudget::expectFrame).
     void recordWork(proto::FrameMode mode, bool still, double workMs, uint32_t period, double shootMs = 0.0) {
         using M = proto::FrameMode;
         const bool accumulate = mode == M::Accumulate;
         noteMotion(mode, still, workMs);
-        if (mode == M::Interaction || mode == M::Edit || mode == M::Relight || (accumulate && period == 1))
+        if (mode == M::Interaction || mode == M::Edit || mode == M::Relight || (accumulate && period == 1)) {
             budget_.expectShooting(shootMs * 1e-3);
+            accumulate_.expectFrame(workMs * 1e-3, orbit_.budget());
+        }
         budget_.recordFrame(mode == proto::FrameMode::Converging, workMs * 1e-3, period);
         accumulate_.recordFrame(accumulate && still, workMs * 1e-3, period);
         orbit_.recordFrame(accumulate && !still, workMs * 1e-3, period);

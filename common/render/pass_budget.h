@@ -67,12 +67,26 @@ public:
     /// seconds / budget, at most kMaxPassPeriod) instead of doubling from 1 turn by turn: on
     /// HEADLIGHT, whose batch per set costs 5 budgets, the first ten still frames ran at 2–8
     /// fps while the period doubled to 8. Takes effect at the next frame that starts the budget
-    /// afresh. Only for progressive passes (growBatches): Accumulate frames' turns cost photons.
+    /// afresh. Only for progressive passes (growBatches); an accumulation budget has expectFrame.
     void expectShooting(double seconds) {
-        if (!growBatches_ || !(budget_ > 0.0) || !(seconds > 0.0)) return;
-        uint32_t p = 1;
-        while (p < kMaxPassPeriod && double(p) * budget_ < seconds) p *= 2;
-        startPeriod_ = p;
+        if (!growBatches_) return;
+        predictPeriod(seconds);
+    }
+    /// For an accumulation budget (growBatches false): the work of a frame in which every set
+    /// shot its batch and gathered its pixels again (an epoch's first frame, an edit, an
+    /// Accumulate frame without turns) is what a still camera's Accumulate frame (the knn
+    /// estimator's still view) costs without turns. Where that is more than `beyond` (the
+    /// master: the orbit's budget, the most a moving frame is let cost before its sets take
+    /// turns), the still view starts at the period that holds it to the budget instead of
+    /// doubling from 1 turn by turn, whose first frames each cost more than any moving frame:
+    /// HEADLIGHT's knn still view (515 ms for its first frame at the 16.7 ms budget) spent its
+    /// first 20 frames at 1.9–18 fps, 10 fps over 40 frames against its walkthrough's 20. Below
+    /// it the doubling is kept: it reaches its period within a few turns, and one set's turn per
+    /// frame from the start shot 16–20 % fewer photons in RING's and EGG's first second. Takes
+    /// effect at the next frame that starts the budget afresh.
+    void expectFrame(double seconds, double beyond) {
+        if (growBatches_) return;
+        predictPeriod(seconds > beyond && seconds > kTurnStart * budget_ ? seconds : 0.0);
     }
     /// Batches the next frame's passes shoot, in [1, kMaxPassBatches].
     uint32_t batches() const { return batches_; }
@@ -161,6 +175,14 @@ public:
     static constexpr double kTurnStart = 1.25;
 
 private:
+    // The power of two at or above seconds / budget, at most kMaxPassPeriod (1 for none).
+    void predictPeriod(double seconds) {
+        if (!(budget_ > 0.0)) return;
+        uint32_t p = 1;
+        while (seconds > 0.0 && p < kMaxPassPeriod && double(p) * budget_ < seconds) p *= 2;
+        startPeriod_ = p;
+    }
+
     double budget_;
     bool growBatches_ = true;
     uint32_t batches_ = 1;

@@ -321,10 +321,39 @@ TEST(PassBudget, AStillViewStartsAtThePeriodItsLastBatchPerSetPredicts) {
     fixed.expectShooting(10.0);
     fixed.record(false, 0.1);
     EXPECT_EQ(fixed.period(), 1u);
-    PassBudget accumulate(0.05, /*growBatches=*/false);  // there turns cost photons
+    PassBudget accumulate(0.05, /*growBatches=*/false);  // expectFrame is an accumulation budget's
     accumulate.expectShooting(10.0);
     accumulate.record(false, 0.1);
     EXPECT_EQ(accumulate.period(), 1u);
+}
+
+// An accumulation budget (the knn estimator's still view) starts at the period its last frame of
+// every set's batch predicts only where that frame cost more than a moving frame may (`beyond`);
+// below, its period doubles from 1 as before.
+TEST(PassBudget, AnAccumulationStartsAtItsPredictedPeriodOnlyBeyondAMovingFramesCost) {
+    PassBudget accumulate(1.0 / 60.0, /*growBatches=*/false);
+    accumulate.expectFrame(0.515, 0.2);  // HEADLIGHT: 515 ms against the orbit's 200 ms
+    EXPECT_EQ(accumulate.period(), 1u) << "takes effect when the budget starts afresh";
+    accumulate.record(false, 0.5);
+    EXPECT_EQ(accumulate.period(), 32u) << "the power of two at or above 515 / 16.7";
+    EXPECT_EQ(accumulate.batches(), 1u);
+    accumulate.expectFrame(0.19, 0.2);  // CORNELL: within a moving frame's cost
+    accumulate.record(false, 0.2);
+    EXPECT_EQ(accumulate.period(), 1u);
+    accumulate.expectFrame(0.02, 0.0);  // under kTurnStart × the budget: no turns
+    accumulate.record(false, 0.02);
+    EXPECT_EQ(accumulate.period(), 1u);
+    accumulate.expectFrame(100.0, 0.2);
+    accumulate.record(false, 0.2);
+    EXPECT_EQ(accumulate.period(), kMaxPassPeriod);
+    PassBudget passes(0.05);  // expectShooting is a progressive budget's
+    passes.expectFrame(10.0, 0.0);
+    passes.record(false, 0.1);
+    EXPECT_EQ(passes.period(), 1u);
+    PassBudget fixed(0.0, /*growBatches=*/false);  // no budget: no turns, whatever the machine
+    fixed.expectFrame(10.0, 0.0);
+    fixed.record(false, 0.1);
+    EXPECT_EQ(fixed.period(), 1u);
 }
 
 TEST(PassBudget, ZeroBudgetKeepsOneBatch) {

@@ -50,7 +50,11 @@ TEST(Convergence, AccumulateFramesTakeTurnsOverTheBudgetWithOneBatch) {
     EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 4u);
     EXPECT_EQ(c.batchesFor(FrameMode::Accumulate), 1u);
     record(c, FrameMode::Walkthrough, 10.0);  // the camera moved without shooting
-    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 1u);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 8u)
+        << "the 900 ms frame of every set's batch, beyond the orbit's 800 ms: 900 / 200 → 8";
+    record(c, FrameMode::Accumulate, 10.0, /*still=*/false);  // an orbit's cheap batches
+    record(c, FrameMode::Walkthrough, 10.0);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 1u) << "predicted again: no turns";
 }
 
 // An orbit's Accumulate frames grow the map the moving image shows: they take turns only beyond
@@ -109,11 +113,14 @@ TEST(Convergence, AStillViewStartsAtThePeriodTheLastBatchPerSetPredicts) {
     Convergence c(50.0, 0.0);
     c.recordWork(FrameMode::Interaction, true, 390.0, 1, 260.0);
     EXPECT_EQ(c.periodFor(FrameMode::Converging, true), 8u);
-    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 1u) << "the accumulation budgets keep theirs";
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, false), 1u) << "an orbit keeps every set shooting";
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 8u)
+        << "the knn still view: 390 ms, beyond the orbit's 200 ms, predicts 390 / 50 → 8";
     c.recordWork(FrameMode::Converging, true, 300.0, 1);  // planned before: not counted
     EXPECT_EQ(c.periodFor(FrameMode::Converging, true), 8u);
     c.recordWork(FrameMode::Accumulate, false, 60.0, 1, 20.0);  // the camera orbits, cheap batches
     EXPECT_EQ(c.periodFor(FrameMode::Converging, true), 1u);
+    EXPECT_EQ(c.periodFor(FrameMode::Accumulate, true), 1u);
     c.recordWork(FrameMode::Accumulate, false, 600.0, 2, 500.0);  // with turns: half the sets shot
     c.recordWork(FrameMode::Walkthrough, false, 10.0, 1, 0.0);     // shot nothing
     EXPECT_EQ(c.periodFor(FrameMode::Converging, true), 1u) << "neither predicts a pass";
