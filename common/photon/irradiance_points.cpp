@@ -282,21 +282,25 @@ Vec3 IrradiancePoints::lookup(const SetPoints& sp, Vec3 position, Vec3 normal, V
         hint->lastNormal = normal;
         hint->lastReach = heap.entries().size() == kLookupPoints ? std::sqrt(heap.worstDist2()) : -1.0f;
     }
-    // Of the nearest points, those whose disc holds the query. Points lie where photons do, with
+    // Of the nearest points, those whose disc holds the query, each weighed by how deep inside
+    // its disc the query lies (1 − d²/r², the Epanechnikov kernel of the point's own disc: a point
+    // whose disc barely reaches the query says little about it; equal weights blurred the curved
+    // mirror's moving caustic by up to 2 % more at frames 2–31). Points lie where photons do, with
     // a density ∝ their irradiance: the harmonic mean weights each by the area it stands for
     // (∝ 1/E), where the plain mean would lean towards the brighter side of a gradient (on the
     // curved mirror by +30 % of the caustic's energy after one frame, +70 % after 32).
     glm::dvec3 inverse(0.0);
-    uint32_t used = 0;
+    double weights = 0.0;
     for (const KnnEntry& e : heap.entries()) {
         const uint32_t id = sp.tree.photonPower(e.index);
         const SetPoints::Answer& a = sp.answers[id];
         if (!(e.dist2 < a.radius2) || !a.lit) continue;
-        inverse += a.inverse;
-        ++used;
+        const double w = 1.0 - double(e.dist2) / double(a.radius2);
+        inverse += w * a.inverse;
+        weights += w;
     }
-    if (used == 0) return Vec3(0.0f);
-    return albedo * kInvPi * Vec3(glm::dvec3(double(used)) / inverse);
+    if (!(weights > 0.0)) return Vec3(0.0f);
+    return albedo * kInvPi * Vec3(glm::dvec3(weights) / inverse);
 }
 
 Vec3 IrradiancePoints::radiance(const EmbreeScene&, uint32_t set, const SurfaceHit& hit, Vec3 normal,

@@ -8,8 +8,9 @@
 // kMaxPoints points of a large one. Each point gets the k-NN irradiance of the map at its photon
 // (PhotonMaps::gatherMap, the estimate the knn estimator makes at an eye hit there) and the shading
 // normal of the surface the photon lies on (one short ray). A caustic query at an eye hit then
-// averages the irradiance of the kLookupPoints nearest points facing its normal, within the map's
-// gather radius: a search over at most kMaxPoints points, whatever the map holds. So a frame's
+// averages the irradiance of the kLookupPoints nearest points facing its normal whose disc holds
+// it, each weighed by the kernel of its disc (1 − d²/r²), within the map's gather radius: a
+// search over at most kMaxPoints points, whatever the map holds. So a frame's
 // caustic work is bounded by kMaxPoints k-NN gathers per set and map change plus one small
 // nearest-point search per eye hit, where the k-NN gather per hit grows with the map's density
 // (its radius search of the photons within rMax fills as the map grows) and the progressive
@@ -21,9 +22,9 @@
 // so the point shows the two discs' estimates blended to that area (blendedIrradiance). Rebuilt
 // only at the doublings, a moving camera's caustic on the curved mirror at 640 × 480 read 8–12 %
 // farther from the reference than the k-NN gather per pixel at frames 12–31 (the points' disc up
-// to twice the gather's area); with the batches taken in it reads 0–17 % closer from frame 12
-// on (1 % farther at frame 8), for 2–2.5 % more CPU a frame on RING's orbit (3 % fewer fps in
-// the two-client cluster).
+// to twice the gather's area); with the batches taken in and the kernel's weights it reads 2–18 %
+// closer from frame 12 on (1–3 % farther at frames 2–7, 17 % closer at frame 1), for 2–2.5 % more
+// CPU a frame on RING's orbit (3 % fewer fps in the two-client cluster).
 // The image is the k-NN estimate blurred by the points' spacing: measured figures (speed, error
 // against knn on the curved-mirror reference) are in tests/bench/RESULTS.md.
 #pragma once
