@@ -81,6 +81,10 @@ if [[ $brakeKind == cgroup ]] && mkdir "$group" 2>/dev/null && echo 100000 >"$gr
     brake="half a core (cgroup v1 cpu.cfs_quota_us 50000 / cpu.cfs_period_us 100000)"
 fi
 
+kClientGoneS=10
+kRunLimitS=900
+((${RTPM_BENCH_SMOKE:-0} == 1)) && kRunLimitS=120
+
 # run NAME MODE CLIENTS [server flags…]: one cluster run; CLIENTS is fast, slow or both. Sets
 # fps (the server's rate over its last 8 frames), incomplete frames and the last share line.
 run() {
@@ -124,7 +128,25 @@ run() {
         fi
         pids+=("$!")
     fi
-    local status=0 p
+    # The server ends the run and its clients with it. A client gone while the server still waits
+    # for it (it never connected, or died) would leave the server waiting for as long as the
+    # deadline: after kClientGoneS more seconds, or past kRunLimitS in all, the run is stopped and
+    # its logs shown.
+    local status=0 p start=$SECONDS gone=0
+    while kill -0 "$server" 2>/dev/null; do
+        if ((gone == 0)); then
+            for p in "${pids[@]:1}"; do kill -0 "$p" 2>/dev/null || gone=$SECONDS; done
+        fi
+        if ((gone > 0 && SECONDS - gone > kClientGoneS || SECONDS - start > kRunLimitS)); then
+            echo "balance_bench.sh: run $name stopped: $( ((gone > 0)) && echo "a client exited ${kClientGoneS} s before the server" || echo "over ${kRunLimitS} s")" >&2
+            for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
+            for p in "${pids[@]}"; do wait "$p" 2>/dev/null || true; done
+            pids=()
+            for f in "$work/$name".*.log; do [[ -f $f ]] && { echo "--- $(basename "$f")" >&2; tail -n 20 "$f" >&2; }; done
+            return 1
+        fi
+        sleep 0.1
+    done
     wait "$server" || status=$?
     for p in "${pids[@]:1}"; do wait "$p" 2>/dev/null || true; done
     pids=()
