@@ -346,7 +346,7 @@ TEST(PassBudget, AnAccumulationStartsAtItsPredictedPeriodOnlyBeyondAMovingFrames
     accumulate.expectFrame(100.0, 0.2);
     accumulate.record(false, 0.2);
     EXPECT_EQ(accumulate.period(), kMaxPassPeriod);
-    PassBudget passes(0.05);  // expectShooting is a progressive budget's
+    PassBudget passes(0.05);  // a progressive budget predicts by expectShooting, not expectFrame
     passes.expectFrame(10.0, 0.0);
     passes.record(false, 0.1);
     EXPECT_EQ(passes.period(), 1u);
