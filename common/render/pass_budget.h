@@ -69,8 +69,7 @@ public:
     /// fps while the period doubled to 8. Takes effect at the next frame that starts the budget
     /// afresh. Only for progressive passes (growBatches); an accumulation budget has expectFrame.
     void expectShooting(double seconds) {
-        if (!growBatches_) return;
-        predictPeriod(seconds);
+        if (growBatches_ && seconds > 0.0) predictPeriod(seconds);
     }
     /// For an accumulation budget (growBatches false): the work of a frame in which every set
     /// shot its batch and gathered its pixels again (an epoch's first frame, an edit, an
@@ -85,7 +84,7 @@ public:
     /// frame from the start shot 16–20 % fewer photons in RING's and EGG's first second. Takes
     /// effect at the next frame that starts the budget afresh.
     void expectFrame(double seconds, double beyond) {
-        if (growBatches_) return;
+        if (growBatches_ || !(seconds > 0.0)) return;
         predictPeriod(seconds > beyond && seconds > kTurnStart * budget_ ? seconds : 0.0);
     }
     /// Batches the next frame's passes shoot, in [1, kMaxPassBatches].
@@ -175,7 +174,7 @@ public:
     static constexpr double kTurnStart = 1.25;
 
 private:
-    // The power of two at or above seconds / budget, at most kMaxPassPeriod (1 for none).
+    // The power of two at or above seconds / budget, at most kMaxPassPeriod (1 for 0 seconds).
     void predictPeriod(double seconds) {
         if (!(budget_ > 0.0)) return;
         uint32_t p = 1;

@@ -130,8 +130,8 @@ run() {
     fi
     # The server ends the run and its clients with it. A client gone while the server still waits
     # for it (it never connected, or died) would leave the server waiting for as long as the
-    # deadline: after kClientGoneS more seconds, or past kRunLimitS in all, the run is stopped and
-    # its logs shown.
+    # deadline: after kClientGoneS more seconds, or past kRunLimitS in all, its logs are shown and
+    # the script ends (cleanup stops the processes).
     local status=0 p start=$SECONDS gone=0
     while kill -0 "$server" 2>/dev/null; do
         if ((gone == 0)); then
@@ -139,9 +139,6 @@ run() {
         fi
         if ((gone > 0 && SECONDS - gone > kClientGoneS || SECONDS - start > kRunLimitS)); then
             echo "balance_bench.sh: run $name stopped: $( ((gone > 0)) && echo "a client exited ${kClientGoneS} s before the server" || echo "over ${kRunLimitS} s")" >&2
-            for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
-            for p in "${pids[@]}"; do wait "$p" 2>/dev/null || true; done
-            pids=()
             for f in "$work/$name".*.log; do [[ -f $f ]] && { echo "--- $(basename "$f")" >&2; tail -n 20 "$f" >&2; }; done
             return 1
         fi
