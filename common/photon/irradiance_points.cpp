@@ -25,7 +25,7 @@ struct IrradiancePoints::SetPoints {
     float rMax2 = 0.0f;            ///< the map's gather radius², the lookup's bound
     KdTree tree;                   ///< one entry per point; its power word is the point's id
     /// What a lookup reads of a point, per point id, in one place: where it answers (m², its
-    /// estimate's disc or wider), whether its irradiance (W/m², one batch's flux per unit area)
+    /// k-NN disc at its photon or wider), whether its irradiance (W/m², one batch's flux per unit area)
     /// is above 0, and its inverse per channel (1/max(10⁻³⁰, E)) for the harmonic mean,
     /// computed once when it changes rather than at every lookup (RING's orbit: the lookups are
     /// a quarter of a frame).
@@ -42,7 +42,7 @@ struct IrradiancePoints::SetPoints {
                                         1.0 / std::max(1e-30, double(v.z)));
     }
     // Per point id, for adding later batches (addBatch): where it lies, the normal it faces, its
-    // estimate's disc (r_k² at the build; 0: none) and the flux within it, W summed over the
+    // estimate's disc (kPointArea · r_k² at the build; 0: none) and the flux within it, W summed over the
     // held batches.
     std::vector<Vec3> position, normal;
     std::vector<float> disc2;
@@ -56,12 +56,15 @@ namespace {
 
 /// The area of a point's inner disc relative to its estimate's disc.
 constexpr float kInnerArea = 0.5f;
+/// The area of a point's estimate's disc relative to the map's k-NN disc at its photon.
+constexpr float kPointArea = 0.5f;
 
-/// A point's irradiance from its fluxes over `held` batches, the estimate's disc having been the
-/// k-NN disc of the map's `built` batches: the k-NN disc of held batches has about built/held of
-/// its area, and a kernel's blur grows with its area, so the estimate blends the whole disc
-/// (weight 1 − a) and the inner one (weight a) to that area's blur: a = (1 − built/held) /
-/// (1 − kInnerArea), 0 at the build, 1 once the map doubled (where the points are rebuilt).
+/// A point's irradiance from its fluxes over `held` batches, its estimate's disc (kPointArea of
+/// the k-NN disc at its photon) having been drawn on the map's `built` batches: the k-NN disc of
+/// held batches has about built/held of the area, and a kernel's blur grows with its area, so the
+/// estimate blends the whole disc (weight 1 − a) and the inner one (weight a) to that share of its
+/// own: a = (1 − built/held) / (1 − kInnerArea), 0 at the build, 1 once the map doubled (where the
+/// points are rebuilt).
 Vec3 blendedIrradiance(Vec3 flux, Vec3 innerFlux, float disc2, uint32_t built, uint32_t held) {
     const float a = std::clamp((1.0f - float(built) / float(held)) / (1.0f - kInnerArea), 0.0f, 1.0f);
     const float whole = 1.0f / (kPi * disc2 * float(held));
@@ -196,15 +199,19 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
             maps.gatherMapGroup(scene, set, std::span(queries, m), std::span(gathers, m), &hint);
             for (size_t i = 0; i < m; ++i)
                 if (gathers[i].radius2 > 0.0f) {
-                    sp->setIrradiance(g0 + i, gathers[i].power * (1.0f / (kPi * gathers[i].radius2)));
+                    const float disc2 = kPointArea * gathers[i].radius2, inner2 = kInnerArea * disc2;
                     sp->answers[g0 + i].radius2 = gathers[i].radius2 * reach;
-                    sp->disc2[g0 + i] = gathers[i].radius2;
-                    sp->flux[g0 + i] = gathers[i].power * float(stats.batches);
+                    sp->disc2[g0 + i] = disc2;
                     inner.clear();
-                    maps.gatherMapPhotons(scene, set, hits[g0 + i], normals[g0 + i], kInnerArea * gathers[i].radius2, inner);
-                    Vec3 sum(0.0f);
-                    for (const FoundPhoton& f : inner) sum += f.power;
-                    sp->innerFlux[g0 + i] = sum;
+                    maps.gatherMapPhotons(scene, set, hits[g0 + i], normals[g0 + i], disc2, inner);
+                    Vec3 sum(0.0f), innerSum(0.0f);
+                    for (const FoundPhoton& f : inner) {
+                        sum += f.power;
+                        if (f.dist2 < inner2) innerSum += f.power;
+                    }
+                    sp->flux[g0 + i] = sum;
+                    sp->innerFlux[g0 + i] = innerSum;
+                    sp->setIrradiance(g0 + i, blendedIrradiance(sum, innerSum, disc2, stats.batches, stats.batches));
                 }
         }
     });

@@ -5,26 +5,31 @@
 // Once per map change (a reset, a replacement, a doubling of its batches: needsRebuild), every
 // n-th photon of a set's map in the index's leaf order (a spatially stratified subset: leaf order
 // follows the tree's cells) becomes a point, with n = max(kPointStride, ⌈N / kMaxPoints⌉): every 4th photon of a small map,
-// kMaxPoints points of a large one. Each point gets the k-NN irradiance of the map at its photon
-// (PhotonMaps::gatherMap, the estimate the knn estimator makes at an eye hit there) and the shading
-// normal of the surface the photon lies on (one short ray). A caustic query at an eye hit then
-// averages the irradiance of the kLookupPoints nearest points facing its normal whose disc holds
-// it, each weighed by the kernel of its disc (1 − d²/r²), within the map's gather radius: a
+// kMaxPoints points of a large one. Each point gets the map's k-NN disc at its photon
+// (PhotonMaps::gatherMap, the disc the knn estimator draws at an eye hit there), the irradiance
+// within half of it (kPointArea) and the shading normal of the surface the photon lies on (one
+// short ray). A caustic query at an eye hit then averages the irradiance of the kLookupPoints
+// nearest points facing its normal whose k-NN disc holds it, each weighed by the kernel of that
+// disc (1 − d²/r²), within the map's gather radius: a
 // search over at most kMaxPoints points, whatever the map holds. So a frame's
 // caustic work is bounded by kMaxPoints k-NN gathers per set and map change plus one small
 // nearest-point search per eye hit, where the k-NN gather per hit grows with the map's density
 // (its radius search of the photons within rMax fills as the map grows) and the progressive
 // restart gathers kOuterArea · k photons per hit.
+// A point's own estimate counts the photons within half the k-NN disc at its photon (kPointArea):
+// a lookup averages 4 points, which takes out much of the noise the smaller disc adds and less of
+// the blur (on the curved mirror's moving caustic the whole k-NN disc read 1–3 % farther from the
+// reference than the gather per pixel at frames 2–7; half of it reads 11–16 % closer at every
+// frame from 2 to 100).
 // Between rebuilds each point takes in every batch its map gains (PhotonMaps::lastBatch: one
 // radius search per point in a tree of the batch's photons): the flux within its estimate's disc
-// r_k² and within the inner disc of half that area, over all batches held. A k-NN disc of the
-// grown map would have about built/held of r_k²'s area, and a kernel's blur grows with its area,
-// so the point shows the two discs' estimates blended to that area (blendedIrradiance). Rebuilt
-// only at the doublings, a moving camera's caustic on the curved mirror at 640 × 480 read 8–12 %
-// farther from the reference than the k-NN gather per pixel at frames 12–31 (the points' disc up
-// to twice the gather's area); with the batches taken in and the kernel's weights it reads 2–18 %
-// closer from frame 12 on (1–3 % farther at frames 2–7, 17 % closer at frame 1), for 2–2.5 % more
-// CPU a frame on RING's orbit (3 % fewer fps in the two-client cluster).
+// and within the inner disc of half that area, over all batches held. A k-NN disc of the
+// grown map would have about built/held of the area it had at the build, and a kernel's blur
+// grows with its area, so the point shows the two discs' estimates blended to that share of its
+// own disc (blendedIrradiance). Rebuilt only at the doublings, a moving camera's caustic read
+// 8–12 % farther from the reference than the k-NN gather per pixel at frames 12–31 (the points'
+// disc up to twice the gather's area); taking in the batches costs 2–2.5 % more CPU a frame on
+// RING's orbit.
 // The image is the k-NN estimate blurred by the points' spacing: measured figures (speed, error
 // against knn on the curved-mirror reference) are in tests/bench/RESULTS.md.
 #pragma once

@@ -64,17 +64,19 @@ std::vector<Score> run(CausticEstimatorKind kind, bool moving, int frames) {
     return scores;
 }
 
-// Frames 1–32 of a moving camera against k-NN from the same photons: rel. MAE within 4 % of
-// k-NN's at frames 1–2, at least 3 % below it at frames 4–8 and 8 % below from frame 12 on. There
-// the points were last rebuilt from a map of up to half the photons; they take in every batch
-// since (the flux within their estimate's disc and within its inner half) and blend the two discs
-// to the blur of the k-NN disc of the grown map; a lookup weighs each of its points by the
-// kernel of the point's disc. Measured 1.032 / 1.004 / 0.961 / 0.907 × k-NN at frames 1 / 2 / 4 /
-// 8 and 0.878 / 0.864 / 0.871 / 0.858 at 12 / 16 / 24 / 32; with equal weights 1.043 / 1.013 /
-// 0.978 / 0.926 and 0.893 / 0.870 / 0.875 / 0.862; rebuilt only at the doublings 0.998 / 0.970 /
-// 0.962 / 0.944 at 12–32 (at 640 × 480, 8–12 % above k-NN at frames 12–31:
-// tests/bench/RESULTS.md). Energy within 12 % of the reference (k-NN's own is 1.05-1.08). Cost:
-// about 16 s of CPU.
+// Frames 1–32 of a moving camera against k-NN from the same photons: rel. MAE at least 12 % below
+// k-NN's at frames 1–16 and 8 % below at 24–32. A point's estimate counts the photons within half
+// the k-NN disc at its photon (the lookup's average over 4 points takes out much of the noise a
+// smaller disc adds, and less of the blur); between rebuilds (from a map of up to half the
+// photons) it takes in every batch (the flux within its disc and within the disc's inner half)
+// and blends the two discs to half the blur of the k-NN disc of the grown map; a lookup weighs
+// each of its points by the kernel of the point's k-NN disc. Measured 0.799 / 0.796 / 0.811 /
+// 0.817 × k-NN at frames 1 / 2 / 4 / 8 and 0.829 / 0.827 / 0.867 / 0.869 at 12 / 16 / 24 / 32;
+// with the whole k-NN disc (until 2026-11-28) 1.032 / 1.004 / 0.961 / 0.907 and 0.878 / 0.864 /
+// 0.871 / 0.858; rebuilt only at the doublings 0.998 / 0.970 / 0.962 / 0.944 at 12–32 (more at
+// 640 × 480 in tests/bench/RESULTS.md). Energy within 0.06 of k-NN's (1.05–1.08 over this mask;
+// the points' 1.05–1.12: a point's disc holds its own photon, one of half as many). Cost: about
+// 16 s of CPU.
 TEST(MovingCamera, IrradiancePointsMatchKnnOnTheCurvedMirror) {
     const std::vector<Score> knn = run(CausticEstimatorKind::Knn, false, 32);
     const std::vector<Score> moving = run(CausticEstimatorKind::Progressive, true, 32);
@@ -83,8 +85,8 @@ TEST(MovingCamera, IrradiancePointsMatchKnnOnTheCurvedMirror) {
         const Score& m = moving[size_t(f - 1)];
         std::printf("frame %d: knn %.4f (energy %.3f), moving %.4f (energy %.3f)\n", f, k.relMae, k.energy,
                     m.relMae, m.energy);
-        EXPECT_LE(m.relMae, (f <= 2 ? 1.04 : f <= 8 ? 0.97 : 0.92) * k.relMae) << "frame " << f;
-        EXPECT_NEAR(m.energy, 1.0, 0.12) << "frame " << f;
+        EXPECT_LE(m.relMae, (f <= 16 ? 0.88 : 0.92) * k.relMae) << "frame " << f;
+        EXPECT_NEAR(m.energy, k.energy, 0.06) << "frame " << f;
     }
 }
 
