@@ -158,7 +158,7 @@ OutputResult ImageOutput::process(OutputJob& job) {
     }
     if (!opt_.quiet) {
         progress_.clear();
-        // The estimator's own error and the pass size, when they say something.
+        // The estimated error and the pass size, when they say something.
         char extra[64] = "";
         if (result.errorEstimate > 0.0)
             std::snprintf(extra, sizeof extra, "  est. error %.4f", result.errorEstimate);

@@ -75,7 +75,8 @@ struct OutputResult {
     uint64_t clampedValues = 0;  ///< decoded radiance values above kMaxPixelRadiance, clamped
     /// The caustic's estimated relative error as shown and written: the shown caustic's change
     /// since a sixth of the progression's photons, scaled (shown_change.h), where the job's own figure
-    /// (OutputJob::errorEstimate) is known; that figure until then; 0 = none.
+    /// (OutputJob::errorEstimate) says the progressive estimator composed the frame; 0 = none
+    /// (knn, moving frames, and a progression's frames before an image of a third of its photons).
     double errorEstimate = 0.0;
     /// FrameData of unchanged pixels (FrameData::unchanged) whose frame's pixels this stage did not
     /// show (that frame's data came late or not at all): the set keeps what it shows.

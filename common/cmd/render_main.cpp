@@ -267,7 +267,7 @@ int run(int argc, char** argv) {
         budget.record(st.converging, totalMs * 1e-3);
         accumulation.record(knn && f > 0 && !st.walkthrough, totalMs * 1e-3);
         // The shown caustic's change since a sixth of the progression's photons (shown_change.h), where
-        // the progressive estimator composed this frame; its own figure until that is known.
+        // the progressive estimator composed this frame; none before its first baseline.
         const double own = causticErrorEstimate(st.error);
         const double change = shownChange.add(st.converging, passPeriod, st.error.batches, image.causticFiltered(),
                                               image.width(), image.height());

@@ -35,17 +35,17 @@ double ShownChange::add(bool converging, uint32_t period, double work, std::span
     }
     const uint64_t n = ++frame_;
     if (!kept(n) || !(work > 0.0) || !std::isfinite(work)) return figure_;
-    // The baseline: the kept image with the least work in [tolerance / ratio, 1/2] of this one's,
-    // `period` frames back.
+    // The baseline: the kept image with the least work in [tolerance / ratio, 1 / kBaselineMost]
+    // of this one's, `period` frames back.
     const double half = 0.5 * work, least = kBaselineTolerance * work / kBaselineRatio;
     const Kept* base = nullptr;
     for (const Kept& k : images_)
-        if (k.work <= half && k.work >= least && n - k.frame >= uint64_t(std::max<uint32_t>(period, 1)) &&
+        if (k.work <= work / kBaselineMost && k.work >= least && n - k.frame >= uint64_t(std::max<uint32_t>(period, 1)) &&
             (!base || k.work < base->work))
             base = &k;
     if (base) {
         const ErrorMetrics m = compareRgb(caustic, base->image, caustic, width, height);
-        // base->work ≤ work / 2: the scale is at least 1.
+        // base->work ≤ work / 3: the scale is at least √2.
         if (m.caustic.pixels > 0 && std::isfinite(m.caustic.relMae)) {
             const double change = m.caustic.relMae / std::sqrt(work / base->work - 1.0);
             // Falling no faster than photon noise from the last figure (shown_change.h).

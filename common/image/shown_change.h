@@ -25,15 +25,17 @@
 // and of those holding less than half the last frame's work only the ones with b ∈ {1, 3} (two
 // per doubling), so about nine images are held. At such a frame n ≥ 2 the baseline is
 // the kept image with the least work of those with at least kBaselineTolerance / kBaselineRatio
-// and at most half of frame n's work that lie at least `period` frames back (sets take turns,
+// and at most a third of frame n's work that lie at least `period` frames back (sets take turns,
 // pass_budget.h: a set off its turn shows its last pixels, so fewer frames between would hide
 // change); the figure is rel. MAE(image n, baseline) over image n's caustic region
 // (error_metrics.h) divided by √(work / baseline work − 1), but no less than the last such figure
 // × √(its work / work): the figure falls no faster than photon noise does (the change since a
 // baseline misses the error both images share, and its dip read the glass slab's error at 0.61 ×
 // over frames 5–7, 0.69 × with the floor; both parts of the error fall as N^-½ in the end: noise,
-// and blur at r² ∝ 1/√N). Between such frames the last figure holds. At frame 2 the baseline is
-// frame 1 (half the work): the curved mirror then reads 0.64 ×.
+// and blur at r² ∝ 1/√N). Between such frames the last figure holds. Before the first baseline
+// there is no figure (0): with one batch a pass frames 1 and 2 (frame 1 as frame 2's baseline,
+// half its work, read the curved mirror's error at 0.64 ×, and the estimator's own figure, which
+// stood in until 2026-11-28, 0.43–3.2 × at frame 1).
 // rtpm-render and the master both feed it their composed image and the sets' batches, so the
 // same frames give the same figure in one process and in a cluster.
 #pragma once
@@ -57,8 +59,10 @@ public:
     double add(bool converging, uint32_t period, double work, std::span<const float> caustic, int width, int height);
     /// The baseline holds about 1/kBaselineRatio of the frame's work: at least
     /// kBaselineTolerance / kBaselineRatio (2^-1/4: images are kept four per doubling) and at
-    /// most half.
+    /// most 1/kBaselineMost. A baseline of half (frame 1 for frame 2) read the curved mirror's
+    /// error at 0.64 ×: a doubling sheds too little of the blur to show it.
     static constexpr double kBaselineRatio = 6.0;
+    static constexpr double kBaselineMost = 3.0;
     static constexpr double kBaselineTolerance = 0.8408964152537145;
     /// Frames of the current progression so far (the first is 1).
     uint64_t frame() const { return frame_; }
@@ -87,10 +91,13 @@ private:
 };
 
 /// The error figure printed, shown and compared with --target-error: the change (ShownChange::add)
-/// where the progressive estimator's own figure says it composed the frame (> 0) and a change is
-/// known, that own figure otherwise (0 = none: knn, moving frames).
+/// where the progressive estimator's own figure says it composed the frame (> 0), else 0 = none
+/// (knn, moving frames, and a progression's frames before its first baseline: the first two
+/// with one batch a pass). The estimator's own figure (progressive.h causticErrorEstimate) stood
+/// in before a baseline until 2026-11-28: it read 0.43–3.2 × the true error at the first frame of
+/// the analytic scenes, a figure no one should stop a render on.
 inline double shownErrorFigure(double estimatorFigure, double change) {
-    return estimatorFigure > 0.0 && change > 0.0 ? change : estimatorFigure;
+    return estimatorFigure > 0.0 ? change : 0.0;
 }
 
 }  // namespace rtpm

@@ -91,8 +91,9 @@ struct FrameStats {
     bool moving = false;           ///< progressive: the camera moved, caustics from irradiance points
     uint32_t passes = 0;           ///< progressive passes since the restart (largest over sets)
     /// Progressive: Σ over owned sets of the caustic error figures (progressive.h):
-    /// causticErrorEstimate(error) is the estimator's own figure, shown until the shown caustic's
-    /// change since a sixth of the progression's photons is known (common/image/shown_change.h).
+    /// causticErrorEstimate(error) is the estimator's own figure; above 0 it says the progressive
+    /// estimator composed the frame, whose shown figure is then the shown caustic's change since a
+    /// sixth of the progression's photons (common/image/shown_change.h).
     CausticErrorSums error;
     EyeStats eye;
 };

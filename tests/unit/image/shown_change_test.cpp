@@ -61,15 +61,17 @@ TEST(ShownChange, ComparesAKeptFrameWithItsBaselineAndHoldsTheFigureBetween) {
     ShownChange change;
     EXPECT_EQ(change.add(false, 1, double(1), frame(1), kW, kH), 0.0) << "a first frame has no baseline";
     // One batch a frame: frame n's baseline is the oldest image still held with at least
-    // 2^-1/4 · n/6 and at most n/2 batches; below half of the last frame's work only the frames
+    // 2^-1/4 · n/6 and at most n/3 batches; below half of the last frame's work only the frames
     // b·2^k with b ∈ {1, 3} stay (frame 5 goes at frame 12, 7 at 20, 10 at 24, 14 at 32).
-    const std::vector<std::pair<uint64_t, uint64_t>> baseOf{{2, 1},  {3, 1},  {4, 1},  {5, 1},  {6, 1},  {7, 1},
+    // Frame 2 has none (frame 1 holds half its work): no figure yet.
+    EXPECT_EQ(change.add(true, 1, double(2), frame(2), kW, kH), 0.0) << "no baseline of a third";
+    const std::vector<std::pair<uint64_t, uint64_t>> baseOf{{3, 1},  {4, 1},  {5, 1},  {6, 1},  {7, 1},
                                                             {8, 2},  {10, 2}, {12, 2}, {14, 2}, {16, 3}, {20, 3},
                                                             {24, 4}, {28, 4}, {32, 6}, {40, 6}};
     size_t next = 0;
     Floored expected;
     size_t mostImages = 0;
-    for (uint64_t n = 2; n <= 40; ++n) {
+    for (uint64_t n = 3; n <= 40; ++n) {
         const double figure = change.add(true, 1, double(n), frame(n), kW, kH);
         EXPECT_EQ(change.frame(), n);
         mostImages = std::max(mostImages, change.keptImages());
@@ -88,11 +90,13 @@ TEST(ShownChange, ANewProgressionStartsAgain) {
     ShownChange change;
     change.add(false, 1, double(1), frame(1), kW, kH);
     change.add(true, 1, double(2), frame(2), kW, kH);
+    change.add(true, 1, double(3), frame(3), kW, kH);
     EXPECT_GT(change.figure(), 0.0);
     // A moving frame: the next still frame is a progression's first again, with no figure.
     EXPECT_EQ(change.add(false, 1, double(1), frame(1), kW, kH), 0.0);
     EXPECT_EQ(change.frame(), 1u);
-    EXPECT_DOUBLE_EQ(change.add(true, 1, double(2), frame(2), kW, kH), figureBetween(2, 2.0, 1, 1.0));
+    EXPECT_EQ(change.add(true, 1, double(2), frame(2), kW, kH), 0.0);
+    EXPECT_DOUBLE_EQ(change.add(true, 1, double(3), frame(3), kW, kH), figureBetween(3, 3.0, 1, 1.0));
 }
 
 TEST(ShownChange, WaitsUntilEverySetTookATurnSinceTheBaseline) {
@@ -116,14 +120,15 @@ TEST(ShownChange, TheBaselineIsAShareOfThePhotonsNotOfTheFrames) {
     ShownChange change;
     auto work = [](uint64_t n) { return 8.0 + double(n); };  // 8 batches at the restart, one a frame
     change.add(false, 1, work(1), frame(1), kW, kH);
-    for (uint64_t n = 2; n <= 9; ++n)
-        EXPECT_EQ(change.add(true, 1, work(n), frame(n), kW, kH), 0.0) << "frame " << n << ": no image of half its work";
-    // Frame 10 holds 18 batches: frame 1's 9 are half (frame 5's 13 would be half the frames).
-    EXPECT_DOUBLE_EQ(change.add(true, 1, work(10), frame(10), kW, kH), figureBetween(10, 18.0, 1, 9.0));
-    // Every kept frame from 12 to 24 takes frame 1 (9 batches: more than a sixth of 32, the most
-    // work by frame 24; frame 4 would be a sixth of the frames).
-    Floored expected{figureBetween(10, 18.0, 1, 9.0), 18.0};
-    for (uint64_t n = 11; n <= 24; ++n) {
+    for (uint64_t n = 2; n <= 19; ++n)
+        EXPECT_EQ(change.add(true, 1, work(n), frame(n), kW, kH), 0.0) << "frame " << n << ": no image of a third of its work";
+    // Frame 20 holds 28 batches: frame 1's 9 are less than a third (frame 7's 15 would be a
+    // third of the frames).
+    EXPECT_DOUBLE_EQ(change.add(true, 1, work(20), frame(20), kW, kH), figureBetween(20, 28.0, 1, 9.0));
+    // Every kept frame to 24 takes frame 1 (9 batches: more than a sixth of 32, the most work by
+    // frame 24; frame 4 would be a sixth of the frames).
+    Floored expected{figureBetween(20, 28.0, 1, 9.0), 28.0};
+    for (uint64_t n = 21; n <= 24; ++n) {
         change.add(true, 1, work(n), frame(n), kW, kH);
         if (ShownChange::kept(n)) expected.next(figureBetween(n, work(n), 1, 9.0), work(n));
     }
@@ -138,17 +143,18 @@ TEST(ShownChange, TheBaselineIsAShareOfThePhotonsNotOfTheFrames) {
 TEST(ShownChange, TheFigureFallsNoFasterThanPhotonNoise) {
     ShownChange change;
     change.add(false, 1, 1.0, frame(1), kW, kH);
-    const double first = change.add(true, 1, 2.0, frame(2), kW, kH);
-    EXPECT_DOUBLE_EQ(first, changeBetween(2, 1));
-    // Frame 3 shows frame 2's image: its change since frame 1 over √2 is less than the floor.
-    const double third = change.add(true, 1, 3.0, frame(2), kW, kH);
-    EXPECT_LT(changeBetween(2, 1) / std::sqrt(2.0), third);
-    EXPECT_DOUBLE_EQ(third, first * std::sqrt(2.0 / 3.0));
+    change.add(true, 1, 2.0, frame(2), kW, kH);
+    const double first = change.add(true, 1, 3.0, frame(3), kW, kH);
+    EXPECT_DOUBLE_EQ(first, changeBetween(3, 1) / std::sqrt(2.0));
+    // Frame 4 shows frame 3's image: its change since frame 1 over √3 is less than the floor.
+    const double fourth = change.add(true, 1, 4.0, frame(3), kW, kH);
+    EXPECT_LT(changeBetween(3, 1) / std::sqrt(3.0), fourth);
+    EXPECT_DOUBLE_EQ(fourth, first * std::sqrt(3.0 / 4.0));
     // A frame that changed more than the floor says reads its own change.
     const std::vector<float> far = image(3.0f);
-    const double fourth = change.add(true, 1, 4.0, far, kW, kH);
-    EXPECT_DOUBLE_EQ(fourth, compareRgb(far, frame(1), far, kW, kH).caustic.relMae / std::sqrt(3.0));
-    EXPECT_GT(fourth, third * std::sqrt(3.0 / 4.0));
+    const double fifth = change.add(true, 1, 5.0, far, kW, kH);
+    EXPECT_DOUBLE_EQ(fifth, compareRgb(far, frame(1), far, kW, kH).caustic.relMae / std::sqrt(4.0));
+    EXPECT_GT(fifth, fourth * std::sqrt(4.0 / 5.0));
 }
 
 // A progression whose only error is nested noise, as Poisson's: the image of N batches is the
@@ -197,7 +203,7 @@ TEST(ShownChange, NoCausticNoFigure) {
 
 TEST(ShownChange, TheFigureShownIsTheChangeWhereTheEstimatorComposedAndAChangeIsKnown) {
     EXPECT_EQ(shownErrorFigure(0.05, 0.03), 0.03);
-    EXPECT_EQ(shownErrorFigure(0.05, 0.0), 0.05) << "no change known yet: the estimator's own figure";
+    EXPECT_EQ(shownErrorFigure(0.05, 0.0), 0.0) << "no change known yet: no figure";
     EXPECT_EQ(shownErrorFigure(0.0, 0.03), 0.0) << "knn or a moving frame: none";
 }
 
