@@ -42,31 +42,51 @@ struct IrradiancePoints::SetPoints {
                                         1.0 / std::max(1e-30, double(v.z)));
     }
     // Per point id, for adding later batches (addBatch): where it lies, the normal it faces, its
-    // estimate's disc (kPointArea · r_k² at the build; 0: none) and the flux within it, W summed over the
-    // held batches.
+    // estimate's disc (r_k² at the build; 0: none) and the flux within it, W summed over the held
+    // batches.
     std::vector<Vec3> position, normal;
     std::vector<float> disc2;
     std::vector<Vec3> flux;
     /// Per point id: the flux within the disc of half its estimate's area (kInnerArea), W summed
     /// over the held batches.
     std::vector<Vec3> innerFlux;
+    /// Per point id: Σ of the squared luminance of the photons' powers within its disc, W²
+    /// summed over the held batches: the variance of the difference between the inner disc's
+    /// flux and the ring's around it (sharpness).
+    std::vector<float> squares;
 };
 
 namespace {
 
 /// The area of a point's inner disc relative to its estimate's disc.
 constexpr float kInnerArea = 0.5f;
-/// The area of a point's estimate's disc relative to the map's k-NN disc at its photon.
-constexpr float kPointArea = 0.5f;
+/// A point's inner disc and the ring around it (the same area) differing by less than kSharpFrom
+/// standard deviations of their photon noise leave its estimate to the whole disc; by kSharpAt or
+/// more, to the inner one; linear between (sharpness).
+constexpr float kSharpFrom = 0.5f, kSharpAt = 1.5f;
 
-/// A point's irradiance from its fluxes over `held` batches, its estimate's disc (kPointArea of
-/// the k-NN disc at its photon) having been drawn on the map's `built` batches: the k-NN disc of
-/// held batches has about built/held of the area, and a kernel's blur grows with its area, so the
-/// estimate blends the whole disc (weight 1 − a) and the inner one (weight a) to that share of its
-/// own: a = (1 − built/held) / (1 − kInnerArea), 0 at the build, 1 once the map doubled (where the
-/// points are rebuilt).
-Vec3 blendedIrradiance(Vec3 flux, Vec3 innerFlux, float disc2, uint32_t built, uint32_t held) {
-    const float a = std::clamp((1.0f - float(built) / float(held)) / (1.0f - kInnerArea), 0.0f, 1.0f);
+float luminance(Vec3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+
+/// The share of a point's estimate its inner disc takes from the build on: where the inner disc
+/// and the ring around it hold different flux beyond their noise (the point lies on a gradient,
+/// which the whole disc blurs); none where they agree (a smooth caustic, whose noise the whole
+/// disc halves). `squares`: Σ of the squared luminances of the photons' powers in the whole disc,
+/// the variance of the inner flux minus the ring's.
+float sharpness(Vec3 flux, Vec3 innerFlux, float squares) {
+    if (!(squares > 0.0f)) return 0.0f;
+    const float z = std::abs(luminance(innerFlux) - luminance(flux - innerFlux)) / std::sqrt(squares);
+    return std::clamp((z - kSharpFrom) / (kSharpAt - kSharpFrom), 0.0f, 1.0f);
+}
+
+/// A point's irradiance from its fluxes over `held` batches, its estimate's disc being the map's
+/// k-NN disc at its photon when it held `built` batches: the k-NN disc of held batches has about
+/// built/held of the area, and a kernel's blur grows with its area, so the estimate blends the
+/// whole disc (weight 1 − a) and the inner one (weight a) to that area: a = (1 − built/held) /
+/// (1 − kInnerArea), 0 at the build, 1 once the map doubled (where the points are rebuilt); or
+/// the point's sharpness where that is more.
+Vec3 blendedIrradiance(Vec3 flux, Vec3 innerFlux, float squares, float disc2, uint32_t built, uint32_t held) {
+    const float a = std::max(sharpness(flux, innerFlux, squares),
+                             std::clamp((1.0f - float(built) / float(held)) / (1.0f - kInnerArea), 0.0f, 1.0f));
     const float whole = 1.0f / (kPi * disc2 * float(held));
     return flux * ((1.0f - a) * whole) + innerFlux * (a * whole / kInnerArea);
 }
@@ -139,6 +159,7 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
     sp->disc2.clear();
     sp->flux.clear();
     sp->innerFlux.clear();
+    sp->squares.clear();
     const PhotonIndex* index = maps.indexOf(set);
     const size_t n = index ? index->size() : 0;
     if (stats.batches == 0 || n == 0) {
@@ -164,6 +185,7 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
     sp->disc2.assign(count, 0.0f);
     sp->flux.assign(count, Vec3(0.0f));
     sp->innerFlux.assign(count, Vec3(0.0f));
+    sp->squares.assign(count, 0.0f);
     const float delta = 1e-4f * scene.bounds().diagonal();
     // A point answers within its estimate's disc, widened once the stride leaves fewer than
     // kLookupPoints points in a disc (k photons hold about k / stride points): the disc then
@@ -199,19 +221,22 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
             maps.gatherMapGroup(scene, set, std::span(queries, m), std::span(gathers, m), &hint);
             for (size_t i = 0; i < m; ++i)
                 if (gathers[i].radius2 > 0.0f) {
-                    const float disc2 = kPointArea * gathers[i].radius2, inner2 = kInnerArea * disc2;
+                    const float disc2 = gathers[i].radius2, inner2 = kInnerArea * disc2;
                     sp->answers[g0 + i].radius2 = gathers[i].radius2 * reach;
                     sp->disc2[g0 + i] = disc2;
                     inner.clear();
                     maps.gatherMapPhotons(scene, set, hits[g0 + i], normals[g0 + i], disc2, inner);
                     Vec3 sum(0.0f), innerSum(0.0f);
+                    float squares = 0.0f;
                     for (const FoundPhoton& f : inner) {
                         sum += f.power;
+                        squares += luminance(f.power) * luminance(f.power);
                         if (f.dist2 < inner2) innerSum += f.power;
                     }
                     sp->flux[g0 + i] = sum;
                     sp->innerFlux[g0 + i] = innerSum;
-                    sp->setIrradiance(g0 + i, blendedIrradiance(sum, innerSum, disc2, stats.batches, stats.batches));
+                    sp->squares[g0 + i] = squares;
+                    sp->setIrradiance(g0 + i, blendedIrradiance(sum, innerSum, squares, disc2, stats.batches, stats.batches));
                 }
         }
     });
@@ -244,23 +269,28 @@ void IrradiancePoints::addBatch(SetPoints& sp, const PhotonMaps& maps, uint32_t 
             const float r2 = sp.disc2[i];
             if (!(r2 > 0.0f)) continue;
             Vec3 added(0.0f), addedInner(0.0f);
+            float addedSquares = 0.0f;
             struct Within {
                 const KdTree& tree;
                 Vec3 normal;
                 float r2, inner2;
                 Vec3 &sum, &innerSum;
+                float& squares;
                 float worstDist2() const { return r2; }
                 void add(float d2, uint32_t j) {
                     if (!keptWithin<KdTree, VisibleFrom>(tree, j, d2, r2, normal, nullptr)) return;
                     const Vec3 power = decodeRgb9e5(tree.photonPower(j));
                     sum += power;
+                    squares += luminance(power) * luminance(power);
                     if (d2 < inner2) innerSum += power;
                 }
-            } within{tree, sp.normal[i], r2, kInnerArea * r2, added, addedInner};
+            } within{tree, sp.normal[i], r2, kInnerArea * r2, added, addedInner, addedSquares};
             tree.search(sp.position[i], within);
             sp.flux[i] += added * unit;
             sp.innerFlux[i] += addedInner * unit;
-            sp.setIrradiance(i, blendedIrradiance(sp.flux[i], sp.innerFlux[i], r2, sp.batches, sp.heldBatches));
+            sp.squares[i] += addedSquares * unit * unit;
+            sp.setIrradiance(i, blendedIrradiance(sp.flux[i], sp.innerFlux[i], sp.squares[i], r2, sp.batches,
+                                                  sp.heldBatches));
         }
     });
 }

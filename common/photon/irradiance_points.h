@@ -6,8 +6,8 @@
 // n-th photon of a set's map in the index's leaf order (a spatially stratified subset: leaf order
 // follows the tree's cells) becomes a point, with n = max(kPointStride, ⌈N / kMaxPoints⌉): every 4th photon of a small map,
 // kMaxPoints points of a large one. Each point gets the map's k-NN disc at its photon
-// (PhotonMaps::gatherMap, the disc the knn estimator draws at an eye hit there), the irradiance
-// within half of it (kPointArea) and the shading normal of the surface the photon lies on (one
+// (PhotonMaps::gatherMap, the disc the knn estimator draws at an eye hit there), the flux within
+// it and within its inner half, and the shading normal of the surface the photon lies on (one
 // short ray). A caustic query at an eye hit then averages the irradiance of the kLookupPoints
 // nearest points facing its normal whose k-NN disc holds it, each weighed by the kernel of that
 // disc (1 − d²/r²), within the map's gather radius: a
@@ -16,11 +16,14 @@
 // nearest-point search per eye hit, where the k-NN gather per hit grows with the map's density
 // (its radius search of the photons within rMax fills as the map grows) and the progressive
 // restart gathers kOuterArea · k photons per hit.
-// A point's own estimate counts the photons within half the k-NN disc at its photon (kPointArea):
-// a lookup averages 4 points, which takes out much of the noise the smaller disc adds and less of
-// the blur (on the curved mirror's moving caustic the whole k-NN disc read 1–3 % farther from the
-// reference than the gather per pixel at frames 2–7; half of it reads 11–16 % closer at every
-// frame from 2 to 100).
+// A point's estimate is the whole disc's where the inner half and the ring around it agree within
+// their photon noise, the inner half's where they differ (sharpness: a gradient the whole disc
+// would blur), blended between: a lookup's average over 4 points takes out much of the noise
+// the inner disc adds. On the curved mirror's moving caustic the whole disc everywhere read 1–3 %
+// farther from the reference than the gather per pixel at frames 2–7, the inner half everywhere
+// 11–16 % closer at every frame but 20–30 % farther than the whole disc on the glass slab's
+// smooth caustic; chosen per point, 8–15 % closer than the gather on the curved mirror and within
+// 0–6 % of the whole disc on the glass caustics (tests/bench/RESULTS.md).
 // Between rebuilds each point takes in every batch its map gains (PhotonMaps::lastBatch: one
 // radius search per point in a tree of the batch's photons): the flux within its estimate's disc
 // and within the inner disc of half that area, over all batches held. A k-NN disc of the

@@ -65,18 +65,17 @@ std::vector<Score> run(CausticEstimatorKind kind, bool moving, int frames) {
 }
 
 // Frames 1–32 of a moving camera against k-NN from the same photons: rel. MAE at least 12 % below
-// k-NN's at frames 1–16 and 8 % below at 24–32. A point's estimate counts the photons within half
-// the k-NN disc at its photon (the lookup's average over 4 points takes out much of the noise a
-// smaller disc adds, and less of the blur); between rebuilds (from a map of up to half the
-// photons) it takes in every batch (the flux within its disc and within the disc's inner half)
-// and blends the two discs to half the blur of the k-NN disc of the grown map; a lookup weighs
-// each of its points by the kernel of the point's k-NN disc. Measured 0.799 / 0.796 / 0.811 /
-// 0.817 × k-NN at frames 1 / 2 / 4 / 8 and 0.829 / 0.827 / 0.867 / 0.869 at 12 / 16 / 24 / 32;
-// with the whole k-NN disc (until 2026-11-28) 1.032 / 1.004 / 0.961 / 0.907 and 0.878 / 0.864 /
-// 0.871 / 0.858; rebuilt only at the doublings 0.998 / 0.970 / 0.962 / 0.944 at 12–32 (more at
-// 640 × 480 in tests/bench/RESULTS.md). Energy within 0.06 of k-NN's (1.05–1.08 over this mask;
-// the points' 1.05–1.12: a point's disc holds its own photon, one of half as many). Cost: about
-// 16 s of CPU.
+// k-NN's at frames 1–16 and 8 % below at 24–32. A point's estimate is its k-NN disc's, or its
+// inner half's where the half and the ring around it differ beyond their noise (sharpness: the
+// folds of this caustic); between rebuilds (from a map of up to half the photons) it takes in
+// every batch (the flux within its disc and within the disc's inner half) and blends the two
+// discs to the blur of the k-NN disc of the grown map; a lookup weighs each of its points by the
+// kernel of the point's disc. Measured 0.855 / 0.836 / 0.861 / 0.851 × k-NN at frames 1 / 2 / 4 /
+// 8 and 0.847 / 0.844 / 0.856 / 0.854 at 12 / 16 / 24 / 32; with the whole disc everywhere (until
+// 2026-11-28) 1.032 / 1.004 / 0.961 / 0.907 and 0.878 / 0.864 / 0.871 / 0.858; rebuilt only at
+// the doublings 0.998 / 0.970 / 0.962 / 0.944 at 12–32 (more at 640 × 480 in
+// tests/bench/RESULTS.md). Energy within 0.06 of k-NN's (1.05–1.08 over this mask; the points'
+// 1.04–1.11). Cost: about 16 s of CPU.
 TEST(MovingCamera, IrradiancePointsMatchKnnOnTheCurvedMirror) {
     const std::vector<Score> knn = run(CausticEstimatorKind::Knn, false, 32);
     const std::vector<Score> moving = run(CausticEstimatorKind::Progressive, true, 32);

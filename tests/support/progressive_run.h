@@ -46,10 +46,15 @@ struct Convergence {
 /// Renders `frames` still frames of `scene` from its camera with every set of `rs`, composes
 /// each as rtpm-render does (scatter, box filter) and scores the filtered caustic layer over the
 /// reference's mask with compareRgb (the region from the reference itself). `passBatches`:
-/// batches of every progressive pass. Counts non-finite output as a test failure.
+/// batches of every progressive pass. `moving`: the camera alternates between its view and a copy
+/// one float step away (a walkthrough frame there first), so every frame is a moving one whose
+/// map grows by a batch (the progressive estimator's caustics from irradiance points). Counts
+/// non-finite output as a test failure.
 inline Convergence renderConvergence(Scene scene, const RenderSettings& rs, const CausticReference& ref,
-                                     int frames, uint32_t passBatches = 1) {
+                                     int frames, uint32_t passBatches = 1, bool moving = false) {
     const Camera camera = *scene.camera;
+    Camera nudged = camera;
+    nudged.position.y = std::nextafter(nudged.position.y, 1e9f);
     std::vector<uint32_t> sets(size_t(rs.interleave * rs.interleave));
     std::iota(sets.begin(), sets.end(), 0u);
     RenderJob job(std::move(scene), rs, sets);
@@ -58,8 +63,12 @@ inline Convergence renderConvergence(Scene scene, const RenderSettings& rs, cons
     ShownChange change;
     std::vector<SetPixels> pixels;
     Convergence run;
+    if (moving) job.renderFrame(nudged, FrameMode::Walkthrough, pixels);
     for (int f = 1; f <= frames; ++f) {
-        const FrameStats st = job.renderFrame(camera, pixels, passBatches);
+        const FrameStats st = job.renderFrame(moving && f % 2 == 0 ? nudged : camera, pixels, passBatches);
+        if (rs.photons.estimator == CausticEstimatorKind::Progressive) {
+            EXPECT_EQ(st.moving, moving) << "frame " << f;
+        }
         for (const SetPixels& sp : pixels) scatterSet(image, pattern, sp);
         image.filterAndCompose(rs.filterSize(), rs.filterEdgeRatio());
         std::vector<float> shown = image.causticFiltered();
@@ -147,15 +156,15 @@ CausticReference floorReference(const Camera& camera, int width, int height, int
     return ref;
 }
 
-/// The defaults' estimator against knn from the same photons: `frames` still frames of the
-/// scene `makeScene()` returns, rendered with `rs` and with `rs` but the knn estimator; prints
-/// both per frame under `label`.
+/// The defaults' estimator against knn from the same photons: `frames` still (or `moving`)
+/// frames of the scene `makeScene()` returns, rendered with `rs` and with `rs` but the knn
+/// estimator; prints both per frame under `label`.
 template <class MakeScene>
 std::pair<Convergence, Convergence> againstKnn(MakeScene makeScene, RenderSettings rs, const CausticReference& ref,
-                                               int frames, const char* label) {
-    const Convergence progressive = renderConvergence(makeScene(), rs, ref, frames);
+                                               int frames, const char* label, bool moving = false) {
+    const Convergence progressive = renderConvergence(makeScene(), rs, ref, frames, 1, moving);
     rs.photons.estimator = CausticEstimatorKind::Knn;
-    const Convergence knn = renderConvergence(makeScene(), rs, ref, frames);
+    const Convergence knn = renderConvergence(makeScene(), rs, ref, frames, 1, moving);
     for (size_t f = 0; f < progressive.relMae.size(); ++f)
         std::printf("%s, frame %2zu: rel. MAE %.4f (knn %.4f), energy %.4f (knn %.4f), estimate %.4f\n", label,
                     f + 1, progressive.relMae[f], knn.relMae[f], progressive.energy[f], knn.energy[f],
