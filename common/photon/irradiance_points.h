@@ -22,8 +22,9 @@
 // the inner disc adds. On the curved mirror's moving caustic the whole disc everywhere read 1–3 %
 // farther from the reference than the gather per pixel at frames 2–7, the inner half everywhere
 // 11–16 % closer at every frame but 20–30 % farther than the whole disc on the glass slab's
-// smooth caustic; chosen per point, 8–15 % closer than the gather on the curved mirror and within
-// 0–6 % of the whole disc on the glass caustics (tests/bench/RESULTS.md).
+// smooth caustic; chosen per point, 6.5–18 % closer than the gather on the curved mirror at every
+// frame and at most 6.3 % farther than the whole disc on the glass caustics
+// (tests/bench/RESULTS.md).
 // Between rebuilds each point takes in every batch its map gains (PhotonMaps::lastBatch: one
 // radius search per point in a tree of the batch's photons): the flux within its estimate's disc
 // and within the inner disc of half that area, over all batches held. A k-NN disc of the
