@@ -22,4 +22,8 @@ inline bool finite(Vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && 
 /// Largest of the three components.
 inline float maxComponent(Vec3 v) { return std::max({v.x, v.y, v.z}); }
 
+/// Luminance of linear Rec. 709 RGB, in double.
+inline double luminance(Vec3 c) { return 0.2126 * double(c.x) + 0.7152 * double(c.y) + 0.0722 * double(c.z); }
+inline double luminance(const glm::dvec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
+
 }  // namespace rtpm

@@ -65,8 +65,6 @@ constexpr float kInnerArea = 0.5f;
 /// more, to the inner one; linear between (sharpness).
 constexpr float kSharpFrom = 0.5f, kSharpAt = 1.5f;
 
-float luminance(Vec3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
-
 /// The share of a point's estimate its inner disc takes from the build on: where the inner disc
 /// and the ring around it hold different flux beyond their noise (the point lies on a gradient,
 /// which the whole disc blurs); none where they agree (a smooth caustic, whose noise the whole
@@ -74,7 +72,7 @@ float luminance(Vec3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; 
 /// the variance of the inner flux minus the ring's.
 float sharpness(Vec3 flux, Vec3 innerFlux, float squares) {
     if (!(squares > 0.0f)) return 0.0f;
-    const float z = std::abs(luminance(innerFlux) - luminance(flux - innerFlux)) / std::sqrt(squares);
+    const float z = float(std::abs(luminance(innerFlux) - luminance(flux - innerFlux)) / std::sqrt(double(squares)));
     return std::clamp((z - kSharpFrom) / (kSharpAt - kSharpFrom), 0.0f, 1.0f);
 }
 
@@ -230,7 +228,7 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
                     float squares = 0.0f;
                     for (const FoundPhoton& f : inner) {
                         sum += f.power;
-                        squares += luminance(f.power) * luminance(f.power);
+                        squares += float(luminance(f.power) * luminance(f.power));
                         if (f.dist2 < inner2) innerSum += f.power;
                     }
                     sp->flux[g0 + i] = sum;
@@ -281,7 +279,7 @@ void IrradiancePoints::addBatch(SetPoints& sp, const PhotonMaps& maps, uint32_t 
                     if (!keptWithin<KdTree, VisibleFrom>(tree, j, d2, r2, normal, nullptr)) return;
                     const Vec3 power = decodeRgb9e5(tree.photonPower(j));
                     sum += power;
-                    squares += luminance(power) * luminance(power);
+                    squares += float(luminance(power) * luminance(power));
                     if (d2 < inner2) innerSum += power;
                 }
             } within{tree, sp.normal[i], r2, kInnerArea * r2, added, addedInner, addedSquares};

@@ -18,9 +18,6 @@ namespace rtpm {
 
 namespace {
 
-double luminance(Vec3 c) { return 0.2126 * double(c.x) + 0.7152 * double(c.y) + 0.0722 * double(c.z); }
-double luminance(const glm::dvec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
-
 // A caustic value's relative noise in 64ths, as the wire carries it: how far the master's filter
 // may see it differ from a neighbour's before it reads an edge there (0 for a black value).
 uint8_t relativeNoise64ths(double noise, double value) {

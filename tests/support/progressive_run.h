@@ -181,4 +181,14 @@ std::pair<Convergence, Convergence> againstKnn(MakeScene makeScene, RenderSettin
     return {progressive, knn};
 }
 
+/// A moving camera at `rs` (againstKnn's `moving`) against the knn gather from the same photons:
+/// at frame f (from 1) the irradiance points' rel. MAE is at most `factor(f)` × knn's.
+template <class MakeScene, class Factor>
+void expectMovingBelowKnn(MakeScene makeScene, const RenderSettings& rs, const CausticReference& ref, int frames,
+                          const char* label, Factor factor) {
+    const auto [moving, knn] = againstKnn(makeScene, rs, ref, frames, label, true);
+    for (size_t f = 0; f < moving.relMae.size(); ++f)
+        EXPECT_LE(moving.relMae[f], factor(int(f) + 1) * knn.relMae[f]) << label << ", frame " << f + 1;
+}
+
 }  // namespace rtpm::testscenes
