@@ -49,7 +49,8 @@ function start(bin, argv, name) {
   p.out = '';
   p.stdout.on('data', (d) => { p.out += d; });
   p.stderr.on('data', (d) => { p.err = (p.err || '') + d; });
-  p.exited = new Promise((r) => p.on('exit', (code, sig) => r({ code, sig })));
+  // 'close', not 'exit': 'exit' may come before the last of the child's output has been read.
+  p.exited = new Promise((r) => p.on('close', (code, sig) => r({ code, sig })));
   p.name = name;
   children.push(p);
   return p;
@@ -95,7 +96,11 @@ try {
   };
   const meanAbsDiff = (a, b) => a.reduce((s, v, i) => s + Math.abs(v - b[i]), 0) / a.length;
 
-  await waitFor('two frames drawn', async () => (await viewer()).framesDrawn >= 2);
+  // A frame's status travels apart from its picture: wait for both.
+  await waitFor('two frames drawn and a status', async () => {
+    const v = await viewer();
+    return v.framesDrawn >= 2 && v.status;
+  });
   const v0 = await viewer();
   check(v0.control, 'the page holds the token: controls are on');
   const first = await pixels();

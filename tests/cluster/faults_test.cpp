@@ -173,10 +173,19 @@ TEST(Faults, FrozenClientIsEvictedWithinAFewFramesAndRejoinsAfterSigcont) {
                           60s))
         << "the evicted client did not rejoin\n" << r.logs();
     EXPECT_NE(frozen.err().find("said bye (timeout"), std::string::npos) << "not told why\n" << r.logs();
-    // It renders again: a frame line after the rejoin.
-    const size_t linesAtRejoin = frozen.out().size();
-    EXPECT_TRUE(waitUntil([&] { return frozen.out().find("frame ", linesAtRejoin) != std::string::npos; }, 60s))
-        << r.logs();
+    // It renders again: a frame of the new session. The old session's render thread may still
+    // print the frame it was on when the client froze, numbered below every frame shown since, so
+    // only a line of a frame issued after the rejoin counts.
+    const size_t shownAtRejoin = r.framesShown();
+    auto lastFrameLine = [&] {
+        long last = -1;
+        const std::string out = frozen.out();
+        static const std::regex line("(^|\n)frame (\\d+):");
+        for (auto it = std::sregex_iterator(out.begin(), out.end(), line); it != std::sregex_iterator(); ++it)
+            last = std::max(last, std::stol((*it)[2]));
+        return last;
+    };
+    EXPECT_TRUE(waitUntil([&] { return lastFrameLine() >= long(shownAtRejoin); }, 60s)) << r.logs();
     r.server->signal(SIGTERM);
     auto st = r.waitFor(*r.server, 60s);
     EXPECT_TRUE(st.exited && st.code == 0) << r.logs();
