@@ -9,13 +9,21 @@
 # (caustic_filtered) against the reference.
 #
 #   tests/bench/cluster_convergence.sh [--build DIR] [--estimator E ...] [--frames "1 2 4 ..."]
-#                                      [--size WxH] [--clients N] [--repeat R] [-- extra rtpm-server flags]
+#                                      [--size WxH] [--clients N] [--repeat R]
+#                                      [--pov "PHOTONS:GMIN:GMAX,..."] [-- extra rtpm-server flags]
 #
 # Prints one markdown row per frame count and, per estimator, the first measured time at which the
 # error is at most 0.05 and 0.02. With --repeat R each frame count runs R times and the row gives
 # the median wall and CPU time and the median error (a still view's photons depend on how its
 # frames met the budget, so the error varies a little from run to run); whole runs of a quarter
 # of a second vary by ±20 % on this machine, so a single run says little about a 10 % change.
+# The repeats take turns (every frame count once, then again), so a machine that slows down for a
+# minute slows every row alike.
+# --pov: POV-Ray 3.7 renders the same scene (tests/bench/pov_compare.py's SDL and scoring: its
+# photon render minus the render without photons) at each PHOTONS count and gather MIN:MAX, whole
+# processes timed, once in every turn beside the clusters; prints its rows and the ratio of each
+# estimator's first time at 0.05 and 0.02 to the least median time of a POV-Ray setting at that
+# error (pov_compare.py finds its best settings: 10:50 at 250 000–500 000 photons for 0.05).
 # Render threads per client: $RTPM_BENCH_THREADS if set.
 set -euo pipefail
 
@@ -27,6 +35,7 @@ frames="1 2 4 8 16 32 64 128 256"
 size=320x240
 clients=2
 repeat=1
+pov=""
 extra=()
 while (($#)); do
     case $1 in
@@ -36,6 +45,7 @@ while (($#)); do
         --size) size=${2:?}; shift 2 ;;
         --clients) clients=${2:?}; shift 2 ;;
         --repeat) repeat=${2:?}; shift 2 ;;
+        --pov) pov=${2:?}; shift 2 ;;
         --) shift; extra=("$@"); break ;;
         *) echo "cluster_convergence.sh: unknown argument $1" >&2; exit 2 ;;
     esac
@@ -47,6 +57,15 @@ bench_bin=$build/tests/bench/ring_mirror_bench
 for b in "$server_bin" "$client_bin" "$bench_bin"; do
     [[ -x $b ]] || { echo "cluster_convergence.sh: $b not built" >&2; exit 1; }
 done
+povSettings=()
+if [[ -n $pov ]]; then
+    IFS=, read -r -a povSettings <<<"$pov"
+    for setting in "${povSettings[@]}"; do
+        [[ $setting =~ ^[1-9][0-9]*:[1-9][0-9]*:[1-9][0-9]*$ ]] ||
+            { echo "cluster_convergence.sh: --pov takes PHOTONS:GMIN:GMAX[,...] (e.g. 500000:10:50), not '$setting'" >&2; exit 2; }
+    done
+    command -v povray >/dev/null || { echo "cluster_convergence.sh: --pov needs povray (apt-get install povray)" >&2; exit 1; }
+fi
 width=${size%x*}
 height=${size#*x}
 threads=${RTPM_BENCH_THREADS:-$(rtpmClientThreads "$clients")}
@@ -97,29 +116,99 @@ run() {
     echo "$wall $(awk -v u="$user" -v s="$sys" 'BEGIN { printf "%.2f", u + s }') $err $energy"
 }
 
+# POV-Ray, as tests/bench/pov_compare.py renders and scores it: the scene's SDL, the render
+# without photons once (the caustic is the photon render minus it).
+if ((${#povSettings[@]})); then
+    /usr/bin/python3 -c 'import sys; sys.path.insert(0, sys.argv[1]); import pov_compare as p
+print(p.SDL.replace("WIDTH", sys.argv[2]).replace("HEIGHT", sys.argv[3]), end="")' \
+        "$root/tests/bench" "$width" "$height" >"$work/ring_mirror.pov"
+    povCommand=(povray "+I$work/ring_mirror.pov" +FE "+W$width" "+H$height" -A -D +WT2)
+    "${povCommand[@]}" "+O$work/direct.exr" Declare=UsePhotons=0 >"$work/pov.log" 2>&1 ||
+        { cat "$work/pov.log" >&2; echo "cluster_convergence.sh: povray failed" >&2; exit 1; }
+fi
+
+# povRun PHOTONS GMIN GMAX: prints "wall cpu rel_mae energy" of one POV-Ray process.
+povRun() {
+    local img="$work/pov-$1-$2-$3.exr"
+    local TIMEFORMAT='%R %U %S'
+    { time "${povCommand[@]}" "+O$img" "Declare=PhotonCount=$1" "Declare=GatherMin=$2" "Declare=GatherMax=$3" \
+        >"$work/pov.log" 2>&1; } 2>"$work/pov.time" ||
+        { cat "$work/pov.log" >&2; echo "cluster_convergence.sh: povray failed" >&2; exit 1; }
+    local wall user sys _ err energy
+    read -r wall user sys <"$work/pov.time"
+    read -r _ err _ energy < <("$bench_bin" --compare "$img" --minus "$work/direct.exr")
+    echo "$wall $(awk -v u="$user" -v s="$sys" 'BEGIN { printf "%.2f", u + s }') $err $energy"
+}
+
+# median: the median of each of the four columns of the lines on stdin (the middle run for an odd
+# count, the upper middle otherwise), printed as the runs printed them.
+median() {
+    awk '
+        { for (c = 1; c <= 4; c++) v[c, NR] = $c }
+        END {
+            m = int(NR / 2) + 1
+            for (c = 1; c <= 4; c++) {
+                for (i = 1; i <= NR; i++) col[i] = v[c, i]
+                for (i = 2; i <= NR; i++)
+                    for (j = i; j > 1 && col[j - 1] + 0 > col[j] + 0; j--) { t = col[j]; col[j] = col[j - 1]; col[j - 1] = t }
+                printf "%s%s", col[m], (c < 4 ? " " : "\n")
+            }
+        }'
+}
+
+# Every run of every turn, one line each: "KEY wall cpu rel_mae energy".
+declare -A runs
+for ((r = 0; r < repeat; r++)); do
+    for setting in "${povSettings[@]}"; do
+        IFS=: read -r photons gmin gmax <<<"$setting"
+        runs[pov:$setting]+="$(povRun "$photons" "$gmin" "$gmax")"$'\n'
+    done
+    for estimator in "${estimators[@]}"; do
+        for n in $frames; do runs[$estimator:$n]+="$(run "$estimator" "$n")"$'\n'; done
+    done
+done
+
 echo "| estimator | frames | wall s | CPU s (all processes) | caustic rel. MAE | energy |"
 echo "|---|---|---|---|---|---|"
-for estimator in "${estimators[@]}"; do
-    first05="" first02=""
-    for n in $frames; do
-        runs=()
-        for ((r = 0; r < repeat; r++)); do runs+=("$(run "$estimator" "$n")"); done
-        # The median of each column (the middle run for an odd count, the upper middle otherwise),
-        # printed as the run printed it.
-        read -r wall cpu err energy < <(printf '%s\n' "${runs[@]}" | awk '
-            { for (c = 1; c <= 4; c++) v[c, NR] = $c }
-            END {
-                m = int(NR / 2) + 1
-                for (c = 1; c <= 4; c++) {
-                    for (i = 1; i <= NR; i++) col[i] = v[c, i]
-                    for (i = 2; i <= NR; i++)
-                        for (j = i; j > 1 && col[j - 1] + 0 > col[j] + 0; j--) { t = col[j]; col[j] = col[j - 1]; col[j - 1] = t }
-                    printf "%s%s", col[m], (c < 4 ? " " : "\n")
-                }
-            }')
-        echo "| $estimator | $n | $wall | $cpu | $err | $energy |"
-        [[ -z $first05 ]] && awk -v e="$err" 'BEGIN { exit !(e <= 0.05) }' && first05="$wall s ($n frames)"
-        [[ -z $first02 ]] && awk -v e="$err" 'BEGIN { exit !(e <= 0.02) }' && first02="$wall s ($n frames)"
+declare -A povBest  # target -> "wall setting": POV-Ray's least median wall time at that error
+for setting in "${povSettings[@]}"; do
+    read -r wall cpu err energy < <(printf '%s' "${runs[pov:$setting]}" | median)
+    IFS=: read -r photons gmin gmax <<<"$setting"
+    echo "| POV-Ray gather $gmin,$gmax | $photons photons | $wall | $cpu | $err | $energy |"
+    for target in 0.05 0.02; do
+        awk -v e="$err" -v t="$target" 'BEGIN { exit !(e <= t) }' || continue
+        if [[ -z ${povBest[$target]:-} ]] || awk -v a="$wall" -v b="${povBest[$target]%% *}" 'BEGIN { exit !(a < b) }'; then
+            povBest[$target]="$wall $setting"
+        fi
     done
-    echo "$estimator: first run at rel. MAE <= 0.05: ${first05:-none}; <= 0.02: ${first02:-none}" >&2
 done
+for estimator in "${estimators[@]}"; do
+    declare -A first=()
+    for n in $frames; do
+        read -r wall cpu err energy < <(printf '%s' "${runs[$estimator:$n]}" | median)
+        echo "| $estimator | $n | $wall | $cpu | $err | $energy |"
+        for target in 0.05 0.02; do
+            [[ -z ${first[$target]:-} ]] && awk -v e="$err" -v t="$target" 'BEGIN { exit !(e <= t) }' &&
+                first[$target]="$wall"$'\t'"$n"
+        done
+    done
+    for target in 0.05 0.02; do
+        line="$estimator: first run at rel. MAE <= $target: "
+        if [[ -n ${first[$target]:-} ]]; then
+            line+="${first[$target]%$'\t'*} s (${first[$target]#*$'\t'} frames)"
+            if [[ -n ${povBest[$target]:-} ]]; then
+                line+=", $(awk -v a="${first[$target]%$'\t'*}" -v b="${povBest[$target]%% *}" 'BEGIN { printf "%.2f", a / b }')"
+                line+=" of POV-Ray's ${povBest[$target]%% *} s (${povBest[$target]#* })"
+            fi
+        else
+            line+="none"
+        fi
+        echo "$line" >&2
+    done
+    unset first
+done
+if ((${#povSettings[@]})); then
+    for target in 0.05 0.02; do
+        [[ -n ${povBest[$target]:-} ]] || echo "POV-Ray: no setting reached rel. MAE $target" >&2
+    done
+fi

@@ -86,8 +86,12 @@ viewer_cost)
     expectRows 2 '^summary:' "$work/out.log"
     ;;
 cluster_convergence)
-    run "$work/out.log" bash "$root/tests/bench/cluster_convergence.sh" --build "$build" --frames "1 2" --size 64x48 --repeat 3
+    # With POV-Ray beside it, taking turns (its row, the clusters' rows, the ratio lines).
+    run "$work/out.log" bash "$root/tests/bench/cluster_convergence.sh" --build "$build" --frames "1 2" --size 64x48 --repeat 3 \
+        --pov 20000:20:100
     expectRows 4 "^\| (progressive|knn) \| [12] \| $num \| $num \| $num \| $num \|$" "$work/out.log"
+    expectRows 1 "^\| POV-Ray gather 20,100 \| 20000 photons \| $num \| $num \| $num \| $num \|$" "$work/out.log"
+    expectRows 4 "^(progressive|knn): first run at rel. MAE <= 0.0[25]: " "$work/out.log"
     ;;
 pov_compare)
     run "$work/out.log" /usr/bin/python3 "$root/tests/bench/pov_compare.py" --build "$build" --pov-photons 20000 \
