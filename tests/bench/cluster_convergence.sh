@@ -10,7 +10,8 @@
 #
 #   tests/bench/cluster_convergence.sh [--build DIR] [--estimator E ...] [--frames "1 2 4 ..."]
 #                                      [--size WxH] [--clients N] [--repeat R]
-#                                      [--pov "PHOTONS:GMIN:GMAX,..."] [-- extra rtpm-server flags]
+#                                      [--pov "PHOTONS:GMIN:GMAX,..."] [--light X,Y,Z] [--ring-height H]
+#                                      [-- extra rtpm-server flags]
 #
 # Prints one markdown row per frame count and, per estimator, the first measured time at which the
 # error is at most 0.05 and 0.02. With --repeat R each frame count runs R times and the row gives
@@ -24,6 +25,8 @@
 # processes timed, once in every turn beside the clusters; prints its rows and the ratio of each
 # estimator's first time at 0.05 and 0.02 to the least median time of a POV-Ray setting at that
 # error (pov_compare.py finds its best settings: 10:50 at 250 000–500 000 photons for 0.05).
+# --light, --ring-height: a variant of the scene (ring_mirror_bench's options), for the clusters,
+# POV-Ray and the reference alike.
 # Render threads per client: $RTPM_BENCH_THREADS if set.
 set -euo pipefail
 
@@ -36,6 +39,7 @@ size=320x240
 clients=2
 repeat=1
 pov=""
+variant=()
 extra=()
 while (($#)); do
     case $1 in
@@ -46,6 +50,7 @@ while (($#)); do
         --clients) clients=${2:?}; shift 2 ;;
         --repeat) repeat=${2:?}; shift 2 ;;
         --pov) pov=${2:?}; shift 2 ;;
+        --light | --ring-height) variant+=("$1" "${2:?}"); shift 2 ;;
         --) shift; extra=("$@"); break ;;
         *) echo "cluster_convergence.sh: unknown argument $1" >&2; exit 2 ;;
     esac
@@ -77,7 +82,7 @@ cleanup() {
     rm -rf "$work"
 }
 trap cleanup EXIT
-"$bench_bin" --write-scene "$work/mirror.glb" >/dev/null
+"$bench_bin" --write-scene "$work/mirror.glb" "${variant[@]}" >/dev/null
 export RTPM_TOKEN
 RTPM_TOKEN=$(od -An -tx1 -N16 /dev/urandom | tr -d ' \n')
 
@@ -112,16 +117,20 @@ run() {
     { time cluster "$estimator" "$n" "$dir"; } 2>"$dir/time"
     local wall user sys _ err energy
     read -r wall user sys <"$dir/time"
-    read -r _ err _ energy < <("$bench_bin" --compare "$dir/out.exr" --layer caustic_filtered)
+    read -r _ err _ energy < <("$bench_bin" --compare "$dir/out.exr" --layer caustic_filtered "${variant[@]}")
     echo "$wall $(awk -v u="$user" -v s="$sys" 'BEGIN { printf "%.2f", u + s }') $err $energy"
 }
 
 # POV-Ray, as tests/bench/pov_compare.py renders and scores it: the scene's SDL, the render
 # without photons once (the caustic is the photon render minus it).
 if ((${#povSettings[@]})); then
+    light=0.55,0.9,0 ringHeight=0.35
+    for ((i = 0; i < ${#variant[@]}; i += 2)); do
+        case ${variant[i]} in --light) light=${variant[i + 1]} ;; --ring-height) ringHeight=${variant[i + 1]} ;; esac
+    done
     /usr/bin/python3 -c 'import sys; sys.path.insert(0, sys.argv[1]); import pov_compare as p
-print(p.SDL.replace("WIDTH", sys.argv[2]).replace("HEIGHT", sys.argv[3]), end="")' \
-        "$root/tests/bench" "$width" "$height" >"$work/ring_mirror.pov"
+print(p.sdl(sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5]), end="")' \
+        "$root/tests/bench" "$width" "$height" "$light" "$ringHeight" >"$work/ring_mirror.pov"
     povCommand=(povray "+I$work/ring_mirror.pov" +FE "+W$width" "+H$height" -A -D +WT2)
     "${povCommand[@]}" "+O$work/direct.exr" Declare=UsePhotons=0 >"$work/pov.log" 2>&1 ||
         { cat "$work/pov.log" >&2; echo "cluster_convergence.sh: povray failed" >&2; exit 1; }
@@ -136,7 +145,7 @@ povRun() {
         { cat "$work/pov.log" >&2; echo "cluster_convergence.sh: povray failed" >&2; exit 1; }
     local wall user sys _ err energy
     read -r wall user sys <"$work/pov.time"
-    read -r _ err _ energy < <("$bench_bin" --compare "$img" --minus "$work/direct.exr")
+    read -r _ err _ energy < <("$bench_bin" --compare "$img" --minus "$work/direct.exr" "${variant[@]}")
     echo "$wall $(awk -v u="$user" -v s="$sys" 'BEGIN { printf "%.2f", u + s }') $err $energy"
 }
 

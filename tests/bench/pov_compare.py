@@ -8,6 +8,8 @@ SDL, renders it with POV-Ray at several photon counts and rtpm (tests/bench/ring
 the progressive estimator, L S D photon paths) for a time budget, and scores both with the same
 analytic reference (caustic-region rel. MAE, ring_mirror_bench --compare). POV-Ray's caustic is
 its photon render minus the same render without photons (the direct light is deterministic).
+--light X,Y,Z and --ring-height H render and score a variant of the scene (the same values for
+both renderers and the reference).
 
 Units: POV-Ray's diffuse term is pigment × diffuse × light colour × attenuation × cos θ, with no
 1/π, and its fade is 2 / (1 + (d / fade_distance)^fade_power). rtpm's radiance is
@@ -49,12 +51,12 @@ global_settings {
 camera { perspective location <0, 4, 0> look_at <0, 0, 0> sky <0, 0, -1>
   right -x*WIDTH/HEIGHT angle degrees(2*atan(tan(0.537/2)*WIDTH/HEIGHT)) }
 #declare FD = 0.001;  // fade_distance: attenuation 2 FD^2 / d^2
-light_source { <0.55, 0.9, 0> color rgb 3/(2*pi*FD*FD) fade_distance FD fade_power 2
+light_source { <LIGHT> color rgb 3/(2*pi*FD*FD) fade_distance FD fade_power 2
   photons { reflection on refraction off } }
 plane { y, 0
   texture { pigment { color rgb 0.8 } finish { ambient 0 emission 0 diffuse 1 specular 0 } }
   photons { collect on } }
-cylinder { <0, 0, 0>, <0, 0.35, 0>, 1 open
+cylinder { <0, 0, 0>, <0, RING_HEIGHT, 0>, 1 open
   texture { pigment { color rgb 0 } finish { ambient 0 emission 0 diffuse 0 reflection { 0.9 } } }
   photons { target reflection on collect off } }
 """
@@ -73,8 +75,14 @@ def timed(cmd):
     return wall, cpu, p.stdout
 
 
-def score(bench, image, minus=None):
-    cmd = [bench, "--compare", image] + (["--minus", minus] if minus else [])
+def sdl(width, height, light="0.55,0.9,0", ring_height=0.35):
+    """The scene as POV SDL at this image size, with the light at X,Y,Z and the mirror this high."""
+    return (SDL.replace("RING_HEIGHT", str(ring_height)).replace("WIDTH", str(width))
+            .replace("HEIGHT", str(height)).replace("<LIGHT>", "<" + ", ".join(light.split(",")) + ">"))
+
+
+def score(bench, image, minus=None, variant=()):
+    cmd = [bench, "--compare", image] + (["--minus", minus] if minus else []) + list(variant)
     out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout.split()
     return float(out[1]), float(out[3])
 
@@ -119,7 +127,11 @@ def main():
                          "P 20 000, still frames held to the 16.7 ms budget)")
     ap.add_argument("--seconds", type=float, default=60.0, help="rtpm wall-time budget per run")
     ap.add_argument("--out", default="tests/bench", help="folder for pov_compare.csv and .png")
+    ap.add_argument("--light", default="0.55,0.9,0",
+                    help="a variant of the scene: the point light at X,Y,Z (inside the ring, above the floor)")
+    ap.add_argument("--ring-height", type=float, default=0.35, help="a variant of the scene: the mirror's height (m)")
     a = ap.parse_args()
+    variant = ["--light", a.light, "--ring-height", str(a.ring_height)]
     bench = os.path.join(a.build, "tests/bench/ring_mirror_bench")
     if not os.access(bench, os.X_OK):
         sys.exit(f"pov_compare: {bench} not found: build the ring_mirror_bench target")
@@ -127,7 +139,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         sdl = os.path.join(tmp, "ring_mirror.pov")
         with open(sdl, "w") as f:
-            f.write(SDL.replace("WIDTH", str(a.width)).replace("HEIGHT", str(a.height)))
+            f.write(sdl(a.width, a.height, a.light, a.ring_height))
         pov = ["povray", f"+I{sdl}", "+FE", f"+W{a.width}", f"+H{a.height}", "-A", "-D", "+WT2"]
         direct = os.path.join(tmp, "direct.exr")
         timed(pov + [f"+O{direct}", "Declare=UsePhotons=0"])
@@ -137,7 +149,7 @@ def main():
                 img = os.path.join(tmp, f"pov_{gmin}_{gmax}_{n}.exr")
                 wall, cpu, _ = timed(pov + [f"+O{img}", f"Declare=PhotonCount={n}", f"Declare=GatherMin={gmin}",
                                             f"Declare=GatherMax={gmax}"])
-                err, energy = score(bench, img, direct)
+                err, energy = score(bench, img, direct, variant)
                 rows.append((f"POV-Ray gather {gmin},{gmax}", f"{n} photons", wall, cpu, err, energy))
                 print(f"POV-Ray gather {gmin},{gmax} {n:>8} photons: wall {wall:6.2f} s, CPU {cpu:6.2f} s, "
                       f"rel. MAE {err:.4f}, energy {energy:.3f}", flush=True)
@@ -146,7 +158,7 @@ def main():
             rcsv = os.path.join(tmp, f"rtpm_{estimator}_{m}_{p}.csv")
             timed([bench, "--estimator", estimator, "--photons", p, "-M", m, "--frame-budget-ms", budget,
                    "--frames", "100000", "--seconds", str(a.seconds), "--width", str(a.width), "--height",
-                   str(a.height), "--csv", rcsv])
+                   str(a.height), "--csv", rcsv] + variant)
             name = f"rtpm {estimator} M={m} P={p}" + (f" budget {budget} ms" if budget != "0" else "")
             with open(rcsv) as f:
                 for r in csv.DictReader(f):

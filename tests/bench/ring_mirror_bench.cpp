@@ -22,6 +22,10 @@
 //   ring_mirror_bench --reference FILE.exr      writes the analytic reference (R G B).
 //   ring_mirror_bench --static-frame 10000 --static-frame 1000000 [--photons P] [--frames N]
 //       still-frame time of one set with its map filled to each size (staticFrame below).
+//   Every mode: [--light X,Y,Z] [--ring-height H] place the point light (default 0.55,0.9,0) and
+//       set the mirror's height (default 0.35 m), for a variant of the scene (light inside the
+//       ring, within 0.95 of its radius, above the floor); the same values for writing the scene
+//       and for scoring a render of it.
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -69,7 +73,18 @@ struct Options {
     double budgetMs = 0.0;  ///< --frame-budget-ms: still passes grow to this frame time (0: one batch)
     std::string csv, compare, reference, out, minus, layer, writeScene;
     std::vector<uint64_t> staticStored;  ///< --static-frame, repeatable
+    Vec3 light{testscenes::RingMirror{}.light};       ///< --light
+    double ringHeight = testscenes::RingMirror{}.height;  ///< --ring-height
 };
+
+/// The scene with this run's variant (--light, --ring-height) and compared region (--mask).
+testscenes::RingMirror ringMirror(const Options& o) {
+    testscenes::RingMirror rm;
+    rm.light = o.light;
+    rm.height = o.ringHeight;
+    rm.maskFraction = o.mask;
+    return rm;
+}
 
 struct Score {
     double relMae = 0.0, energy = 0.0;
@@ -116,8 +131,7 @@ RenderSettings settingsFor(const Options& o) {
 }
 
 int converge(const Options& o) {
-    testscenes::RingMirror rm;
-    rm.maskFraction = o.mask;
+    const testscenes::RingMirror rm = ringMirror(o);
     std::vector<float> ref;
     std::vector<uint8_t> mask;
     rm.referenceImage(o.width, o.height, ref, mask);
@@ -212,7 +226,7 @@ int converge(const Options& o) {
 // `frames` still frames (progressive passes) are timed. Prints the median and mean still-frame
 // wall time and the process CPU time over them.
 void staticFrame(const Options& o, uint64_t stored) {
-    const testscenes::RingMirror rm;
+    const testscenes::RingMirror rm = ringMirror(o);
     RenderSettings rs = settingsFor(o);
     Scene scene = rm.scene();
     const Camera still = *scene.camera;
@@ -250,8 +264,7 @@ void staticFrame(const Options& o, uint64_t stored) {
 }
 
 int compareFile(const Options& o) {
-    testscenes::RingMirror rm;
-    rm.maskFraction = o.mask;
+    const testscenes::RingMirror rm = ringMirror(o);
     const ExrImage img = readExr(o.compare);
     std::vector<float> ref;
     std::vector<uint8_t> mask;
@@ -278,15 +291,14 @@ int compareFile(const Options& o) {
 }
 
 int writeScene(const Options& o) {
-    const testscenes::RingMirror rm;
+    const testscenes::RingMirror rm = ringMirror(o);
     exportGlb(rm.scene(), o.writeScene);
     std::printf("wrote %s\n", o.writeScene.c_str());
     return 0;
 }
 
 int writeReference(const Options& o) {
-    testscenes::RingMirror rm;
-    rm.maskFraction = o.mask;
+    const testscenes::RingMirror rm = ringMirror(o);
     std::vector<float> ref;
     std::vector<uint8_t> mask;
     rm.referenceImage(o.width, o.height, ref, mask);
@@ -328,9 +340,24 @@ int main(int argc, char** argv) {
             else if (a == "--mask") o.mask = std::stod(next());
             else if (a == "--static-frame") o.staticStored.push_back(std::stoull(next()));
             else if (a == "--k") o.k = uint32_t(std::stoul(next()));
+            else if (a == "--light") {
+                const std::string v = next();
+                float x = 0.0f, y = 0.0f, z = 0.0f;
+                char end = 0;
+                if (std::sscanf(v.c_str(), "%f,%f,%f%c", &x, &y, &z, &end) != 3)
+                    throw std::invalid_argument("--light takes X,Y,Z (e.g. 0.55,0.9,0), not " + v);
+                o.light = Vec3(x, y, z);
+            } else if (a == "--ring-height") o.ringHeight = std::stod(next());
             else throw std::invalid_argument("unknown argument " + a);
         }
         if (o.frames < 1 || o.width < 1 || o.height < 1) throw std::invalid_argument("sizes must be >= 1");
+        const testscenes::RingMirror defaults;
+        if (!(std::hypot(double(o.light.x), double(o.light.z)) <= 0.95 * defaults.radius) || !(o.light.y > 0.0f) ||
+            !std::isfinite(o.light.y))
+            throw std::invalid_argument("--light must lie inside the ring (within 0.95 of its radius from its "
+                                        "axis) and above the floor");
+        if (!(o.ringHeight > 0.0 && o.ringHeight <= 10.0))
+            throw std::invalid_argument("--ring-height must be in (0, 10] m");
         if (!o.writeScene.empty()) return writeScene(o);
         if (!o.compare.empty()) return compareFile(o);
         if (!o.reference.empty()) return writeReference(o);

@@ -86,9 +86,10 @@ viewer_cost)
     expectRows 2 '^summary:' "$work/out.log"
     ;;
 cluster_convergence)
-    # With POV-Ray beside it, taking turns (its row, the clusters' rows, the ratio lines).
+    # With POV-Ray beside it, taking turns (its row, the clusters' rows, the ratio lines), on a
+    # variant of the scene (pov_compare below renders the default one).
     run "$work/out.log" bash "$root/tests/bench/cluster_convergence.sh" --build "$build" --frames "1 2" --size 64x48 --repeat 3 \
-        --pov 20000:20:100
+        --pov 20000:20:100 --light -0.3,0.7,0.35 --ring-height 0.5
     expectRows 4 "^\| (progressive|knn) \| [12] \| $num \| $num \| $num \| $num \|$" "$work/out.log"
     expectRows 1 "^\| POV-Ray gather 20,100 \| 20000 photons \| $num \| $num \| $num \| $num \|$" "$work/out.log"
     expectRows 4 "^(progressive|knn): first run at rel. MAE <= 0.0[25]: " "$work/out.log"
