@@ -165,7 +165,8 @@ median() {
         }'
 }
 
-# Every run of every turn, one line each: "KEY wall cpu rel_mae energy".
+# runs[KEY]: every turn's run of KEY ("pov:SETTING" or "ESTIMATOR:FRAMES"), one line each:
+# "wall cpu rel_mae energy".
 declare -A runs
 for ((r = 0; r < repeat; r++)); do
     for setting in "${povSettings[@]}"; do
