@@ -8,8 +8,8 @@ SDL, renders it with POV-Ray at several photon counts and rtpm (tests/bench/ring
 the progressive estimator, L S D photon paths) for a time budget, and scores both with the same
 analytic reference (caustic-region rel. MAE, ring_mirror_bench --compare). POV-Ray's caustic is
 its photon render minus the same render without photons (the direct light is deterministic).
---light X,Y,Z and --ring-height H render and score a variant of the scene (the same values for
-both renderers and the reference).
+--light=X,Y,Z and --ring-height H render and score a variant of the scene (the same values for
+both renderers and the reference; with the "=", a negative X is not read as an option).
 
 Units: POV-Ray's diffuse term is pigment × diffuse × light colour × attenuation × cos θ, with no
 1/π, and its fade is 2 / (1 + (d / fade_distance)^fade_power). rtpm's radiance is
@@ -137,10 +137,10 @@ def main():
         sys.exit(f"pov_compare: {bench} not found: build the ring_mirror_bench target")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        sdl = os.path.join(tmp, "ring_mirror.pov")
-        with open(sdl, "w") as f:
+        sdl_path = os.path.join(tmp, "ring_mirror.pov")
+        with open(sdl_path, "w") as f:
             f.write(sdl(a.width, a.height, a.light, a.ring_height))
-        pov = ["povray", f"+I{sdl}", "+FE", f"+W{a.width}", f"+H{a.height}", "-A", "-D", "+WT2"]
+        pov = ["povray", f"+I{sdl_path}", "+FE", f"+W{a.width}", f"+H{a.height}", "-A", "-D", "+WT2"]
         direct = os.path.join(tmp, "direct.exr")
         timed(pov + [f"+O{direct}", "Declare=UsePhotons=0"])
         for gather in a.pov_gather.split(","):
