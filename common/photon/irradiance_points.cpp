@@ -65,6 +65,19 @@ constexpr float kInnerArea = 0.5f;
 /// more, to the inner one; linear between (sharpness).
 constexpr float kSharpFrom = 0.5f, kSharpAt = 1.5f;
 
+/// What a point sums of the photons within its disc (r²) and within its inner disc (inner2): at
+/// the build over the map's photons, later over each batch's.
+struct DiscSums {
+    float inner2;
+    Vec3 flux{0.0f}, innerFlux{0.0f};
+    float squares = 0.0f;  ///< Σ of the photons' squared power luminances
+    void add(float dist2, Vec3 power) {
+        flux += power;
+        squares += float(luminance(power) * luminance(power));
+        if (dist2 < inner2) innerFlux += power;
+    }
+};
+
 /// The share of a point's estimate its inner disc takes from the build on: where the inner disc
 /// and the ring around it hold different flux beyond their noise (the point lies on a gradient,
 /// which the whole disc blurs); none where they agree (a smooth caustic, whose noise the whole
@@ -209,7 +222,7 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
             sp->position[i] = at[i].position;
             sp->normal[i] = nrm;
         }
-        thread_local std::vector<FoundPhoton> inner;
+        thread_local std::vector<FoundPhoton> inDisc;
         CausticQuery queries[kGroup];
         DensityGather gathers[kGroup];
         GatherHint hint;
@@ -219,22 +232,18 @@ void IrradiancePoints::update(const EmbreeScene& scene, const PhotonMaps& maps, 
             maps.gatherMapGroup(scene, set, std::span(queries, m), std::span(gathers, m), &hint);
             for (size_t i = 0; i < m; ++i)
                 if (gathers[i].radius2 > 0.0f) {
-                    const float disc2 = gathers[i].radius2, inner2 = kInnerArea * disc2;
+                    const float disc2 = gathers[i].radius2;
                     sp->answers[g0 + i].radius2 = gathers[i].radius2 * reach;
                     sp->disc2[g0 + i] = disc2;
-                    inner.clear();
-                    maps.gatherMapPhotons(scene, set, hits[g0 + i], normals[g0 + i], disc2, inner);
-                    Vec3 sum(0.0f), innerSum(0.0f);
-                    float squares = 0.0f;
-                    for (const FoundPhoton& f : inner) {
-                        sum += f.power;
-                        squares += float(luminance(f.power) * luminance(f.power));
-                        if (f.dist2 < inner2) innerSum += f.power;
-                    }
-                    sp->flux[g0 + i] = sum;
-                    sp->innerFlux[g0 + i] = innerSum;
-                    sp->squares[g0 + i] = squares;
-                    sp->setIrradiance(g0 + i, blendedIrradiance(sum, innerSum, squares, disc2, stats.batches, stats.batches));
+                    inDisc.clear();
+                    maps.gatherMapPhotons(scene, set, hits[g0 + i], normals[g0 + i], disc2, inDisc);
+                    DiscSums sums{kInnerArea * disc2};
+                    for (const FoundPhoton& f : inDisc) sums.add(f.dist2, f.power);
+                    sp->flux[g0 + i] = sums.flux;
+                    sp->innerFlux[g0 + i] = sums.innerFlux;
+                    sp->squares[g0 + i] = sums.squares;
+                    sp->setIrradiance(g0 + i, blendedIrradiance(sums.flux, sums.innerFlux, sums.squares, disc2,
+                                                                stats.batches, stats.batches));
                 }
         }
     });
@@ -266,27 +275,23 @@ void IrradiancePoints::addBatch(SetPoints& sp, const PhotonMaps& maps, uint32_t 
         for (size_t i = range.begin(); i < range.end(); ++i) {
             const float r2 = sp.disc2[i];
             if (!(r2 > 0.0f)) continue;
-            Vec3 added(0.0f), addedInner(0.0f);
-            float addedSquares = 0.0f;
             struct Within {
                 const KdTree& tree;
                 Vec3 normal;
-                float r2, inner2;
-                Vec3 &sum, &innerSum;
-                float& squares;
+                float r2;
+                DiscSums& sums;
                 float worstDist2() const { return r2; }
                 void add(float d2, uint32_t j) {
-                    if (!keptWithin<KdTree, VisibleFrom>(tree, j, d2, r2, normal, nullptr)) return;
-                    const Vec3 power = decodeRgb9e5(tree.photonPower(j));
-                    sum += power;
-                    squares += float(luminance(power) * luminance(power));
-                    if (d2 < inner2) innerSum += power;
+                    if (keptWithin<KdTree, VisibleFrom>(tree, j, d2, r2, normal, nullptr))
+                        sums.add(d2, decodeRgb9e5(tree.photonPower(j)));
                 }
-            } within{tree, sp.normal[i], r2, kInnerArea * r2, added, addedInner, addedSquares};
+            };
+            DiscSums added{kInnerArea * r2};
+            Within within{tree, sp.normal[i], r2, added};
             tree.search(sp.position[i], within);
-            sp.flux[i] += added * unit;
-            sp.innerFlux[i] += addedInner * unit;
-            sp.squares[i] += addedSquares * unit * unit;
+            sp.flux[i] += added.flux * unit;
+            sp.innerFlux[i] += added.innerFlux * unit;
+            sp.squares[i] += added.squares * unit * unit;
             sp.setIrradiance(i, blendedIrradiance(sp.flux[i], sp.innerFlux[i], sp.squares[i], r2, sp.batches,
                                                   sp.heldBatches));
         }
