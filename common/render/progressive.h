@@ -109,9 +109,18 @@ inline double maxDiscPhotons(uint32_t k, double paths) {
 /// between. A disc much wider than the window blurs more than the window does, so the filter's
 /// average over all M² sets (every set's photons, M² × less noise) costs nothing; a disc within
 /// the window sees detail the window would blur, so the pixel shows its own set's estimate
-/// (from its own, noisier choice: Γ without the filter's share). On the curved mirror (defaults,
-/// 16 frames) this gave 0.044 rel. MAE against 0.051 with the filter everywhere.
-inline constexpr double kOwnFull = 0.5, kOwnNone = 1.0;
+/// (from its own, noisier choice: Γ without the filter's share), which holds every set's photons
+/// once the shared shots arrive (pass). Until 2026-11-28 the filter took over from half the
+/// window (0.5, 1): the window then averaged fold lines whose discs were a little wider than h,
+/// and its stop at edges (box_filter.h) allows twice the Poisson noise, which over-states the
+/// noise of QMC photons (the count in a fixed disc varies across the sets' rotations by 0.1–0.16
+/// × its mean, not 1 ×). Curved mirror variant (tests/bench/ring_mirror_bench --photons 20000
+/// --frame-budget-ms 0 --light -0.3,0.7,0.35 --ring-height 0.5), frames 4 / 8 / 16, wall s and
+/// rel. MAE: (0.5, 1) 0.34 0.0794 / 0.57 0.0639 / 1.02 0.0487; (1, 1.5) 0.36 0.0728 / 0.65 0.0530
+/// / 1.28 0.0421; (1, 2) 0.38 0.0682 / 0.73 0.0503 / 1.46 0.0415 (more pixels bin the shared
+/// photons, so frames cost more). (1, 2) read its error figure at up to 1.71 × the true error on
+/// the curved mirror (shown_change.h), (1, 1.5) at up to 1.59 ×.
+inline constexpr double kOwnFull = 1.0, kOwnNone = 1.5;
 
 /// The confidence width the rule uses while few photons are in: Γ × (1 + kEarlyGamma × (1 − x /
 /// kEarlyPaths)) with x = N / kDiscCapPaths − 1 for N paths (as maxDiscPhotons counts them), Γ

@@ -106,6 +106,12 @@ inline Convergence renderConvergence(Scene scene, const RenderSettings& rs, cons
 inline void expectErrorFigureTracks(const Convergence& run, const char* label) {
     for (size_t f = 0; f < std::min<size_t>(2, run.estimate.size()); ++f)
         EXPECT_EQ(run.estimate[f], 0.0) << label << ", frame " << f + 1 << ": a figure before a baseline";
+    double least = 1e300, most = 0.0;
+    for (size_t f = 2; f < run.relMae.size(); ++f) {
+        least = std::min(least, run.estimate[f] / run.relMae[f]);
+        most = std::max(most, run.estimate[f] / run.relMae[f]);
+    }
+    std::printf("%s: error figure %.2f–%.2f × the true error over frames 3–%zu\n", label, least, most, run.relMae.size());
     for (size_t f = 2; f < run.relMae.size(); ++f) {
         const double ratio = run.estimate[f] / run.relMae[f];
         EXPECT_GE(ratio, 1.0 / 1.5) << label << ", frame " << f + 1 << ": estimate " << run.estimate[f] << ", true "

@@ -202,7 +202,7 @@ TEST(ShownChange, NoCausticNoFigure) {
 }
 
 TEST(ShownChange, TheFigureShownIsTheChangeWhereTheEstimatorComposedAndAChangeIsKnown) {
-    EXPECT_EQ(shownErrorFigure(0.05, 0.03), 0.03);
+    EXPECT_EQ(shownErrorFigure(0.05, 0.03), kShownChangeScale * 0.03);
     EXPECT_EQ(shownErrorFigure(0.05, 0.0), 0.0) << "no change known yet: no figure";
     EXPECT_EQ(shownErrorFigure(0.0, 0.03), 0.0) << "knn or a moving frame: none";
 }
