@@ -103,11 +103,6 @@ TEST(ProgressiveEstimator, EnergyStaysOnTheReceiverAtEveryFrame) {
     EXPECT_LT(run.relMae.back(), 0.75 * run.relMae.front());
 }
 
-// The error figure rtpm-render and the master print against the analytic error, defaults: none
-// at frames 1–2, within 1.5 × either way from the 3rd frame on (tests/support/progressive_run.h
-// expectErrorFigureTracks). It used to be the estimator's own figure (causticErrorEstimate:
-// Poisson noise and a blur step per pixel): 0.60 at frame 2 to 1.52 at frame 24 here, and 2–3 ×
-// on the glass caustics, whose QMC photons are less noisy than Poisson's count says.
 // A variant of the curved mirror the estimator's constants were not chosen on (the mirror 0.5 m
 // high, the light at (−0.3, 0.7, 0.35): three cusps joined by fold lines over a broad glow), at
 // the defaults and 320×240: most of its error sits at the fold lines, where the box filter's
@@ -129,6 +124,11 @@ TEST(ProgressiveEstimator, AVariantsFoldLinesStaySharpAtTheDefaults) {
     EXPECT_LT(run.relMae[7], 0.058);
 }
 
+// The error figure rtpm-render and the master print against the analytic error, defaults: none
+// at frames 1–2, within 1.5 × either way from the 3rd frame on (tests/support/progressive_run.h
+// expectErrorFigureTracks). It used to be the estimator's own figure (causticErrorEstimate:
+// Poisson noise and a blur step per pixel): 0.60 at frame 2 to 1.52 at frame 24 here, and 2–3 ×
+// on the glass caustics, whose QMC photons are less noisy than Poisson's count says.
 TEST(ProgressiveEstimator, ItsErrorEstimateTracksTheTrueError) {
     const Convergence run = render(small(), 24);
     for (size_t f = 0; f < run.relMae.size(); ++f)
