@@ -90,15 +90,15 @@ private:
     std::vector<Kept> images_;  ///< kept frames, oldest first
 };
 
-/// The share of the change (ShownChange::add) the error figure reads. Since the pixels show
-/// their own estimates up to 1.5 × the filter's half-window (progressive.h kOwnFull, kOwnNone)
-/// the change alone read the four analytic scenes at 0.81–1.57 × their true error
-/// (tests/support/progressive_run.h, frames 3–24: curved mirror 1.08–1.57, glass ball 0.86–1.03,
-/// glass slab 0.81–1.07, flat mirror 0.82–1.02): their QMC noise and the pixels' own-or-filtered
-/// choice change more between two images than nested Poisson noise does. 0.9 puts that range
-/// within the factor 1.5 either way (0.73–1.41); the baseline's length did not narrow it (at a
-/// quarter and at a tenth of the photons the curved mirror still read up to 1.74 and 1.64 × with
-/// own estimates up to 2 × the half-window).
+/// The share of the change (ShownChange::add) the error figure reads. Since pixels whose disc
+/// the rule narrowed show their own estimates up to 1.5 × the filter's half-window
+/// (progressive.h kOwnFull, kOwnNone) the change alone read the four analytic scenes at
+/// 0.80–1.54 × their true error (tests/support/progressive_run.h, frames 3–24: curved mirror
+/// 1.03–1.54, glass ball 0.80–0.98, glass slab 0.81–1.07, flat mirror 0.82–1.01): their QMC noise
+/// and the pixels' own-or-filtered choice change more between two images than nested Poisson
+/// noise does. 0.9 puts that range within the factor 1.5 either way (0.72–1.39); the baseline's
+/// length did not narrow it (at a quarter and at a tenth of the photons the curved mirror still
+/// read up to 1.74 and 1.64 × with every pixel's own estimate up to 2 × the half-window).
 inline constexpr double kShownChangeScale = 0.9;
 /// The error figure printed, shown and compared with --target-error: kShownChangeScale × the
 /// change (ShownChange::add) where the progressive estimator's own figure says it composed the

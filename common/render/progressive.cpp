@@ -419,6 +419,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
             double sd = 0.0, ownSd = 0.0;
             double noise = 0.0, ownNoise = 0.0;  // Poisson noise alone, of the values as sent
             double radius = 0.0;
+            bool capped = false;  // the cap, not a change in density, ended the shown disc's walk
             for (uint32_t h = records_.firstHit[p]; h < records_.firstHit[p + 1]; ++h) {
                 const EyeHit& e = records_.hits[h];
                 HitState& s = state_[h];
@@ -454,7 +455,10 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                         ownNoise += poisson;
                     }
                 }
-                if (h == records_.firstHit[p]) radius = std::sqrt(double(s.outer2) * c[0].scale);
+                if (h == records_.firstHit[p]) {
+                    radius = std::sqrt(double(s.outer2) * c[0].scale);
+                    capped = c[0].capped;
+                }
                 const Choice& shown = c[0];
                 // Rings far outside the shown disc are no longer gathered; none outside the ring
                 // of a capped one (kActiveMargin).
@@ -464,7 +468,8 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 const double half = 0.5 * double(image_.f) * pixelFootprint(records_, p, out.size(), cols, image_.m);
                 const double t = radius / half;
                 // In 255ths, as the wire carries it, so one process and a cluster agree.
-                const uint8_t w255 = uint8_t(std::lround(std::clamp((kOwnNone - t) / (kOwnNone - kOwnFull), 0.0, 1.0) * 255.0));
+                const double full = capped ? kOwnFullCapped : kOwnFull, none = capped ? kOwnNoneCapped : kOwnNone;
+                const uint8_t w255 = uint8_t(std::lround(std::clamp((none - t) / (none - full), 0.0, 1.0) * 255.0));
                 const double w = double(w255) / 255.0;
                 ownWeights_[p] = w255;
                 caustic = w * own + (1.0 - w) * caustic;

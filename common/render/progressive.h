@@ -106,26 +106,32 @@ inline double maxDiscPhotons(uint32_t k, double paths) {
 /// The box filter's share (frame_image.h) of a pixel whose shown disc has radius r, with h the
 /// half-width of the filter's window on the surface (F/2 pixel footprints): the pixel's own
 /// estimate alone (weight 1) while r ≤ kOwnFull·h, the filter alone from r ≥ kOwnNone·h, linear
-/// between. A disc much wider than the window blurs more than the window does, so the filter's
-/// average over all M² sets (every set's photons, M² × less noise) costs nothing; a disc within
-/// the window sees detail the window would blur, so the pixel shows its own set's estimate
-/// (from its own, noisier choice: Γ without the filter's share), which holds every set's photons
-/// once the shared shots arrive (pass). Until 2026-11-28 the filter took over from half the
-/// window (0.5, 1): the window then averaged fold lines whose discs were a little wider than h,
-/// and its stop at edges (box_filter.h) allows twice the Poisson noise, which over-states the
-/// noise of QMC photons (the count in a fixed disc varies across the sets' rotations by 0.1–0.16
-/// × its mean, not 1 ×). Curved mirror variant (tests/bench/ring_mirror_bench --photons 20000
-/// --frame-budget-ms 0 --light -0.3,0.7,0.35 --ring-height 0.5), frames 4 / 8 / 16, wall s and
-/// rel. MAE: (0.5, 1) 0.34 0.0794 / 0.57 0.0639 / 1.02 0.0487; (1, 1.5) 0.36 0.0728 / 0.65 0.0530
-/// / 1.28 0.0421; (1, 2) 0.38 0.0682 / 0.73 0.0503 / 1.46 0.0415 (more pixels bin the shared
-/// photons, so frames cost more); (0.75, 1.5) 0.0732 / 0.0537 / 0.0422 in the time of (1, 1.5).
-/// Smooth glass caustics lose a little of the filter's averaging (tests/accuracy, 160×120,
-/// frames 1 / 4 / 16 / 24): glass slab 0.0128 / 0.0145 / 0.0072 / 0.0064 with (0.5, 1), 0.0128 /
-/// 0.0122 / 0.0073 / 0.0069 with (0.75, 1.5), 0.0128 / 0.0113 / 0.0076 / 0.0076 with (1, 1.5);
-/// glass ball 0.0228 / 0.0160 / 0.0101, 0.0248 / 0.0161 / 0.0107, 0.0258 / 0.0163 / 0.0109 at
-/// frames 1 / 4 / 16. (1, 2) read its error figure at up to 1.71 × the true error on the curved
-/// mirror (shown_change.h), (1, 1.5) at up to 1.59 ×, (0.75, 1.5) 1.57 ×.
+/// between; where the cap ended the rule's walk (Choice::capped: no change in density stopped
+/// it, a smooth caustic) kOwnFullCapped and kOwnNoneCapped instead. A disc much wider than the
+/// window blurs more than the window does, so the filter's average over all M² sets (every set's
+/// photons, M² × less noise) costs nothing; a disc within the window sees detail the window would
+/// blur, so the pixel shows its own set's estimate (from its own, noisier choice: Γ without the
+/// filter's share), which holds every set's photons once the shared shots arrive (pass).
+/// Until 2026-11-28 every pixel took (0.5, 1): where the rule stopped at a change in density (a
+/// fold line, a rim) the window then averaged both sides of it whenever the disc was a little
+/// wider than half the window, and its stop at edges (box_filter.h) allows twice the Poisson
+/// noise, which over-states the noise of QMC photons (the count in a fixed disc varies across the
+/// sets' rotations by 0.1–0.16 × its mean, not 1 ×). On a smooth caustic the filter's average of
+/// the M² sets' choices still pays, so capped discs keep (0.5, 1).
+/// Curved mirror variant (tests/bench/ring_mirror_bench --photons 20000 --frame-budget-ms 0
+/// --light -0.3,0.7,0.35 --ring-height 0.5), frames 4 / 8 / 16, wall s and rel. MAE: every pixel
+/// (0.5, 1) 0.34 0.0794 / 0.58 0.0639 / 1.05 0.0487; every pixel (0.75, 1.5) 0.37 0.0732 / 0.65
+/// 0.0537 / 1.27 0.0422; capped (0.5, 1), others (0.75, 1.5) 0.0736 / 0.0546 at frames 4 / 8
+/// (tests/accuracy, 320×240); others (0.75, 2) 0.39 0.0698 / 0.75 0.0519 / 1.46 0.0420 (more
+/// pixels bin the shared photons, so frames cost more). Analytic scenes (tests/accuracy, 160×120,
+/// frames 1 / 4 / 16 / 24), before → now: glass slab 0.0128 / 0.0145 / 0.0072 / 0.0064 → 0.0128 /
+/// 0.0122 / 0.0070 / 0.0063 (every pixel (0.75, 1.5): 0.0128 / 0.0122 / 0.0073 / 0.0069), glass
+/// ball 0.0228 / 0.0160 / 0.0101 → 0.0228 / 0.0152 / 0.0101 at frames 1 / 4 / 16 (every pixel
+/// (0.75, 1.5): 0.0248 / 0.0161 / 0.0107), flat mirror 0.0983 / 0.0521 / 0.0329 / 0.0260 →
+/// 0.0983 / 0.0526 / 0.0320 / 0.0250. Others (1, 2) read the error figure at up to 1.49 × the
+/// true error on the curved mirror (shown_change.h), (0.75, 2) 1.45 ×, (0.75, 1.5) 1.39 ×.
 inline constexpr double kOwnFull = 0.75, kOwnNone = 1.5;
+inline constexpr double kOwnFullCapped = 0.5, kOwnNoneCapped = 1.0;
 
 /// The confidence width the rule uses while few photons are in: Γ × (1 + kEarlyGamma × (1 − x /
 /// kEarlyPaths)) with x = N / kDiscCapPaths − 1 for N paths (as maxDiscPhotons counts them), Γ

@@ -154,10 +154,11 @@ TEST(FlatMirrorProgressive, AtTheDefaultsNoWorseThanKnnAtAnyFrame) {
 // The filter window that stops at the caustic's edges (box_filter.h edgeStoppingBox, the default
 // --filter-edges 2) against the paper's plain box on the same photons: the flat mirror's caustic
 // is a lit quadrilateral whose sharp rims the box smears over a pixel either side where the
-// filter shows a pixel. Since pixels show their own estimates up to 0.75–1.5 × the window's
-// half-width (progressive.h kOwnFull, kOwnNone; until 2026-11-28 0.5–1 ×) the filter shows far
-// fewer pixels at the rims, so the two differ less: 0.0319 against 0.0333 at frame 16, 0.0247
-// against 0.0253 at frame 24 (then 0.0260 against 0.0292), the same to 4 digits up to frame 6;
+// filter shows a pixel. Since pixels whose disc the rule narrowed (at the rims) show their own
+// estimates up to 0.75–1.5 × the window's half-width (progressive.h kOwnFull, kOwnNone; until
+// 2026-11-28 0.5–1 ×) the filter shows far fewer pixels there, so the two differ less: 0.0320
+// against 0.0333 at frame 16, 0.0250 against 0.0257 at frame 24 (then 0.0260 against 0.0292), the
+// same to 4 digits up to frame 6;
 // no worse at any frame. The test that ignored the noise read 0.0238 at frame 24 then, and drew
 // the interleaving grid on RING's floor.
 TEST(FlatMirrorProgressive, TheFilterThatStopsAtEdgesKeepsTheRimsSharp) {
