@@ -98,7 +98,9 @@ private:
 /// and the pixels' own-or-filtered choice change more between two images than nested Poisson
 /// noise does. 0.9 puts that range within the factor 1.5 either way (0.72–1.39); the baseline's
 /// length did not narrow it (at a quarter and at a tenth of the photons the curved mirror still
-/// read up to 1.74 and 1.64 × with every pixel's own estimate up to 2 × the half-window).
+/// read up to 1.74 and 1.64 × with every pixel's own estimate up to 2 × the half-window). Later
+/// it under-reads: 0.64 × on the glass slab at frames 59–64, 0.62 × on the glass ball from frame
+/// 40, 0.29 × on the curved mirror's variant after 30 s, whose fold lines' blur no longer changes.
 inline constexpr double kShownChangeScale = 0.9;
 /// The error figure printed, shown and compared with --target-error: kShownChangeScale × the
 /// change (ShownChange::add) where the progressive estimator's own figure says it composed the
