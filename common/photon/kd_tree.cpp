@@ -43,12 +43,14 @@ void PhotonColumns::resize(size_t n, size_t capacity) {
     }
     for (std::vector<float>* c : {&x_, &y_, &z_}) c->resize(n + kPad, 0.0f);
     payload_.resize(n);
+    if (tagged_) tag_.resize(n);
     size_ = n;
 }
 
 void PhotonColumns::shrinkToFit() {
     for (std::vector<float>* c : {&x_, &y_, &z_}) c->shrink_to_fit();
     payload_.shrink_to_fit();
+    tag_.shrink_to_fit();
 }
 
 void PhotonColumns::move(size_t dst, size_t src, size_t count) {
@@ -56,6 +58,7 @@ void PhotonColumns::move(size_t dst, size_t src, size_t count) {
     for (std::vector<float>* c : {&x_, &y_, &z_})
         std::memmove(c->data() + dst, c->data() + src, count * sizeof(float));
     std::memmove(payload_.data() + dst, payload_.data() + src, count * sizeof(PhotonPayload));
+    if (tagged_) std::memmove(tag_.data() + dst, tag_.data() + src, count * sizeof(uint16_t));
 }
 
 uint32_t PhotonColumns::partition(uint32_t first, uint32_t count, uint32_t axis, float split) {
@@ -85,6 +88,7 @@ KdTree::KdTree(Bounds rootBox, uint32_t leafSize) : leafSize_(std::max(leafSize,
 }
 
 void KdTree::clear() {
+    photons_.setTagged(false);
     photons_.clear();
     nodes_.clear();
     nodes_.push_back(KdNode::leaf(0, 0));
@@ -119,7 +123,10 @@ void KdTree::growPhotons(size_t newSize) {
     photons_.resize(newSize, capacity);
 }
 
-void KdTree::build(std::span<const Photon> photons) {
+void KdTree::build(std::span<const Photon> photons) { build(photons, {}); }
+
+void KdTree::build(std::span<const Photon> photons, std::span<const uint16_t> tags) {
+    RTPM_CHECK(tags.empty() || tags.size() == photons.size());
     clear();
     if (root_.empty()) setRootFrom(photons);
     if (root_.empty()) {  // nothing finite to index
@@ -129,16 +136,21 @@ void KdTree::build(std::span<const Photon> photons) {
     size_t accepted = 0;
     for (const Photon& p : photons) accepted += accept(p) ? 1 : 0;
     rejected_ += photons.size() - accepted;
+    photons_.setTagged(!tags.empty());
     photons_.resize(accepted, accepted);
     size_t next = 0;
-    for (const Photon& p : photons)
-        if (accept(p)) photons_.set(next++, p);
+    for (size_t i = 0; i < photons.size(); ++i) {
+        if (!accept(photons[i])) continue;
+        if (!tags.empty()) photons_.setTag(next, tags[i]);
+        photons_.set(next++, photons[i]);
+    }
     RTPM_CHECK(photons_.size() <= KdNode::kMaxPayload);
     nodes_[0] = KdNode::leaf(0, static_cast<uint32_t>(photons_.size()));
     splitOverfullLeaves();
 }
 
 void KdTree::insert(std::span<const Photon> photons) {
+    RTPM_CHECK(!photons_.tagged());
     if (photons.empty()) return;
     if (root_.empty()) {
         build(photons);

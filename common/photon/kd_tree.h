@@ -123,8 +123,16 @@ public:
     size_t capacity() const { return payload_.capacity(); }
     size_t memoryBytes() const {
         return (x_.capacity() + y_.capacity() + z_.capacity()) * sizeof(float) +
-               payload_.capacity() * sizeof(PhotonPayload);
+               payload_.capacity() * sizeof(PhotonPayload) + tag_.capacity() * sizeof(uint16_t);
     }
+    /// Whether a tag column is kept (KdTree::build with tags); resize() keeps it sized.
+    bool tagged() const { return tagged_; }
+    void setTagged(bool tagged) {
+        tagged_ = tagged;
+        tag_.resize(tagged ? size_ : 0);
+    }
+    uint16_t tag(size_t i) const { return tag_[i]; }
+    void setTag(size_t i, uint16_t t) { tag_[i] = t; }
 
     Vec3 position(size_t i) const { return Vec3(x_[i], y_[i], z_[i]); }
     float coordinate(size_t i, uint32_t axis) const {
@@ -149,6 +157,7 @@ public:
         std::swap(y_[i], y_[j]);
         std::swap(z_[i], z_[j]);
         std::swap(payload_[i], payload_[j]);
+        if (tagged_) std::swap(tag_[i], tag_[j]);
     }
     /// memmove of photons [src, src + count) to dst in every column.
     void move(size_t dst, size_t src, size_t count);
@@ -206,6 +215,8 @@ private:
     size_t size_ = 0;
     std::vector<float> x_, y_, z_;  // size_ + kPad entries each
     std::vector<PhotonPayload> payload_;
+    bool tagged_ = false;
+    std::vector<uint16_t> tag_;  ///< size_ entries when tagged_, else none
 };
 
 }  // namespace detail
@@ -259,6 +270,11 @@ public:
 
     /// Replaces the content with `photons` (bulk build from scratch). Cost O(n·depth).
     void build(std::span<const Photon> photons);
+    /// The same, each photon carrying a tag (tags.size() == photons.size()) that photonTag
+    /// answers in leaf order: one tree over photons of several sources that a search tells
+    /// apart (SharedPhotons: the set that shot each). A tagged tree takes no insert; clear() or
+    /// build() without tags drops them.
+    void build(std::span<const Photon> photons, std::span<const uint16_t> tags);
     /// Adds a batch to the existing tree (accumulation, paper §5.4). Cost O(b·depth + size()).
     void insert(std::span<const Photon> photons);
     /// Removes every photon; keeps the root box, the counters reset, capacity is kept.
@@ -316,6 +332,9 @@ public:
     /// Encoded incoming direction / power of photon `i` without decoding the rest.
     uint32_t photonIncoming(uint32_t i) const { return photons_.incoming(i); }
     uint32_t photonPower(uint32_t i) const { return photons_.power(i); }
+    /// Whether the tree was built with tags, and photon `i`'s tag (tagged trees only).
+    bool tagged() const { return photons_.tagged(); }
+    uint16_t photonTag(uint32_t i) const { return photons_.tag(i); }
     /// The (inflated) root box; photons outside it are rejected.
     const Bounds& bounds() const { return root_; }
     /// Photons rejected since construction or the last clear(): outside the root box or NaN.

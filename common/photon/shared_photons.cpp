@@ -1,9 +1,8 @@
 // SharedPhotons: a kd-tree per set over one frame's shot photons.
 #include "common/photon/shared_photons.h"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
+#include <limits>
 
 #include "common/core/check.h"
 
@@ -16,14 +15,22 @@ void SharedPhotons::build(const Bounds& bounds, std::span<const SetPhotons> sets
     std::sort(used.begin(), used.end(), [](const SetPhotons* a, const SetPhotons* b) { return a->set < b->set; });
     for (size_t i = 1; i < used.size(); ++i) RTPM_CHECK(used[i - 1]->set != used[i]->set);
     entries_.clear();
-    entries_.resize(used.size());
-    tbb::parallel_for(size_t(0), used.size(), [&](size_t i) {
-        Entry& e = entries_[i];
-        e.set = used[i]->set;
-        e.batches = used[i]->batches;
-        e.tree = KdTree(bounds, KdTree::kRadiusLeafSize);
-        e.tree.build(used[i]->photons);
-    });
+    size_t total = 0;
+    for (const SetPhotons* s : used) {
+        RTPM_CHECK(s->set <= std::numeric_limits<uint16_t>::max());
+        entries_.push_back(Entry{s->set, s->batches});
+        total += s->photons.size();
+    }
+    std::vector<Photon> photons;
+    std::vector<uint16_t> tags;
+    photons.reserve(total);
+    tags.reserve(total);
+    for (const SetPhotons* s : used) {
+        photons.insert(photons.end(), s->photons.begin(), s->photons.end());
+        tags.insert(tags.end(), s->photons.size(), uint16_t(s->set));
+    }
+    tree_ = KdTree(bounds, KdTree::kRadiusLeafSize);
+    tree_.build(photons, tags);
 }
 
 uint32_t SharedPhotons::batchesExcept(uint32_t set) const {

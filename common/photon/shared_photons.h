@@ -13,27 +13,32 @@
 
 namespace rtpm {
 
-/// One kd-tree per set over SetPhotons of one frame, for the progressive passes' searches
-/// (ProgressiveSet::pass).
+/// One kd-tree over every set's SetPhotons of one frame, each photon tagged with the set that
+/// shot it, for the progressive passes' searches (ProgressiveSet::pass), which leave out the
+/// searching set's own photons by the tag. One tree, not one per set: a hit's search descends
+/// once and scans each leaf its disc touches once, where a tree per set cost M² − 1 descents
+/// and edge leaves (the curved mirror's variant, 32 still frames of one batch at 320×240 on two
+/// threads: 2.46 s wall and 4.66 CPU s against 2.55 and 5.0, the same image error 0.0356).
 /// Thread safety: const members may run concurrently.
 class SharedPhotons {
 public:
+    /// Builds the tree over the entries of `sets` with photons and batches ≥ 1 (others are
+    /// skipped), their photons taken in ascending set order. Precondition: set ids distinct and
+    /// below 2^16. Cost O(n·depth).
+    void build(const Bounds& bounds, std::span<const SetPhotons> sets);
+    /// Every shared photon, photonTag(i) the set that shot it.
+    const KdTree& tree() const { return tree_; }
+    /// Σ batches over every entry but `set`'s.
+    uint32_t batchesExcept(uint32_t set) const;
+    bool empty() const { return tree_.empty(); }
+
+private:
     struct Entry {
         uint32_t set = 0;
         uint32_t batches = 0;
-        KdTree tree;
     };
-    /// Builds a tree per entry of `sets` with photons and batches ≥ 1 (others are skipped), in
-    /// ascending set order. Precondition: set ids distinct. Cost O(n log n), trees in parallel.
-    void build(const Bounds& bounds, std::span<const SetPhotons> sets);
-    /// The entries, ascending by set.
-    const std::vector<Entry>& entries() const { return entries_; }
-    /// Σ batches over every entry but `set`'s.
-    uint32_t batchesExcept(uint32_t set) const;
-    bool empty() const { return entries_.empty(); }
-
-private:
-    std::vector<Entry> entries_;
+    std::vector<Entry> entries_;  ///< ascending by set
+    KdTree tree_;
 };
 
 }  // namespace rtpm

@@ -104,17 +104,21 @@ private:
 // the order the search finds them: what RadiusList would list, without the list between.
 class BinFound {
 public:
-    BinFound(const KdTree& tree, Vec3 normal, float radius2, float powerUnit, const VisibleFrom* visible,
-             PassRings& rings)
-        : tree_(tree), normal_(normal), radius2_(radius2), powerUnit_(powerUnit), visible_(visible), rings_(rings) {}
+    BinFound(const KdTree& tree, uint32_t ownSet, Vec3 normal, float radius2, float powerUnit,
+             const VisibleFrom* visible, PassRings& rings)
+        : tree_(tree), tagged_(tree.tagged()), ownSet_(ownSet), normal_(normal), radius2_(radius2),
+          powerUnit_(powerUnit), visible_(visible), rings_(rings) {}
     float worstDist2() const { return radius2_; }
     void add(float dist2, uint32_t i) {
+        if (tagged_ && tree_.photonTag(i) == ownSet_) return;  // the set's own photons, binned before
         if (keptWithin(tree_, i, dist2, radius2_, normal_, visible_))
             rings_.add(dist2, decodeRgb9e5(tree_.photonPower(i)) * powerUnit_);
     }
 
 private:
     const KdTree& tree_;
+    bool tagged_;
+    uint32_t ownSet_;
     Vec3 normal_;
     float radius2_;
     float powerUnit_;
@@ -243,13 +247,14 @@ void ProgressiveSet::bin(Rings& rings, float outer2, int active, std::span<const
     local.addTo(rings, active);
 }
 
-void ProgressiveSet::binWithin(Rings& rings, float outer2, int active, std::span<const KdTree* const> trees, Vec3 x,
-                               Vec3 normal, float radius2, float treeUnit, float powerUnit, const VisibleFrom* visible) {
+void ProgressiveSet::binWithin(Rings& rings, float outer2, int active, std::span<const KdTree* const> trees,
+                               uint32_t set, Vec3 x, Vec3 normal, float radius2, float treeUnit, float powerUnit,
+                               const VisibleFrom* visible) {
     PassRings local(outer2, powerUnit);
     if (radius2 > 0.0f)
         for (const KdTree* tree : trees) {
             if (tree->empty()) continue;
-            BinFound found(*tree, normal, radius2, treeUnit, visible, local);
+            BinFound found(*tree, set, normal, radius2, treeUnit, visible, local);
             tree->search(x, found);
         }
     local.addTo(rings, active);
@@ -365,16 +370,16 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
     std::atomic<uint64_t> rays{0};
     const bool visibility = maps.settings().gatherVisibility;
     const float unit = maps.powerUnit();
-    // The trees a hit searches: the pass's, then (a sharing hit's) the other sets' shots frame by
-    // frame in ascending set order; and each shared frame's batches.
+    // The trees a hit searches: the pass's, then (a sharing hit's) each shared frame's tree of
+    // every set's shot, where the search leaves this set's own out; and each frame's other sets'
+    // batches.
     std::vector<const KdTree*> trees;
     if (const KdTree* own = maps.passTree(set)) trees.push_back(own);
     const size_t ownTrees = trees.size();
     std::vector<uint32_t> sharedBatches;
     for (const SharedPhotons* frame : shared) {
         sharedBatches.push_back(frame->batchesExcept(set));
-        for (const SharedPhotons::Entry& entry : frame->entries())
-            if (entry.set != set) trees.push_back(&entry.tree);
+        if (!frame->empty()) trees.push_back(&frame->tree());
     }
     tbb::parallel_for(tbb::blocked_range<size_t>(0, records_.hits.size()), [&](const auto& range) {
         uint64_t localRays = 0;
@@ -387,7 +392,7 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
             if (s.sharing)
                 for (uint32_t b : sharedBatches) s.shared += float(b);
             const VisibleFrom visible(visibility, scene, e.hit, e.normal);
-            binWithin(s.rings, s.outer2, s.active, std::span(trees).first(s.sharing ? trees.size() : ownTrees),
+            binWithin(s.rings, s.outer2, s.active, std::span(trees).first(s.sharing ? trees.size() : ownTrees), set,
                       e.hit.position, e.normal, r2, unit, float(rule_.powerUnit), visibility ? &visible : nullptr);
             if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, areaSets_, localRays));
         }

@@ -296,8 +296,9 @@ public:
     /// from the end point), stored powers × `treeUnit` (W), binned as the searches find them —
     /// the same rings, bit for bit, as one bin of the lists RadiusList searches of the same trees
     /// give, without the lists (a pass: its own photons, then the other sets' shared shots).
-    static void binWithin(Rings& rings, float outer2, int active, std::span<const KdTree* const> trees, Vec3 x,
-                          Vec3 normal, float radius2, float treeUnit, float powerUnit = 1.0f,
+    /// Photons of a tagged tree (SharedPhotons) whose tag is `set` are left out: the set's own.
+    static void binWithin(Rings& rings, float outer2, int active, std::span<const KdTree* const> trees, uint32_t set,
+                          Vec3 x, Vec3 normal, float radius2, float treeUnit, float powerUnit = 1.0f,
                           const VisibleFrom* visible = nullptr);
 
 private:

@@ -328,6 +328,35 @@ TEST(KdTree, PhotonsKeepTheirPowerAndDirectionThroughBuildAndInsert) {
     EXPECT_EQ(incGot, want);
 }
 
+// A tagged build (SharedPhotons: the set that shot each photon): every stored photon keeps its
+// own tag through the partitions, rejected photons take theirs with them, and a build without
+// tags or a clear drops them.
+TEST(KdTree, TagsFollowTheirPhotonsThroughABuild) {
+    std::vector<Photon> photons = clusteredPhotons(3000, 41);
+    std::vector<uint16_t> tags;
+    for (size_t i = 0; i < photons.size(); ++i) {
+        photons[i].power = static_cast<uint32_t>(i);  // which photon it is
+        tags.push_back(static_cast<uint16_t>((i * 7u) % 9u));
+    }
+    photons[5].position = Vec3(std::nanf(""));  // rejected, with its tag
+    photons[6].position = Vec3(1e6f);
+    KdTree tree(boundsOf(clusteredPhotons(3000, 41)), KdTree::kRadiusLeafSize);
+    tree.build(photons, tags);
+    ASSERT_TRUE(tree.tagged());
+    EXPECT_EQ(tree.size(), photons.size() - 2);
+    EXPECT_EQ(tree.rejectedCount(), 2u);
+    for (uint32_t i = 0; i < tree.size(); ++i) {
+        const uint32_t original = tree.photonPower(i);
+        ASSERT_LT(original, photons.size());
+        EXPECT_EQ(tree.photonTag(i), tags[original]) << "photon " << original;
+    }
+    tree.build(photons);
+    EXPECT_FALSE(tree.tagged());
+    tree.build(photons, tags);
+    tree.clear();
+    EXPECT_FALSE(tree.tagged());
+}
+
 TEST(KnnHeap, BoundNeverIncreasesAndEndsAtTheKthDistance) {
     std::mt19937 rng(41);
     std::uniform_real_distribution<float> u(0.0f, 100.0f);

@@ -8,6 +8,7 @@
 #include "common/render/pass_budget.h"
 #include "common/photon/density.h"
 #include "common/photon/kd_tree.h"
+#include "common/photon/shared_photons.h"
 #include "common/render/progressive.h"
 
 namespace rtpm {
@@ -218,7 +219,7 @@ TEST(ProgressiveBin, BinningWhileSearchingEqualsBinningTheLists) {
         ProgressiveSet::Rings fromLists, whileSearching;
         for (int pass = 0; pass < 2; ++pass) {
             ProgressiveSet::bin(fromLists, outer2, active, list, 2.0f);
-            ProgressiveSet::binWithin(whileSearching, outer2, active, order, x, up, radius2, unit, 2.0f);
+            ProgressiveSet::binWithin(whileSearching, outer2, active, order, 0, x, up, radius2, unit, 2.0f);
         }
         for (int j = 0; j < kRadiusBins; ++j) {
             for (int c = 0; c < 3; ++c)
@@ -228,6 +229,62 @@ TEST(ProgressiveBin, BinningWhileSearchingEqualsBinningTheLists) {
         }
     }
     EXPECT_GT(binned, 40u * 50u);  // the discs held photons
+}
+
+// A shared frame is one tree of every set's shot (SharedPhotons); a set's search of it bins the
+// other sets' photons and not its own: the same photons, ring by ring, as searches of the other
+// sets' shots alone, and batchesExcept counts theirs.
+TEST(ProgressiveBin, ASharedFramesSearchLeavesTheSetsOwnPhotonsOut) {
+    uint64_t state = 777;
+    auto uniform = [&] {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return float(double(state >> 11) * 0x1p-53);
+    };
+    const Bounds box{Vec3(-1.0f, -0.1f, -1.0f), Vec3(1.0f, 0.1f, 1.0f)};
+    std::vector<SetPhotons> shots;
+    for (uint32_t set : {4u, 0u, 7u}) {
+        SetPhotons shot{set, set + 1, {}};
+        for (int i = 0; i < 2000; ++i) {
+            const Vec3 x(2.0f * uniform() - 1.0f, 0.0f, 2.0f * uniform() - 1.0f);
+            shot.photons.push_back(Photon::make(x, Vec3(uniform() + 0.01f), Vec3(0.0f, -1.0f, 0.0f)));
+        }
+        shots.push_back(std::move(shot));
+    }
+    shots.push_back(SetPhotons{2, 0, shots[0].photons});  // no batches: not shared
+    SharedPhotons shared;
+    shared.build(box, shots);
+    EXPECT_EQ(shared.tree().size(), 6000u);
+    EXPECT_EQ(shared.batchesExcept(0), 5u + 8u);
+    EXPECT_EQ(shared.batchesExcept(4), 1u + 8u);
+    EXPECT_EQ(shared.batchesExcept(3), 1u + 5u + 8u);
+    const Vec3 up(0.0f, 1.0f, 0.0f);
+    for (uint32_t set : {0u, 4u, 7u, 3u}) {
+        std::vector<KdTree> others;
+        for (size_t i = 0; i < 3; ++i)
+            if (shots[i].set != set) {
+                others.emplace_back(box, KdTree::kRadiusLeafSize);
+                others.back().build(shots[i].photons);
+            }
+        std::vector<const KdTree*> separate;
+        for (const KdTree& t : others) separate.push_back(&t);
+        const KdTree* one = &shared.tree();
+        for (int q = 0; q < 20; ++q) {
+            const Vec3 x(1.6f * uniform() - 0.8f, 0.0f, 1.6f * uniform() - 0.8f);
+            const float outer2 = 0.02f + 0.05f * uniform();
+            ProgressiveSet::Rings fromShared, fromSeparate;
+            ProgressiveSet::binWithin(fromShared, outer2, 0, std::span(&one, 1), set, x, up, outer2, 1.0f);
+            ProgressiveSet::binWithin(fromSeparate, outer2, 0, separate, set, x, up, outer2, 1.0f);
+            double photons = 0.0;
+            for (int j = 0; j < kRadiusBins; ++j) {
+                ASSERT_EQ(fromShared.count[size_t(j)], fromSeparate.count[size_t(j)]) << "set " << set << " ring " << j;
+                // The same photons summed in another order.
+                ASSERT_NEAR(fromShared.power[3 * size_t(j)], fromSeparate.power[3 * size_t(j)],
+                            1e-5f * (1.0f + fromSeparate.power[3 * size_t(j)]));
+                photons += fromShared.count[size_t(j)];
+            }
+            EXPECT_GT(photons, 0.0) << "set " << set << ", end point " << q;
+        }
+    }
 }
 
 TEST(ProgressiveChoose, TheCapEndsTheDiscInsideARingWithExactlyItsPhotons) {
