@@ -174,17 +174,26 @@ TEST(ProgressiveBin, RingsNoLongerKeptTakeNothing) {
         EXPECT_EQ(rings.count[size_t(j)], j < 7 ? 0.0f : 1.0f) << "ring " << j;
 }
 
+// Uniform floats in [0, 1) from a fixed seed (a 64-bit LCG's top bits): photon positions and
+// powers the binning tests draw.
+struct Uniform {
+    uint64_t state;
+    float operator()() {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return float(double(state >> 11) * 0x1p-53);
+    }
+};
+
+// The box the binning tests' photons lie in: a floor 2 m square, ±0.1 m thick.
+Bounds photonSlab() { return Bounds{Vec3(-1.0f, -0.1f, -1.0f), Vec3(1.0f, 0.1f, 1.0f)}; }
+
 // A pass bins what its searches find as they find it (binWithin): the rings, bit for bit, of one
 // bin over the lists the same searches give (RadiusList, powers × the maps' unit, as the passes
 // gathered them before they binned while searching): the pass's tree and two shared shots,
 // photons from both sides of the surface, several end points and kept rings.
 TEST(ProgressiveBin, BinningWhileSearchingEqualsBinningTheLists) {
-    uint64_t state = 12345;
-    auto uniform = [&] {
-        state = state * 6364136223846793005ull + 1442695040888963407ull;
-        return float(double(state >> 11) * 0x1p-53);
-    };
-    const Bounds box{Vec3(-1.0f, -0.1f, -1.0f), Vec3(1.0f, 0.1f, 1.0f)};
+    Uniform uniform{12345};
+    const Bounds box = photonSlab();
     std::vector<KdTree> trees;
     for (int t = 0; t < 3; ++t) {
         std::vector<Photon> photons;
@@ -235,12 +244,8 @@ TEST(ProgressiveBin, BinningWhileSearchingEqualsBinningTheLists) {
 // other sets' photons and not its own: the same photons, ring by ring, as searches of the other
 // sets' shots alone, and batchesExcept counts theirs.
 TEST(ProgressiveBin, ASharedFramesSearchLeavesTheSetsOwnPhotonsOut) {
-    uint64_t state = 777;
-    auto uniform = [&] {
-        state = state * 6364136223846793005ull + 1442695040888963407ull;
-        return float(double(state >> 11) * 0x1p-53);
-    };
-    const Bounds box{Vec3(-1.0f, -0.1f, -1.0f), Vec3(1.0f, 0.1f, 1.0f)};
+    Uniform uniform{777};
+    const Bounds box = photonSlab();
     std::vector<SetPhotons> shots;
     for (uint32_t set : {4u, 0u, 7u}) {
         SetPhotons shot{set, set + 1, {}};
