@@ -1,4 +1,4 @@
-// SharedPhotons: a kd-tree per set over one frame's shot photons.
+// SharedPhotons: one kd-tree over every set's shot photons of a frame, tagged by set.
 #include "common/photon/shared_photons.h"
 
 #include <algorithm>

@@ -30,7 +30,9 @@ public:
     const KdTree& tree() const { return tree_; }
     /// Σ batches over every entry but `set`'s.
     uint32_t batchesExcept(uint32_t set) const;
-    bool empty() const { return tree_.empty(); }
+    /// No set's shot (the tree may also be empty when every photon fell outside `bounds`; the
+    /// shots' batches still count).
+    bool empty() const { return entries_.empty(); }
 
 private:
     struct Entry {

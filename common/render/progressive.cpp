@@ -379,7 +379,7 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
     std::vector<uint32_t> sharedBatches;
     for (const SharedPhotons* frame : shared) {
         sharedBatches.push_back(frame->batchesExcept(set));
-        if (!frame->empty()) trees.push_back(&frame->tree());
+        trees.push_back(&frame->tree());
     }
     tbb::parallel_for(tbb::blocked_range<size_t>(0, records_.hits.size()), [&](const auto& range) {
         uint64_t localRays = 0;

@@ -435,7 +435,7 @@ TEST(HardCasesProgressive, GathersDoNotLeakThroughAThinWall) {
         };
         ASSERT_NE(maps.passTree(0), nullptr) << "the second frame is a pass";
         ASSERT_GE(maps.passBatches(0), 1u);
-        ASSERT_FALSE(shared.empty());
+        ASSERT_FALSE(shared.tree().empty());
         const double pass = binned(maps.passTree(0)), others = binned(&shared.tree());
         if (visibility) {
             EXPECT_TRUE(map.empty()) << map.size() << " map photons through the wall";
