@@ -59,7 +59,7 @@ double ShownChange::add(bool converging, uint32_t period, double work, std::span
     std::erase_if(images_, [&](const Kept& k) {
         return k.work < least || (k.work < kBaselineTolerance * half && !keptLong(k.frame));
     });
-    images_.push_back(Kept{n, work, std::vector<float>(caustic.begin(), caustic.end())});
+    if (n >= firstBaseline_) images_.push_back(Kept{n, work, std::vector<float>(caustic.begin(), caustic.end())});
     return figure_;
 }
 

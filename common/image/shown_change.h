@@ -32,10 +32,11 @@
 // × √(its work / work): the figure falls no faster than photon noise does (the change since a
 // baseline misses the error both images share, and its dip read the glass slab's error at 0.61 ×
 // over frames 5–7, 0.69 × with the floor; both parts of the error fall as N^-½ in the end: noise,
-// and blur at r² ∝ 1/√N). Between such frames the last figure holds. Before the first baseline
-// there is no figure (0): with one batch a pass frames 1 and 2 (frame 1 as frame 2's baseline,
-// half its work, read the curved mirror's error at 0.64 ×, and the estimator's own figure, which
-// stood in until 2026-11-28, 0.43–3.2 × at frame 1).
+// and blur at r² ∝ 1/√N). Between such frames the last figure holds. Only images from frame
+// kFirstBaseline on may be baselines. Before the first baseline there is no figure (0): with one
+// batch a pass frames 1–9 (frame 1 as frame 2's baseline, half its work, read the curved mirror's
+// error at 0.64 ×, and the estimator's own figure, which stood in until 2026-11-28, 0.43–3.2 × at
+// frame 1).
 // rtpm-render and the master both feed it their composed image and the sets' batches, so the
 // same frames give the same figure in one process and in a cluster.
 #pragma once
@@ -47,8 +48,19 @@
 
 namespace rtpm {
 
+/// The first frame of a progression whose image may be a baseline: the first two hold only each
+/// set's own photons (the other sets' shots are shared two frames late, set_photons.h
+/// kSharedPhotonLag), and the change since one of them read the curved mirror's error at up to
+/// 1.6 × (the flat mirror's 1.5 ×) once the discs became ellipses along the fold lines
+/// (progressive.h kShapePhotons): the error then falls much faster than photon noise over the
+/// first frames. With one batch a pass the first figure comes at frame 10.
+inline constexpr uint64_t kFirstBaseline = 3;
+
 class ShownChange {
 public:
+    /// `firstBaseline`: the first frame of a progression whose image may be a baseline
+    /// (kFirstBaseline; 1 lets every kept frame be one).
+    explicit ShownChange(uint64_t firstBaseline = kFirstBaseline) : firstBaseline_(firstBaseline) {}
     /// One composed frame: `converging` false (or another image size) restarts the count (a
     /// progression's first frame),
     /// `period` is the frame's pass period (1 without turns), `work` how far its estimate went
@@ -64,6 +76,12 @@ public:
     static constexpr double kBaselineRatio = 6.0;
     static constexpr double kBaselineMost = 3.0;
     static constexpr double kBaselineTolerance = 0.8408964152537145;
+    /// The first frame of a progression whose image may be a baseline: the first two hold only
+    /// each set's own photons (the other sets' shots are shared two frames late, set_photons.h
+    /// kSharedPhotonLag), and the change since one of them read the curved mirror's error at
+    /// 1.8–2.5 × once its discs became ellipses along the fold lines (progressive.h
+    /// kShapePhotons): its error then falls much faster than photon noise over the first frames.
+
     /// Frames of the current progression so far (the first is 1).
     uint64_t frame() const { return frame_; }
     /// The last figure (0 = none yet).
@@ -78,6 +96,7 @@ public:
     static bool keptLong(uint64_t n);
 
 private:
+    uint64_t firstBaseline_;
     uint64_t frame_ = 0;
     int width_ = 0, height_ = 0;  ///< of the kept images
     double figure_ = 0.0;
@@ -96,12 +115,17 @@ private:
 /// 0.80–1.54 × their true error (tests/support/progressive_run.h, frames 3–24: curved mirror
 /// 1.03–1.54, glass ball 0.80–0.98, glass slab 0.81–1.07, flat mirror 0.82–1.01): their QMC noise
 /// and the pixels' own-or-filtered choice change more between two images than nested Poisson
-/// noise does. 0.9 puts that range within the factor 1.5 either way (0.72–1.39); the baseline's
+/// noise does. 0.9 put that range within the factor 1.5 either way (0.72–1.39); the baseline's
 /// length did not narrow it (at a quarter and at a tenth of the photons the curved mirror still
 /// read up to 1.74 and 1.64 × with every pixel's own estimate up to 2 × the half-window). Later
 /// it under-reads: 0.64 × on the glass slab at frames 59–64, 0.62 × on the glass ball from frame
 /// 40, 0.29 × on the curved mirror's variant after 30 s, whose fold lines' blur no longer changes.
-inline constexpr double kShownChangeScale = 0.9;
+/// Since the discs became ellipses along fold lines (progressive.h kShapePhotons) the mirrors'
+/// error falls faster than noise; with baselines from frame kFirstBaseline on the change read
+/// 1.14–1.29 × (curved mirror), 1.29–1.65 (flat mirror), 0.86–1.11 (glass slab), 0.86–0.96 (glass
+/// ball) over frames 10–24, and 0.8 puts that within the factor 1.5 (1.01–1.47). The variant
+/// still reads 0.45–0.57 × from 2 s on at the 16.7 ms budget.
+inline constexpr double kShownChangeScale = 0.8;
 /// The error figure printed, shown and compared with --target-error: kShownChangeScale × the
 /// change (ShownChange::add) where the progressive estimator's own figure says it composed the
 /// frame (> 0), else 0 = none

@@ -166,7 +166,8 @@ bool keptWithin(const Index& index, uint32_t i, float dist2, float radius2, Vec3
 /// sqrt(radius2): its squared distance and decoded stored power (progressive.h bins them).
 struct FoundPhoton {
     float dist2 = 0.0f;
-    Vec3 power{0.0f};  ///< decoded stored power (units of the map's powerUnit, one batch)
+    Vec3 power{0.0f};     ///< decoded stored power (units of the map's powerUnit, one batch)
+    Vec3 position{0.0f};  ///< where it landed
 };
 template <class Index, class Visible>
 class RadiusList {
@@ -177,7 +178,7 @@ public:
     float worstDist2() const { return radius2_; }
     void add(float dist2, uint32_t i) {
         if (keptWithin(index_, i, dist2, radius2_, normal_, &visible_))
-            out_.push_back(FoundPhoton{dist2, decodeRgb9e5(index_.photonPower(i))});
+            out_.push_back(FoundPhoton{dist2, decodeRgb9e5(index_.photonPower(i)), index_.photon(i).position});
     }
 
 private:

@@ -332,6 +332,7 @@ public:
     /// Encoded incoming direction / power of photon `i` without decoding the rest.
     uint32_t photonIncoming(uint32_t i) const { return photons_.incoming(i); }
     uint32_t photonPower(uint32_t i) const { return photons_.power(i); }
+    Vec3 photonPosition(uint32_t i) const { return photons_.position(i); }
     /// Whether the tree was built with tags, and photon `i`'s tag (tagged trees only).
     bool tagged() const { return photons_.tagged(); }
     uint16_t photonTag(uint32_t i) const { return photons_.tag(i); }

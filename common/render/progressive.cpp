@@ -60,6 +60,83 @@ double effectiveCount(double sum, double sum2, double count) {
     return sum2 > 0.0 ? sum * sum / sum2 : count;
 }
 
+// The squared distance of offset `o` in the metric of a hit's discs (ProgressiveSet::Shape):
+// |o|²/a + (a − 1/a)(o·u)², whose disc of radius r is the ellipse with semi-axes r/√a across u
+// and r√a along the surface, of the circle's area.
+inline float metricDist2(Vec3 o, Vec3 u, float a) {
+    const float t = dot(o, u);
+    return dot(o, o) / a + (a - 1.0f / a) * t * t;
+}
+
+// An orthonormal pair in the plane of unit normal n (the moments' axes).
+void tangentBasis(Vec3 n, Vec3& t1, Vec3& t2) {
+    t1 = glm::normalize(std::abs(n.x) > 0.9f ? glm::cross(n, Vec3(0, 1, 0)) : glm::cross(n, Vec3(1, 0, 0)));
+    t2 = glm::cross(n, t1);
+}
+
+// One search's sums of photon offsets in the tangent plane (Shape's moments), in double.
+struct MomentSums {
+    double n = 0.0, s1 = 0.0, s2 = 0.0, s11 = 0.0, s12 = 0.0, s22 = 0.0;
+    void add(Vec3 o, Vec3 t1, Vec3 t2) {
+        const double a = dot(o, t1), b = dot(o, t2);
+        n += 1.0;
+        s1 += a;
+        s2 += b;
+        s11 += a * a;
+        s12 += a * b;
+        s22 += b * b;
+    }
+};
+
+// Adds `m` to the shape's moments and decides the shape once they hold kShapePhotons photons:
+// the covariance of the offsets has eigenvalues λ₁ ≥ λ₂; where λ₁/λ₂ ≥ kAspectMin the discs
+// become ellipses of aspect min(kAspectMax, (λ₁/λ₂)^kAspectPower) whose long axis is λ₁'s.
+void addMoments(ProgressiveSet::Shape& shape, const MomentSums& m, Vec3 normal) {
+    if (shape.decided) return;
+    shape.n += float(m.n);
+    shape.s1 += float(m.s1);
+    shape.s2 += float(m.s2);
+    shape.s11 += float(m.s11);
+    shape.s12 += float(m.s12);
+    shape.s22 += float(m.s22);
+    if (!(double(shape.n) >= kShapePhotons)) return;
+    shape.decided = true;
+    const double c = shape.n, m1 = shape.s1 / c, m2 = shape.s2 / c;
+    const double c11 = shape.s11 / c - m1 * m1, c12 = shape.s12 / c - m1 * m2, c22 = shape.s22 / c - m2 * m2;
+    const double mid = 0.5 * (c11 + c22), half = std::sqrt(0.25 * (c11 - c22) * (c11 - c22) + c12 * c12);
+    const double big = mid + half, small = mid - half;
+    const double ratio = small > 0.0 ? big / small : std::numeric_limits<double>::infinity();
+    if (!(ratio >= kAspectMin)) return;
+    Vec3 t1, t2;
+    tangentBasis(normal, t1, t2);
+    const double theta = 0.5 * std::atan2(2.0 * c12, c11 - c22);  // λ₁'s axis from t1
+    shape.across = glm::normalize(float(-std::sin(theta)) * t1 + float(std::cos(theta)) * t2);
+    shape.aspect = float(std::min(kAspectMax, std::pow(ratio, kAspectPower)));
+}
+
+// Adds rings `active` … kRadiusBins − 1 of `from` to `to`.
+void addRings(ProgressiveSet::Rings& to, const ProgressiveSet::Rings& from, int active) {
+    for (int j = active; j < kRadiusBins; ++j) {
+        for (int c = 0; c < 3; ++c) to.power[size_t(3 * j + c)] += from.power[size_t(3 * j + c)];
+        to.count[size_t(j)] += from.count[size_t(j)];
+        to.power2[size_t(j)] += from.power2[size_t(j)];
+    }
+}
+
+// The ellipse a shaped hit bins within (Shape), searched as `slabs` spheres, one per slab of its
+// long axis: a sphere's search keeps the photons within the ellipse (metric distance² below
+// `limit2`, the active disc's r²) that lie in its own slab, so none is binned twice.
+struct Ellipse {
+    Vec3 x, across, axis;  // centre, short axis, long axis (unit)
+    float aspect, limit2;
+    float along;           // the long semi-axis, r√a
+    int slabs, slab;
+    // The slab of offset o (0 … slabs − 1).
+    int slabOf(Vec3 o) const {
+        return std::clamp(int(std::floor((dot(o, axis) + along) * float(slabs) / (2.0f * along))), 0, slabs - 1);
+    }
+};
+
 // One hit's binning of one pass (ProgressiveSet::bin): the photons are summed per ring here
 // first, then added to the ring totals (addTo), so the totals take one addition per pass, not per
 // photon, and float sums stay accurate over many passes. A photon's ring is the number of inner
@@ -105,14 +182,23 @@ private:
 class BinFound {
 public:
     BinFound(const KdTree& tree, uint32_t ownSet, Vec3 normal, float radius2, float powerUnit,
-             const VisibleFrom* visible, PassRings& rings)
+             const VisibleFrom* visible, PassRings& rings, const Ellipse* ellipse, MomentSums* moments, Vec3 x)
         : tree_(tree), tagged_(tree.tagged()), ownSet_(ownSet), normal_(normal), radius2_(radius2),
-          powerUnit_(powerUnit), visible_(visible), rings_(rings) {}
+          powerUnit_(powerUnit), visible_(visible), rings_(rings), ellipse_(ellipse), moments_(moments), x_(x) {
+        if (moments_) tangentBasis(normal_, t1_, t2_);
+    }
     float worstDist2() const { return radius2_; }
     void add(float dist2, uint32_t i) {
         if (tagged_ && tree_.photonTag(i) == ownSet_) return;  // the set's own photons, binned before
-        if (keptWithin(tree_, i, dist2, radius2_, normal_, visible_))
-            rings_.add(dist2, decodeRgb9e5(tree_.photonPower(i)) * powerUnit_);
+        float ringDist2 = dist2;
+        if (ellipse_) {
+            const Vec3 o = tree_.photonPosition(i) - ellipse_->x;
+            ringDist2 = metricDist2(o, ellipse_->across, ellipse_->aspect);
+            if (!(ringDist2 < ellipse_->limit2) || (ellipse_->slabs > 1 && ellipse_->slabOf(o) != ellipse_->slab)) return;
+        }
+        if (!keptWithin(tree_, i, dist2, radius2_, normal_, visible_)) return;
+        rings_.add(ringDist2, decodeRgb9e5(tree_.photonPower(i)) * powerUnit_);
+        if (moments_) moments_->add(tree_.photonPosition(i) - x_, t1_, t2_);
     }
 
 private:
@@ -124,6 +210,10 @@ private:
     float powerUnit_;
     const VisibleFrom* visible_;
     PassRings& rings_;
+    const Ellipse* ellipse_;
+    MomentSums* moments_;
+    Vec3 x_;
+    Vec3 t1_{0.0f}, t2_{0.0f};
 };
 static_assert(ResultSet<BinFound>);
 
@@ -249,15 +339,35 @@ void ProgressiveSet::bin(Rings& rings, float outer2, int active, std::span<const
 
 void ProgressiveSet::binWithin(Rings& rings, float outer2, int active, std::span<const KdTree* const> trees,
                                uint32_t set, Vec3 x, Vec3 normal, float radius2, float treeUnit, float powerUnit,
-                               const VisibleFrom* visible) {
+                               const VisibleFrom* visible, Shape* shape) {
     PassRings local(outer2, powerUnit);
-    if (radius2 > 0.0f)
+    MomentSums moments;
+    MomentSums* collect = shape && !shape->decided ? &moments : nullptr;
+    if (radius2 > 0.0f && shape && shape->aspect != 1.0f) {
+        // The ellipse of semi-axes L = r√a along and r/√a across as n spheres over slabs of its
+        // long axis, each of radius² (L/n)² + r²/a: n π r² (a/n² + 1/a) in all, 2.5 π r² for
+        // n = a/2 against a π r² for one sphere of radius L.
+        Ellipse e{x, shape->across, glm::cross(normal, shape->across), shape->aspect, radius2,
+                  std::sqrt(radius2 * shape->aspect), std::max(1, int(std::lround(0.5f * shape->aspect))), 0};
+        const float half = e.along / float(e.slabs);
+        const float sphere2 = e.slabs == 1 ? radius2 * e.aspect : (half * half + radius2 / e.aspect) * (1.0f + 1e-4f);
+        for (e.slab = 0; e.slab < e.slabs; ++e.slab) {
+            const Vec3 centre = e.slabs == 1 ? x : x + e.axis * (-e.along + (2.0f * float(e.slab) + 1.0f) * half);
+            for (const KdTree* tree : trees) {
+                if (tree->empty()) continue;
+                BinFound found(*tree, set, normal, sphere2, treeUnit, visible, local, &e, collect, x);
+                tree->search(centre, found);
+            }
+        }
+    } else if (radius2 > 0.0f) {
         for (const KdTree* tree : trees) {
             if (tree->empty()) continue;
-            BinFound found(*tree, set, normal, radius2, treeUnit, visible, local);
+            BinFound found(*tree, set, normal, radius2, treeUnit, visible, local, nullptr, collect, x);
             tree->search(x, found);
         }
+    }
     local.addTo(rings, active);
+    if (collect) addMoments(*shape, moments, normal);
 }
 
 void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, uint32_t set,
@@ -330,6 +440,25 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
                 maps.gatherMapPhotons(scene, set, e.hit, e.normal, r2, found);
                 reach2 = r2;
             };
+            // Bins `found` from ring `active` on. The photons within the active disc first add to
+            // the hit's shape moments; where that decides an ellipse, the rings get the photons
+            // within the ellipses instead.
+            auto binShaped = [&] {
+                const float r2 = float(disc2(s.outer2, s.active));
+                MomentSums m;
+                Vec3 t1, t2;
+                tangentBasis(e.normal, t1, t2);
+                for (const FoundPhoton& p : found)
+                    if (p.dist2 < r2) m.add(p.position - e.hit.position, t1, t2);
+                addMoments(s.shape, m, e.normal);
+                if (s.shape.aspect != 1.0f) {
+                    cover(r2 * s.shape.aspect);
+                    for (FoundPhoton& p : found)
+                        p.dist2 = metricDist2(p.position - e.hit.position, s.shape.across, s.shape.aspect);
+                    std::erase_if(found, [r2](const FoundPhoton& p) { return !(p.dist2 < r2); });
+                }
+                bin(s.rings, s.outer2, s.active, found, float(rule_.powerUnit));
+            };
             bool capped = false;
             int tried = 0;
             for (double factor : kCapAreaTries) {
@@ -341,7 +470,7 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
                 const auto held = std::count_if(found.begin(), found.end(), [r2](const FoundPhoton& p) { return p.dist2 < r2; });
                 if (double(held) > capPhotons) {
                     s.active = inner;
-                    bin(s.rings, s.outer2, s.active, found, float(rule_.powerUnit));
+                    binShaped();
                     capped = true;
                     break;
                 }
@@ -351,7 +480,8 @@ void ProgressiveSet::restart(const EmbreeScene& scene, const PhotonMaps& maps, u
             cover(s.outer2);
             const float outer2 = s.outer2;
             std::erase_if(found, [outer2](const FoundPhoton& p) { return !(p.dist2 < outer2); });
-            bin(s.rings, s.outer2, s.active, found, float(rule_.powerUnit));
+            reach2 = std::min(reach2, outer2);
+            binShaped();
         }
     });
     valid_ = true;
@@ -392,8 +522,22 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
             if (s.sharing)
                 for (uint32_t b : sharedBatches) s.shared += float(b);
             const VisibleFrom visible(visibility, scene, e.hit, e.normal);
-            binWithin(s.rings, s.outer2, s.active, std::span(trees).first(s.sharing ? trees.size() : ownTrees), set,
-                      e.hit.position, e.normal, r2, unit, float(rule_.powerUnit), visibility ? &visible : nullptr);
+            const auto searched = std::span(trees).first(s.sharing ? trees.size() : ownTrees);
+            if (s.shape.decided) {
+                binWithin(s.rings, s.outer2, s.active, searched, set, e.hit.position, e.normal, r2, unit,
+                          float(rule_.powerUnit), visibility ? &visible : nullptr, &s.shape);
+            } else {
+                // The pass's photons add to the shape's moments first; where they decide an
+                // ellipse, the pass bins its photons within the ellipses.
+                Rings fresh;
+                binWithin(fresh, s.outer2, s.active, searched, set, e.hit.position, e.normal, r2, unit,
+                          float(rule_.powerUnit), visibility ? &visible : nullptr, &s.shape);
+                if (s.shape.aspect != 1.0f)
+                    binWithin(s.rings, s.outer2, s.active, searched, set, e.hit.position, e.normal, r2, unit,
+                              float(rule_.powerUnit), visibility ? &visible : nullptr, &s.shape);
+                else
+                    addRings(s.rings, fresh, s.active);
+            }
             if (sampleArea) s.areaSum += glm::dvec3(areaLights.sample(e, areaSets_, localRays));
         }
         rays += localRays;
@@ -424,6 +568,9 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
             double sd = 0.0, ownSd = 0.0;
             double noise = 0.0, ownNoise = 0.0;  // Poisson noise alone, of the values as sent
             double radius = 0.0;
+            // The first hit's aspect: neighbours' ellipses lie at other angles, so the noise the
+            // master's filter allows (noise_) grows with it (else a dotted halo around GLASS's spot).
+            double aspect = 1.0;
             bool capped = false;  // the cap, not a change in density, ended the shown disc's walk
             for (uint32_t h = records_.firstHit[p]; h < records_.firstHit[p + 1]; ++h) {
                 const EyeHit& e = records_.hits[h];
@@ -461,7 +608,9 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                     }
                 }
                 if (h == records_.firstHit[p]) {
-                    radius = std::sqrt(double(s.outer2) * c[0].scale);
+                    // An ellipse's blur is its short semi-axis's.
+                    aspect = double(s.shape.aspect);
+                    radius = std::sqrt(double(s.outer2) * c[0].scale / aspect);
                     capped = c[0].capped;
                 }
                 const Choice& shown = c[0];
@@ -481,7 +630,7 @@ void ProgressiveSet::compose(std::span<PixelRadiance> out, uint64_t& nonFinite) 
                 sd = w * ownSd + (1.0 - w) * sd;
                 noise = w * ownNoise + (1.0 - w) * noise;
             }
-            noise_[p] = relativeNoise64ths(noise, luminance(caustic));
+            noise_[p] = relativeNoise64ths(noise * aspect, luminance(caustic));
             // A pixel whose disc is narrower than the filter's window shows (some of) its own
             // estimate: from the next pass on its hits bin the other sets' photons too. One
             // that the filter alone shows has every set's photons through it already.

@@ -17,7 +17,9 @@
 // interval met so far still overlaps, and no disc holding more than maxDiscPhotons (k·√(N/20 000)
 // for N paths); the last such disc is shown. A larger disc is taken only while the estimate does
 // not move beyond its noise, so a flat region gets a wide disc (little noise) and a fold line or
-// cusp a narrow one (little blur).
+// cusp a narrow one (little blur). Where the photons around a hit lie strung along a line (a fold
+// line, a rim) its discs become ellipses of the same areas, long along the line (Shape,
+// kShapePhotons): the same photons with a fraction of the blur across it.
 // The result does not depend on how photons were split into passes: the rings hold the same
 // photons whether they came as 160 passes of 20 000 paths or 2 of 1.6 M, the ladder reaches
 // beyond the first batch's k-NN disc, and the cap counts photons, not passes (within 6 % on the
@@ -86,6 +88,34 @@ inline constexpr int kActiveMargin = 3;
 /// 0.033; glass slab (tests/accuracy/glass_slab_test.cpp), 4 × 0.0105, 0.0100, 0.0118, 8 ×
 /// 0.0105, 0.0098, 0.0108 (a smooth caustic takes the cap, 810 photons, which 4 × did not hold).
 inline constexpr float kOuterArea = 8.0f;
+/// The discs' shape (Shape): a hit's discs stay circles until the photons it binned (the
+/// restart's within its active disc, then each pass's) number kShapePhotons; then, where the
+/// covariance of their offsets in the surface has eigenvalues λ₁/λ₂ ≥ kAspectMin (photons strung
+/// along a fold line or a rim, or a steep gradient), they become ellipses of the circles' area,
+/// aspect a = min(kAspectMax, (λ₁/λ₂)^kAspectPower), long along λ₁'s axis, for the rest of the
+/// progression. A fold line's error grows as the square root of the width a disc reaches across
+/// it, so an ellipse of aspect a sheds 1 − a^(−1/4) of it (29 % at 4) with the same photons, the
+/// same noise and, for a density that changes along the fold line only slowly, no more bias.
+/// Every ring keeps a kernel estimate of area π r_j² (the photons binned before the decision in
+/// circles, the rest in ellipses), so the estimate stays consistent. In the pass that decides,
+/// its photons first add to the moments and then, if they decide an ellipse, are binned in it:
+/// one pass of 31 batches and 31 passes of one give the same image within 2 % (growing passes).
+/// Defaults, 320×240, one batch a pass (tests/bench/ring_mirror_bench --photons 20000
+/// --frame-budget-ms 0), rel. MAE at frames 1 / 8 / 32 with circles → ellipses:
+///   curved mirror 0.0925 / 0.0366 / 0.0198 → 0.0703 / 0.0242 / 0.0123 (in 2.0 → 2.95 s),
+///   its variant (--light -0.3,0.7,0.35 --ring-height 0.5) 0.1095 / 0.0546 / 0.0356 → 0.1054 /
+///   0.0453 / 0.0322 (2.49 → 3.02 s); the flat mirror (tests/accuracy) at frames 1 / 4 / 16 / 24
+///   0.0983 / 0.0526 / 0.0320 / 0.0250 → 0.0712 / 0.0390 / 0.0140 / 0.0105; the glass scenes'
+///   smooth caustics keep their circles (the same figures).
+/// Tried: kShapePhotons 128 or 256 (decided after the restart: curved mirror 0.0923 / 0.0925 at
+/// frame 1, then within 3 %; 256 with kAspectMin 2 drew the cleanest halo around GLASS's spot
+/// with M = 1), kAspectMin 1.25 / 2 (0.0243 / 0.0255 at frame 8 against 0.0246), kAspectMax
+/// 2.5 / 8 (0.0275 / 0.0223 at frame 8, 8 costing 30 % more time), powers 1 / 2 (0.0267 /
+/// 0.0243).
+inline constexpr double kShapePhotons = 64.0;
+inline constexpr double kAspectMin = 1.5;
+inline constexpr double kAspectMax = 4.0;
+inline constexpr double kAspectPower = 1.5;
 /// Paths per unit of maxDiscPhotons (the default P of one batch).
 inline constexpr double kDiscCapPaths = 20000.0;
 /// The widest disc the rule may show holds at most k·√(N / kDiscCapPaths) photons — exactly that
@@ -270,6 +300,16 @@ public:
         /// The cap (maxDiscPhotons) ended the walk: the disc holds exactly maxCount photons.
         bool capped = false;
     };
+    /// The shape of a hit's discs (kShapePhotons): circles until the photons around it decide,
+    /// then fixed for the progression.
+    struct Shape {
+        Vec3 across{0.0f};    ///< an ellipse's short axis (unit, in the surface)
+        float aspect = 1.0f;  ///< semi-axes r/√aspect across, r√aspect along (area π r²); 1: a circle
+        bool decided = false;
+        /// Until decided: the photons binned and the sums of their offsets' coordinates (and
+        /// products) along two axes of the surface.
+        float n = 0.0f, s1 = 0.0f, s2 = 0.0f, s11 = 0.0f, s12 = 0.0f, s22 = 0.0f;
+    };
     struct Rings {
         std::array<float, kRadiusBins * 3> power{};  ///< Σ power per ring (W summed over batches)
         std::array<float, kRadiusBins> count{};      ///< photons per ring
@@ -297,9 +337,11 @@ public:
     /// the same rings, bit for bit, as one bin of the lists RadiusList searches of the same trees
     /// give, without the lists (a pass: its own photons, then the other sets' shared shots).
     /// Photons of a tagged tree (SharedPhotons) whose tag is `set` are left out: the set's own.
+    /// With `shape`: an ellipse's rings take the photons within the ellipses (the same area), and
+    /// while the shape is undecided the photons binned add to its moments and may decide it.
     static void binWithin(Rings& rings, float outer2, int active, std::span<const KdTree* const> trees, uint32_t set,
                           Vec3 x, Vec3 normal, float radius2, float treeUnit, float powerUnit = 1.0f,
-                          const VisibleFrom* visible = nullptr);
+                          const VisibleFrom* visible = nullptr, Shape* shape = nullptr);
 
 private:
     struct HitState {
@@ -308,6 +350,7 @@ private:
         int active = 0;            ///< outermost ring still gathered
         glm::dvec3 areaSum{0.0};   ///< Σ area-light samples over passes 0 … t
         float shared = 0.0f;       ///< other sets' batches binned (SharedPhotons)
+        Shape shape;               ///< circles or ellipses
         bool sharing = false;      ///< bins the other sets' photons (its pixel shows its own estimate)
     };
     void compose(std::span<PixelRadiance> out, uint64_t& nonFinite);

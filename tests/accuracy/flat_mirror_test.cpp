@@ -148,6 +148,9 @@ TEST(FlatMirrorProgressive, AtTheDefaultsNoWorseThanKnnAtAnyFrame) {
     const auto [progressive, knn] = againstKnn([&] { return fm.scene(); }, rs, ref, 24, "flat mirror, defaults");
     for (size_t f = 0; f < progressive.relMae.size(); ++f)
         EXPECT_LE(progressive.relMae[f], knn.relMae[f]) << "frame " << f + 1;
+    // Ellipses along the rims (progressive.h kShapePhotons): 0.0107 at frame 24, 0.0250 with
+    // circles only.
+    EXPECT_LT(progressive.relMae.back(), 0.016);
     testscenes::expectErrorFigureTracks(progressive, "flat mirror");
 }
 
@@ -158,9 +161,12 @@ TEST(FlatMirrorProgressive, AtTheDefaultsNoWorseThanKnnAtAnyFrame) {
 // estimates up to 0.75–1.5 × the window's half-width (progressive.h kOwnFull, kOwnNone; until
 // 2026-11-28 0.5–1 ×) the filter shows far fewer pixels there, so the two differ less: 0.0320
 // against 0.0333 at frame 16, 0.0250 against 0.0257 at frame 24 (then 0.0260 against 0.0292), the
-// same to 4 digits up to frame 6;
-// no worse at any frame. The test that ignored the noise read 0.0238 at frame 24 then, and drew
-// the interleaving grid on RING's floor.
+// same to 4 digits up to frame 6. The test that ignored the noise read 0.0238 at frame 24 then,
+// and drew the interleaving grid on RING's floor. Since the discs at the rims became ellipses
+// along them (progressive.h kShapePhotons) hardly a pixel there is filtered and the two are
+// level: 0.0403 / 0.0142 / 0.0107 against 0.0403 / 0.0140 / 0.0105 at frames 4 / 16 / 24, at most
+// 1.9 % apart (frames 15–24): the filter that stops at edges must not cost more than 2.5 % at any
+// frame.
 TEST(FlatMirrorProgressive, TheFilterThatStopsAtEdgesKeepsTheRimsSharp) {
     const FlatMirror fm;
     const CausticReference ref = fm.reference(kWidth, kHeight);
@@ -168,14 +174,11 @@ TEST(FlatMirrorProgressive, TheFilterThatStopsAtEdgesKeepsTheRimsSharp) {
     const Convergence edges = renderConvergence(fm.scene(), rs, ref, 24);
     rs.filterEdges = 0.0f;
     const Convergence box = renderConvergence(fm.scene(), rs, ref, 24);
-    double best = 1.0;
     for (size_t f = 0; f < edges.relMae.size(); ++f) {
         std::printf("flat mirror, frame %2zu: rel. MAE %.4f with the edges kept, %.4f with the plain box\n", f + 1,
                     edges.relMae[f], box.relMae[f]);
-        EXPECT_LE(edges.relMae[f], 1.01 * box.relMae[f]) << "frame " << f + 1;
-        best = std::min(best, edges.relMae[f] / box.relMae[f]);
+        EXPECT_LE(edges.relMae[f], 1.025 * box.relMae[f]) << "frame " << f + 1;
     }
-    EXPECT_LT(best, 0.98);
 }
 
 // A moving camera (every frame one float step to and fro, the map growing by a batch a frame) at

@@ -58,7 +58,7 @@ struct Floored {
 };
 
 TEST(ShownChange, ComparesAKeptFrameWithItsBaselineAndHoldsTheFigureBetween) {
-    ShownChange change;
+    ShownChange change(1);  // every kept frame a baseline
     EXPECT_EQ(change.add(false, 1, double(1), frame(1), kW, kH), 0.0) << "a first frame has no baseline";
     // One batch a frame: frame n's baseline is the oldest image still held with at least
     // 2^-1/4 · n/6 and at most n/3 batches; below half of the last frame's work only the frames
@@ -87,7 +87,7 @@ TEST(ShownChange, ComparesAKeptFrameWithItsBaselineAndHoldsTheFigureBetween) {
 }
 
 TEST(ShownChange, ANewProgressionStartsAgain) {
-    ShownChange change;
+    ShownChange change(1);  // every kept frame a baseline
     change.add(false, 1, double(1), frame(1), kW, kH);
     change.add(true, 1, double(2), frame(2), kW, kH);
     change.add(true, 1, double(3), frame(3), kW, kH);
@@ -102,7 +102,7 @@ TEST(ShownChange, ANewProgressionStartsAgain) {
 TEST(ShownChange, WaitsUntilEverySetTookATurnSinceTheBaseline) {
     // Sets take turns of 4 frames: frame n is compared with a baseline only once 4 frames lie
     // between, else a set that has not shot since would show no change.
-    ShownChange change;
+    ShownChange change(1);  // every kept frame a baseline
     Floored expected;
     change.add(false, 4, double(1), frame(1), kW, kH);
     for (uint64_t n = 2; n <= 4; ++n) EXPECT_EQ(change.add(true, 4, double(n), frame(n), kW, kH), 0.0) << "frame " << n;
@@ -117,7 +117,7 @@ TEST(ShownChange, WaitsUntilEverySetTookATurnSinceTheBaseline) {
 // Where photons grow more slowly than frames (the sets take turns; a restart from a map of many
 // batches), the baseline is chosen by photons, not frames.
 TEST(ShownChange, TheBaselineIsAShareOfThePhotonsNotOfTheFrames) {
-    ShownChange change;
+    ShownChange change(1);  // every kept frame a baseline
     auto work = [](uint64_t n) { return 8.0 + double(n); };  // 8 batches at the restart, one a frame
     change.add(false, 1, work(1), frame(1), kW, kH);
     for (uint64_t n = 2; n <= 19; ++n)
@@ -141,7 +141,7 @@ TEST(ShownChange, TheBaselineIsAShareOfThePhotonsNotOfTheFrames) {
 // The change since a baseline misses what both images share: where the image stops changing, the
 // figure falls from the last one no faster than photon noise does, as √(its work / work).
 TEST(ShownChange, TheFigureFallsNoFasterThanPhotonNoise) {
-    ShownChange change;
+    ShownChange change(1);  // every kept frame a baseline
     change.add(false, 1, 1.0, frame(1), kW, kH);
     change.add(true, 1, 2.0, frame(2), kW, kH);
     const double first = change.add(true, 1, 3.0, frame(3), kW, kH);
@@ -173,7 +173,7 @@ TEST(ShownChange, NestedNoiseReadsItsOwnErrorWhateverTheBaseline) {
     std::mt19937 rng(7);
     std::normal_distribution<double> unit(0.0, 1.0);
     std::vector<double> sum(truth.size(), 0.0);
-    ShownChange change;
+    ShownChange change(1);  // every kept frame a baseline
     for (int n = 1; n <= 64; ++n) {
         for (size_t i = 0; i < sum.size(); ++i) sum[i] += 0.5 * double(truth[i]) * unit(rng);
         std::vector<float> img(truth.size());
@@ -185,8 +185,19 @@ TEST(ShownChange, NestedNoiseReadsItsOwnErrorWhateverTheBaseline) {
     }
 }
 
-TEST(ShownChange, AnotherImageSizeStartsAgain) {
+// As rtpm-render and the master count (kFirstBaseline): the first two frames, which lack the other
+// sets' shared photons, are no baseline, so with one batch a frame the first figure compares
+// frame 10 with frame 3.
+TEST(ShownChange, TheFirstFramesAreNoBaseline) {
     ShownChange change;
+    change.add(false, 1, 1.0, frame(1), kW, kH);
+    for (uint64_t n = 2; n <= 9; ++n)
+        EXPECT_EQ(change.add(true, 1, double(n), frame(n), kW, kH), 0.0) << "frame " << n;
+    EXPECT_DOUBLE_EQ(change.add(true, 1, 10.0, frame(10), kW, kH), figureBetween(10, 10.0, 3, 3.0));
+}
+
+TEST(ShownChange, AnotherImageSizeStartsAgain) {
+    ShownChange change(1);  // every kept frame a baseline
     change.add(false, 1, double(1), frame(1), kW, kH);
     change.add(true, 1, double(2), frame(2), kW, kH);
     const std::vector<float> other(size_t(kW) * 2 * kH * 3, 1.0f);
@@ -195,7 +206,7 @@ TEST(ShownChange, AnotherImageSizeStartsAgain) {
 }
 
 TEST(ShownChange, NoCausticNoFigure) {
-    ShownChange change;
+    ShownChange change(1);  // every kept frame a baseline
     const std::vector<float> dark(size_t(kW) * kH * 3, 0.0f);
     change.add(false, 1, 1.0, dark, kW, kH);
     EXPECT_EQ(change.add(true, 1, 2.0, dark, kW, kH), 0.0);

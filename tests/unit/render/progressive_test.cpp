@@ -292,6 +292,98 @@ TEST(ProgressiveBin, ASharedFramesSearchLeavesTheSetsOwnPhotonsOut) {
     }
 }
 
+// A hit whose discs are ellipses (Shape) bins, ring by ring, the photons within the ellipses:
+// the same rings as one bin over every photon of the trees whose squared distance in the
+// ellipses' metric, |o|²/a + (a − 1/a)(o·u)², lies within the active disc, at aspects whose
+// ellipse is searched as one sphere (2) and as 2 or 3 slabs of its long axis (3, 4, 5: no photon
+// binned twice, none missed at the slabs' borders).
+TEST(ProgressiveBin, AnEllipsesRingsHoldThePhotonsWithinTheEllipses) {
+    Uniform uniform{4242};
+    const Bounds box = photonSlab();
+    std::vector<KdTree> trees;
+    for (int t = 0; t < 2; ++t) {
+        std::vector<Photon> photons;
+        for (int i = 0; i < 4000; ++i)
+            photons.push_back(Photon::make(Vec3(2.0f * uniform() - 1.0f, 0.0f, 2.0f * uniform() - 1.0f),
+                                           Vec3(uniform() + 0.01f), Vec3(0.0f, -1.0f, 0.0f)));
+        trees.emplace_back(box, KdTree::kRadiusLeafSize);
+        trees.back().build(photons);
+    }
+    const std::vector<const KdTree*> order = {&trees[0], &trees[1]};
+    const Vec3 up(0.0f, 1.0f, 0.0f);
+    for (int q = 0; q < 32; ++q) {
+        ProgressiveSet::Shape shape;
+        shape.decided = true;
+        shape.aspect = float(2 + q % 4);
+        const float angle = 6.2831853f * uniform();
+        shape.across = Vec3(std::cos(angle), 0.0f, std::sin(angle));
+        const Vec3 x(1.2f * uniform() - 0.6f, 0.0f, 1.2f * uniform() - 0.6f);
+        const float outer2 = 0.01f + 0.02f * uniform();
+        const int active = q % 3;
+        const float radius2 = float(double(outer2) * std::pow(kBinRatio2, double(active)));
+        std::vector<FoundPhoton> inside;
+        size_t beyondCircle = 0;
+        for (const KdTree* tree : order)
+            for (const Photon& p : tree->photons()) {
+                const Vec3 o = p.position - x;
+                const float t = dot(o, shape.across);
+                const float m2 = dot(o, o) / shape.aspect + (shape.aspect - 1.0f / shape.aspect) * t * t;
+                if (!(m2 < radius2)) continue;
+                inside.push_back(FoundPhoton{m2, decodeRgb9e5(p.power), p.position});
+                if (!(dot(o, o) < radius2)) ++beyondCircle;
+            }
+        ProgressiveSet::Rings expected, binned;
+        ProgressiveSet::bin(expected, outer2, active, inside);
+        ProgressiveSet::binWithin(binned, outer2, active, order, 0, x, up, radius2, 1.0f, 1.0f, nullptr, &shape);
+        double photons = 0.0;
+        for (int j = 0; j < kRadiusBins; ++j) {
+            ASSERT_EQ(binned.count[size_t(j)], expected.count[size_t(j)]) << "end point " << q << " ring " << j;
+            ASSERT_NEAR(binned.power[3 * size_t(j)], expected.power[3 * size_t(j)],
+                        1e-5f * (1.0f + expected.power[3 * size_t(j)]));
+            photons += binned.count[size_t(j)];
+        }
+        EXPECT_GT(photons, 20.0) << "end point " << q;
+        EXPECT_GT(beyondCircle, 0u) << "end point " << q << ": the ellipse reaches beyond the circle";
+    }
+}
+
+// A hit's shape is decided once kShapePhotons photons were binned: photons strung along a line
+// through it give an ellipse of the largest aspect whose short axis crosses the line; photons
+// spread evenly keep a circle; fewer than kShapePhotons leave it undecided.
+TEST(ProgressiveBin, PhotonsAlongALineMakeTheDiscsEllipsesAcrossIt) {
+    Uniform uniform{99};
+    const Bounds box = photonSlab();
+    const Vec3 up(0.0f, 1.0f, 0.0f);
+    const Vec3 along = glm::normalize(Vec3(1.0f, 0.0f, 0.5f));
+    auto shapeOf = [&](int count, bool line) {
+        std::vector<Photon> photons;
+        for (int i = 0; i < count; ++i) {
+            const Vec3 x = line ? along * (0.4f * uniform() - 0.2f) + Vec3(-along.z, 0.0f, along.x) * (0.02f * uniform() - 0.01f)
+                                : Vec3(0.4f * uniform() - 0.2f, 0.0f, 0.4f * uniform() - 0.2f);
+            photons.push_back(Photon::make(x, Vec3(1.0f), Vec3(0.0f, -1.0f, 0.0f)));
+        }
+        KdTree tree(box, KdTree::kRadiusLeafSize);
+        tree.build(photons);
+        const KdTree* one = &tree;
+        ProgressiveSet::Shape shape;
+        ProgressiveSet::Rings rings;
+        ProgressiveSet::binWithin(rings, 0.04f, 0, std::span(&one, 1), 0, Vec3(0.0f), up, 0.04f, 1.0f, 1.0f, nullptr,
+                                  &shape);
+        return shape;
+    };
+    const ProgressiveSet::Shape line = shapeOf(400, true);
+    EXPECT_TRUE(line.decided);
+    EXPECT_FLOAT_EQ(line.aspect, float(kAspectMax));
+    EXPECT_NEAR(std::abs(dot(line.across, along)), 0.0f, 0.02f);
+    EXPECT_NEAR(glm::length(line.across), 1.0f, 1e-5f);
+    const ProgressiveSet::Shape even = shapeOf(2000, false);
+    EXPECT_TRUE(even.decided);
+    EXPECT_EQ(even.aspect, 1.0f);
+    const ProgressiveSet::Shape few = shapeOf(int(kShapePhotons) / 2, true);
+    EXPECT_FALSE(few.decided);
+    EXPECT_EQ(few.aspect, 1.0f);
+}
+
 TEST(ProgressiveChoose, TheCapEndsTheDiscInsideARingWithExactlyItsPhotons) {
     // A flat density and a cap that falls inside a ring: the shown disc holds exactly the cap's
     // photons, its r² between the two whole discs around it, and its estimate the density.
