@@ -105,6 +105,9 @@ void addMoments(ProgressiveSet::Shape& shape, const MomentSums& m, Vec3 normal) 
     const double c11 = shape.s11 / c - m1 * m1, c12 = shape.s12 / c - m1 * m2, c22 = shape.s22 / c - m2 * m2;
     const double mid = 0.5 * (c11 + c22), half = std::sqrt(0.25 * (c11 - c22) * (c11 - c22) + c12 * c12);
     const double big = mid + half, small = mid - half;
+    // Coincident photons say nothing of a direction: a circle. (Their spread in the float sums
+    // is rounding, up to about 1e-5 of their mean squared offset.)
+    if (!(big > 1e-4 * (shape.s11 + shape.s22) / c)) return;
     const double ratio = small > 0.0 ? big / small : std::numeric_limits<double>::infinity();
     if (!(ratio >= kAspectMin)) return;
     Vec3 t1, t2;

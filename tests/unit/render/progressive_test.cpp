@@ -349,17 +349,20 @@ TEST(ProgressiveBin, AnEllipsesRingsHoldThePhotonsWithinTheEllipses) {
 
 // A hit's shape is decided once kShapePhotons photons were binned: photons strung along a line
 // through it give an ellipse of the largest aspect whose short axis crosses the line; photons
-// spread evenly keep a circle; fewer than kShapePhotons leave it undecided.
+// spread evenly, or all at one point, keep a circle; fewer than kShapePhotons leave it undecided.
 TEST(ProgressiveBin, PhotonsAlongALineMakeTheDiscsEllipsesAcrossIt) {
     Uniform uniform{99};
     const Bounds box = photonSlab();
     const Vec3 up(0.0f, 1.0f, 0.0f);
     const Vec3 along = glm::normalize(Vec3(1.0f, 0.0f, 0.5f));
-    auto shapeOf = [&](int count, bool line) {
+    enum Spread { kLine, kEven, kOnePoint };
+    auto shapeOf = [&](int count, Spread spread) {
         std::vector<Photon> photons;
         for (int i = 0; i < count; ++i) {
-            const Vec3 x = line ? along * (0.4f * uniform() - 0.2f) + Vec3(-along.z, 0.0f, along.x) * (0.02f * uniform() - 0.01f)
-                                : Vec3(0.4f * uniform() - 0.2f, 0.0f, 0.4f * uniform() - 0.2f);
+            const Vec3 x = spread == kLine ? along * (0.4f * uniform() - 0.2f) +
+                                                 Vec3(-along.z, 0.0f, along.x) * (0.02f * uniform() - 0.01f)
+                           : spread == kEven ? Vec3(0.4f * uniform() - 0.2f, 0.0f, 0.4f * uniform() - 0.2f)
+                                             : Vec3(0.05f, 0.0f, -0.03f);
             photons.push_back(Photon::make(x, Vec3(1.0f), Vec3(0.0f, -1.0f, 0.0f)));
         }
         KdTree tree(box, KdTree::kRadiusLeafSize);
@@ -371,15 +374,18 @@ TEST(ProgressiveBin, PhotonsAlongALineMakeTheDiscsEllipsesAcrossIt) {
                                   &shape);
         return shape;
     };
-    const ProgressiveSet::Shape line = shapeOf(400, true);
+    const ProgressiveSet::Shape line = shapeOf(400, kLine);
     EXPECT_TRUE(line.decided);
     EXPECT_FLOAT_EQ(line.aspect, float(kAspectMax));
     EXPECT_NEAR(std::abs(dot(line.across, along)), 0.0f, 0.02f);
     EXPECT_NEAR(glm::length(line.across), 1.0f, 1e-5f);
-    const ProgressiveSet::Shape even = shapeOf(2000, false);
+    const ProgressiveSet::Shape even = shapeOf(2000, kEven);
     EXPECT_TRUE(even.decided);
     EXPECT_EQ(even.aspect, 1.0f);
-    const ProgressiveSet::Shape few = shapeOf(int(kShapePhotons) / 2, true);
+    const ProgressiveSet::Shape point = shapeOf(200, kOnePoint);
+    EXPECT_TRUE(point.decided);
+    EXPECT_EQ(point.aspect, 1.0f);
+    const ProgressiveSet::Shape few = shapeOf(int(kShapePhotons) / 2, kLine);
     EXPECT_FALSE(few.decided);
     EXPECT_EQ(few.aspect, 1.0f);
 }
