@@ -11,10 +11,14 @@
 //       faded as rtpm-render shows it) and the caustic energy over the compared pixels relative
 //       to the reference.
 //   ring_mirror_bench --compare FILE.exr [--layer NAME] [--minus DIRECT.exr] [--out DIFF.exr]
+//                     [--error-map MAP.png]
 //       the same error and energy for the R G B layer of an image (or layer NAME, e.g.
 //       caustic_filtered of an rtpm-render / rtpm-server EXR; at the image's own resolution),
 //       minus another one (POV-Ray's render without photons, so that only the caustic is
-//       compared; tests/bench/pov_compare.py).
+//       compared; tests/bench/pov_compare.py). --error-map: also prints the share of the absolute
+//       error (luminance, caustic region) that the worst 1 … 50 % of its pixels carry, and writes
+//       the signed error as a PNG: red where the image is brighter than the reference, blue
+//       where darker, at the reference's exposure + 2 stops.
 //   ring_mirror_bench --write-scene FILE.glb
 //       writes the scene as binary glTF (radial normals, light and camera included), so that
 //       rtpm-render and the cluster render it: `--scene FILE.glb --photon-depth 2
@@ -71,7 +75,7 @@ struct Options {
     uint32_t k = 64;
     bool selective = true;  ///< --no-spt: plain shooting
     double budgetMs = 0.0;  ///< --frame-budget-ms: still passes grow to this frame time (0: one batch)
-    std::string csv, compare, reference, out, minus, layer, writeScene;
+    std::string csv, compare, reference, out, minus, layer, writeScene, errorMap;
     std::vector<uint64_t> staticStored;  ///< --static-frame, repeatable
     Vec3 light{testscenes::RingMirror{}.light};       ///< --light
     double ringHeight = testscenes::RingMirror{}.height;  ///< --ring-height
@@ -263,6 +267,43 @@ void staticFrame(const Options& o, uint64_t stored) {
     std::fflush(stdout);
 }
 
+// --error-map: where the error sits. The caustic region as the error metrics define it (reference
+// luminance above 5 % of its 99th percentile, within the mask).
+void writeErrorMap(const std::string& path, std::span<const float> rgb, const std::vector<float>& ref,
+                   const std::vector<uint8_t>& mask, int w, int h) {
+    auto lum = [](std::span<const float> v, size_t p) {
+        return 0.2126 * double(v[3 * p]) + 0.7152 * double(v[3 * p + 1]) + 0.0722 * double(v[3 * p + 2]);
+    };
+    std::vector<double> refLum(mask.size());
+    for (size_t p = 0; p < mask.size(); ++p) refLum[p] = lum(ref, p);
+    std::vector<double> sorted = refLum;
+    const size_t k99 = std::min(sorted.size() - 1, size_t(0.99 * double(sorted.size())));
+    std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(k99), sorted.end());
+    const double threshold = 0.05 * sorted[k99];
+    std::vector<double> errors;
+    std::vector<float> map(ref.size(), 0.0f);
+    double total = 0.0;
+    for (size_t p = 0; p < mask.size(); ++p) {
+        if (!mask[p] || !(refLum[p] > threshold)) continue;
+        const double e = lum(rgb, p) - refLum[p];
+        errors.push_back(std::abs(e));
+        total += std::abs(e);
+        map[3 * p + (e > 0.0 ? 0 : 2)] = float(std::abs(e));
+    }
+    std::sort(errors.rbegin(), errors.rend());
+    double worst = 0.0;
+    size_t k = 0;
+    for (double share : {0.01, 0.02, 0.05, 0.1, 0.2, 0.5}) {
+        for (; k < size_t(share * double(errors.size())); ++k) worst += errors[k];
+        std::printf("the worst %2.0f %% of %zu pixels: %.3f of the absolute error\n", share * 100.0, errors.size(),
+                    total > 0.0 ? worst / total : 0.0);
+    }
+    ToneMap tm;
+    tm.exposureStops = std::log2(autoExposureScale(ref)) + 2.0;
+    writePng(path, w, h, map, tm);
+    std::printf("wrote %s\n", path.c_str());
+}
+
 int compareFile(const Options& o) {
     const testscenes::RingMirror rm = ringMirror(o);
     const ExrImage img = readExr(o.compare);
@@ -287,6 +328,7 @@ int compareFile(const Options& o) {
     }
     const Score s = score(rgb, ref, mask, img.width, img.height);
     std::printf("rel_mae %.5f energy %.5f\n", s.relMae, s.energy);
+    if (!o.errorMap.empty()) writeErrorMap(o.errorMap, rgb, ref, mask, img.width, img.height);
     return 0;
 }
 
@@ -334,6 +376,7 @@ int main(int argc, char** argv) {
             else if (a == "--reference") o.reference = next();
             else if (a == "--out") o.out = next();
             else if (a == "--minus") o.minus = next();
+            else if (a == "--error-map") o.errorMap = next();
             else if (a == "--layer") o.layer = next();
             else if (a == "--write-scene") o.writeScene = next();
             else if (a == "--seconds") o.seconds = std::stod(next());

@@ -73,6 +73,9 @@ ring_mirror)
     expectRows 1 '^rel_mae 0\.00000 energy 1\.00000$' "$work/self.log"
     run "$work/cmp.log" "$b" --compare "$work/progressive.exr" --minus "$work/ref.exr" --out "$work/diff.exr"
     expectRows 1 "^rel_mae $num energy -?$num$" "$work/cmp.log"
+    run "$work/map.log" "$b" --compare "$work/progressive.exr" --error-map "$work/map.png"
+    expectRows 6 "^the worst +[0-9]+ % of [0-9]+ pixels: $num of the absolute error$" "$work/map.log"
+    [[ -s $work/map.png ]] || { echo "smoke: no error map" >&2; exit 1; }
     run "$work/scene.log" "$b" --write-scene "$work/mirror.glb"
     "$render" --scene "$work/mirror.glb" --photon-depth 2 --diffuse-bounces 0 --width 32 --height 24 --frames 1 \
         --out "$work/mirror.exr" >/dev/null
