@@ -187,26 +187,32 @@ struct Uniform {
 // The box the binning tests' photons lie in: a floor 2 m square, ±0.1 m thick.
 Bounds photonSlab() { return Bounds{Vec3(-1.0f, -0.1f, -1.0f), Vec3(1.0f, 0.1f, 1.0f)}; }
 
+// `count` radius-search trees of `photons` photons each in photonSlab(), made by `make()` in turn.
+template <class Make>
+std::vector<KdTree> slabTrees(int count, int photons, Make make) {
+    std::vector<KdTree> trees;
+    for (int t = 0; t < count; ++t) {
+        std::vector<Photon> list;
+        for (int i = 0; i < photons; ++i) list.push_back(make());
+        trees.emplace_back(photonSlab(), KdTree::kRadiusLeafSize);
+        trees.back().build(list);
+    }
+    return trees;
+}
+
 // A pass bins what its searches find as they find it (binWithin): the rings, bit for bit, of one
 // bin over the lists the same searches give (RadiusList, powers × the maps' unit, as the passes
 // gathered them before they binned while searching): the pass's tree and two shared shots,
 // photons from both sides of the surface, several end points and kept rings.
 TEST(ProgressiveBin, BinningWhileSearchingEqualsBinningTheLists) {
     Uniform uniform{12345};
-    const Bounds box = photonSlab();
-    std::vector<KdTree> trees;
-    for (int t = 0; t < 3; ++t) {
-        std::vector<Photon> photons;
-        for (int i = 0; i < 3000; ++i) {
-            const Vec3 x(2.0f * uniform() - 1.0f, 0.0f, 2.0f * uniform() - 1.0f);
-            const Vec3 power(uniform() + 0.01f, uniform() + 0.01f, 0.5f * uniform() + 0.01f);
-            // Most arrive from above (front of an upward normal), one in five from below.
-            const Vec3 dir = glm::normalize(Vec3(uniform() - 0.5f, uniform() < 0.2f ? 0.7f : -0.7f, uniform() - 0.5f));
-            photons.push_back(Photon::make(x, power, dir));
-        }
-        trees.emplace_back(box, KdTree::kRadiusLeafSize);
-        trees.back().build(photons);
-    }
+    const std::vector<KdTree> trees = slabTrees(3, 3000, [&] {
+        const Vec3 x(2.0f * uniform() - 1.0f, 0.0f, 2.0f * uniform() - 1.0f);
+        const Vec3 power(uniform() + 0.01f, uniform() + 0.01f, 0.5f * uniform() + 0.01f);
+        // Most arrive from above (front of an upward normal), one in five from below.
+        const Vec3 dir = glm::normalize(Vec3(uniform() - 0.5f, uniform() < 0.2f ? 0.7f : -0.7f, uniform() - 0.5f));
+        return Photon::make(x, power, dir);
+    });
     const std::vector<const KdTree*> order = {&trees[0], &trees[1], &trees[2]};
     const float unit = 0.25f;
     const Vec3 up(0.0f, 1.0f, 0.0f);
@@ -299,16 +305,10 @@ TEST(ProgressiveBin, ASharedFramesSearchLeavesTheSetsOwnPhotonsOut) {
 // binned twice, none missed at the slabs' borders).
 TEST(ProgressiveBin, AnEllipsesRingsHoldThePhotonsWithinTheEllipses) {
     Uniform uniform{4242};
-    const Bounds box = photonSlab();
-    std::vector<KdTree> trees;
-    for (int t = 0; t < 2; ++t) {
-        std::vector<Photon> photons;
-        for (int i = 0; i < 4000; ++i)
-            photons.push_back(Photon::make(Vec3(2.0f * uniform() - 1.0f, 0.0f, 2.0f * uniform() - 1.0f),
-                                           Vec3(uniform() + 0.01f), Vec3(0.0f, -1.0f, 0.0f)));
-        trees.emplace_back(box, KdTree::kRadiusLeafSize);
-        trees.back().build(photons);
-    }
+    const std::vector<KdTree> trees = slabTrees(2, 4000, [&] {
+        return Photon::make(Vec3(2.0f * uniform() - 1.0f, 0.0f, 2.0f * uniform() - 1.0f), Vec3(uniform() + 0.01f),
+                            Vec3(0.0f, -1.0f, 0.0f));
+    });
     const std::vector<const KdTree*> order = {&trees[0], &trees[1]};
     const Vec3 up(0.0f, 1.0f, 0.0f);
     for (int q = 0; q < 32; ++q) {
