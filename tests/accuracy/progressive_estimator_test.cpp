@@ -88,8 +88,9 @@ TEST(ProgressiveEstimator, ErrorDoesNotDependOnHowPhotonsAreSplitIntoPasses) {
 // of knn's, passed on that shared excess; then 1.055 / 1.057 / 1.019. Over the whole image, where
 // knn's wide discs draw halos around every bright edge, the default shows 1-3 % less than knn.)
 // The ellipses decided from the restart's photons (progressive.h kShapePhotons) show 1.082 at
-// frame 1 against knn's 1.080 (rel. MAE 0.0793 against circles' 0.0986, with 1.048), then 1.068 /
-// 1.040 / 1.008 at frames 2 / 3 / 24: frame 1 may lie 0.005 farther than knn's.
+// frame 1 against knn's 1.080 (rel. MAE 0.0793; 0.0986 and 1.048 with shapes decided from the
+// passes' photons only), then 1.068 / 1.040 / 1.008 at frames 2 / 3 / 24: frame 1 may lie 0.005
+// farther than knn's.
 // The error is no worse than knn's and falls meanwhile.
 TEST(ProgressiveEstimator, EnergyStaysOnTheReceiverAtEveryFrame) {
     const Convergence run = render(small(), 24);
