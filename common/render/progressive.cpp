@@ -165,13 +165,7 @@ public:
         local_.power2[j] += w * w;
     }
     /// Adds rings `active` … kRadiusBins − 1 to `rings` (photons in rings outside are left out).
-    void addTo(ProgressiveSet::Rings& rings, int active) const {
-        for (int j = active; j < kRadiusBins; ++j) {
-            for (int c = 0; c < 3; ++c) rings.power[3 * j + c] += local_.power[3 * j + c];
-            rings.count[j] += local_.count[j];
-            rings.power2[j] += local_.power2[j];
-        }
-    }
+    void addTo(ProgressiveSet::Rings& rings, int active) const { addRings(rings, local_, active); }
 
 private:
     alignas(32) float inner2_[kRadiusBins];
@@ -526,18 +520,19 @@ void ProgressiveSet::pass(const EmbreeScene& scene, const PhotonMaps& maps, uint
                 for (uint32_t b : sharedBatches) s.shared += float(b);
             const VisibleFrom visible(visibility, scene, e.hit, e.normal);
             const auto searched = std::span(trees).first(s.sharing ? trees.size() : ownTrees);
-            if (s.shape.decided) {
-                binWithin(s.rings, s.outer2, s.active, searched, set, e.hit.position, e.normal, r2, unit,
+            auto binInto = [&](Rings& rings) {
+                binWithin(rings, s.outer2, s.active, searched, set, e.hit.position, e.normal, r2, unit,
                           float(rule_.powerUnit), visibility ? &visible : nullptr, &s.shape);
+            };
+            if (s.shape.decided) {
+                binInto(s.rings);
             } else {
                 // The pass's photons add to the shape's moments first; where they decide an
                 // ellipse, the pass bins its photons within the ellipses.
                 Rings fresh;
-                binWithin(fresh, s.outer2, s.active, searched, set, e.hit.position, e.normal, r2, unit,
-                          float(rule_.powerUnit), visibility ? &visible : nullptr, &s.shape);
+                binInto(fresh);
                 if (s.shape.aspect != 1.0f)
-                    binWithin(s.rings, s.outer2, s.active, searched, set, e.hit.position, e.normal, r2, unit,
-                              float(rule_.powerUnit), visibility ? &visible : nullptr, &s.shape);
+                    binInto(s.rings);
                 else
                     addRings(s.rings, fresh, s.active);
             }
